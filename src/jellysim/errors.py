@@ -1,0 +1,34 @@
+"""Exceptions with messages meant for users: each names the file, key or step at fault."""
+from __future__ import annotations
+
+__all__ = ["JellysimError", "SceneError", "SimulationError", "MeshError", "BuildError",
+           "JelloFileError"]
+
+
+class JellysimError(Exception):
+    """Base class of every error jellysim raises on purpose."""
+
+
+class SceneError(JellysimError, ValueError):
+    """A scene file or scene parameter is invalid."""
+
+
+class SimulationError(JellysimError, RuntimeError):
+    """A run went unstable (non-finite values or a runaway point)."""
+
+    def __init__(self, message: str, *, step: int, status: int):
+        super().__init__(message)
+        self.step = step
+        self.status = status
+
+
+class MeshError(JellysimError, ValueError):
+    """A surface mesh file cannot be used."""
+
+
+class BuildError(JellysimError, ValueError):
+    """A body cannot be built from the given geometry and options."""
+
+
+class JelloFileError(JellysimError, ValueError):
+    """A ``.jello`` / body file is malformed."""

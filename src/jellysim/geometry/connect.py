@@ -1,0 +1,49 @@
+"""Spring builders.  Here: the report's "implicit" builder (section 4.3).
+
+Every pair of points closer than ``r`` is joined by a spring, found with
+``scipy.spatial.cKDTree.query_pairs``.  The tet-based builders (marching grid, Delaunay,
+TetGen) live in :mod:`jellysim.geometry.tetra`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["radius_springs", "canonical_springs"]
+
+
+def canonical_springs(pairs: np.ndarray) -> np.ndarray:
+    """Springs as (k, 2) int64 with ``i < j`` in each row, rows unique and sorted.
+
+    Raises ``ValueError`` for a self-spring (``i == j``).
+    """
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    if np.any(pairs[:, 0] == pairs[:, 1]):
+        raise ValueError("a spring joins a point to itself")
+    pairs = np.sort(pairs, axis=1)
+    return np.unique(pairs, axis=0)
+
+
+def radius_springs(points: np.ndarray, r: float) -> np.ndarray:
+    """All pairs of points closer than ``r`` (report: the "implicit" connection).
+
+    Parameters
+    ----------
+    points: positions [m], shape (n, 3).
+    r: connection radius [m], > 0.  Pairs at distance exactly ``r`` are included
+       (``query_pairs`` semantics: ``distance <= r``).
+
+    Returns
+    -------
+    Springs, shape (k, 2), int64, ``i < j``, unique, sorted lexicographically.
+    """
+    from scipy.spatial import cKDTree
+
+    if not (r > 0 and np.isfinite(r)):
+        raise ValueError(f"connection radius r must be a positive finite length in m, got {r}")
+    points = np.asarray(points, dtype=np.float64)
+    pairs = cKDTree(points).query_pairs(r, output_type="ndarray").astype(np.int64)
+    if pairs.size == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    pairs.sort(axis=1)
+    order = np.lexsort((pairs[:, 1], pairs[:, 0]))
+    return np.ascontiguousarray(pairs[order])

@@ -1,0 +1,173 @@
+"""Model: everything that does not change during a run.
+
+:func:`finalize` turns a :class:`~jellysim.body.Body` plus physical constants into a Model once;
+the time-step loop then only reads it.  Arrays are read-only (``writeable=False``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .body import Body
+from .params import REPORT_DENSITY
+
+__all__ = ["Model", "finalize"]
+
+
+def _frozen(a: np.ndarray, dtype) -> np.ndarray:
+    a = np.ascontiguousarray(a, dtype=dtype)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    """Read-only description of a mass-spring body (SI units).
+
+    The spring adjacency is stored twice so that per-point sums are race-free gathers
+    (each spring's force is computed once, then every point reads the springs it belongs to):
+    springs are sorted by their first point ``i``, so the springs whose first point is ``p`` are
+    ``spring_ij[point_first_ptr[p]:point_first_ptr[p+1]]``; the springs whose *second* point is
+    ``q`` are ``point_second_spring[point_second_ptr[q]:point_second_ptr[q+1]]``.
+    """
+
+    particle_x0: np.ndarray
+    """Rest positions [m], shape (n, 3), float64."""
+    particle_mass: np.ndarray
+    """Point masses [kg], shape (n,), float64, all > 0."""
+    particle_inv_mass: np.ndarray
+    """Inverse masses [1/kg], shape (n,), float64."""
+    spring_ij: np.ndarray
+    """Spring end points, shape (k, 2), int32, ``i < j``, rows unique and sorted."""
+    spring_rest_length: np.ndarray
+    """Rest lengths [m], shape (k,), float64."""
+    spring_stiffness: np.ndarray
+    """Stiffness k [N/m], shape (k,), float64."""
+    point_first_ptr: np.ndarray
+    """CSR offsets [-], shape (n + 1,), int64: springs whose first point is p."""
+    point_second_ptr: np.ndarray
+    """CSR offsets [-], shape (n + 1,), int64: springs whose second point is q."""
+    point_second_spring: np.ndarray
+    """Spring indices [-], shape (k,), int32, grouped by second point (see above)."""
+    point_second_other: np.ndarray
+    """First point of each entry of ``point_second_spring`` [-], shape (k,), int32."""
+    damping: float
+    """Velocity damping delta [kg/s] (report eq. 1: force ``-delta v`` on every point)."""
+    gravity: np.ndarray
+    """Gravitational acceleration [m/s^2], shape (3,), float64."""
+    body: Body
+    """The body this model was built from (tets, triangles, provenance)."""
+
+    @property
+    def particle_count(self) -> int:
+        return int(self.particle_x0.shape[0])
+
+    @property
+    def spring_count(self) -> int:
+        return int(self.spring_ij.shape[0])
+
+    @property
+    def total_mass(self) -> float:
+        """Total mass [kg]."""
+        return float(self.particle_mass.sum())
+
+    def state(self):
+        """A new :class:`~jellysim.state.State` at rest positions, zero velocity, with
+        accelerations evaluated from the forces (so ``state.a`` is consistent at t = 0)."""
+        from .state import State
+
+        return State.at_rest(self)
+
+
+def finalize(
+    body: Body,
+    *,
+    stiffness: float | None = None,
+    density: float = REPORT_DENSITY,
+    volume: float | None = None,
+    point_mass: float | None = None,
+    damping: float = 0.0,
+    gravity=(0.0, -9.8, 0.0),
+) -> Model:
+    """Freeze a body into a :class:`Model`.
+
+    Parameters
+    ----------
+    body: points, springs and optional per-spring/per-point data.
+    stiffness: spring stiffness k [N/m] for springs whose ``body.stiffness`` is not given.
+    density: [kg/m^3], used when neither ``body.masses`` nor ``point_mass`` is given: total mass
+        = density x volume (``volume`` argument, else ``body.volume``), split evenly.
+    volume: enclosed volume [m^3] overriding ``body.volume`` for the mass split.
+    point_mass: mass of every point [kg], overriding density x volume.
+    damping: velocity damping delta [kg/s], >= 0.
+    gravity: [m/s^2], shape (3,).
+    """
+    points = np.asarray(body.points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3 or points.shape[0] == 0:
+        raise ValueError(f"body points must have shape (n, 3) with n >= 1, got {points.shape}")
+    if not np.all(np.isfinite(points)):
+        raise ValueError("body points contain NaN or infinite coordinates")
+    n = points.shape[0]
+    springs = np.asarray(body.springs, dtype=np.int64).reshape(-1, 2)
+    k = springs.shape[0]
+    if k and (springs.min() < 0 or springs.max() >= n):
+        raise ValueError(f"spring indices must lie in [0, {n - 1}]")
+    if k and np.any(springs[:, 0] >= springs[:, 1]):
+        raise ValueError("every spring row must satisfy i < j")
+    order = np.lexsort((springs[:, 1], springs[:, 0]))
+    if k and np.any(np.all(np.diff(springs[order], axis=0) == 0, axis=1)):
+        raise ValueError("duplicate springs")
+
+    if body.rest_length is None:
+        rest = np.linalg.norm(points[springs[:, 1]] - points[springs[:, 0]], axis=1)
+    else:
+        rest = np.asarray(body.rest_length, dtype=np.float64).reshape(k)
+    if body.stiffness is None:
+        if stiffness is None:
+            if k:
+                raise ValueError("spring stiffness k [N/m] is not given")
+            stiffness = 0.0
+        if not (stiffness >= 0 and np.isfinite(stiffness)):
+            raise ValueError(f"stiffness must be >= 0 N/m, got {stiffness}")
+        stiff = np.full(k, float(stiffness))
+    else:
+        stiff = np.asarray(body.stiffness, dtype=np.float64).reshape(k)
+    springs, rest, stiff = springs[order], rest[order], stiff[order]
+
+    if body.masses is not None:
+        mass = np.asarray(body.masses, dtype=np.float64).reshape(n)
+    elif point_mass is not None:
+        mass = np.full(n, float(point_mass))
+    else:
+        vol = volume if volume is not None else body.volume
+        if vol is None:
+            raise ValueError("cannot derive masses: give point masses, point_mass or a volume")
+        mass = np.full(n, density * float(vol) / n)
+    if not np.all(np.isfinite(mass) & (mass > 0)):
+        raise ValueError("every point mass must be a positive finite number of kg")
+    if not (damping >= 0 and np.isfinite(damping)):
+        raise ValueError(f"damping must be >= 0 kg/s, got {damping}")
+    gravity = np.asarray(gravity, dtype=np.float64).reshape(3)
+
+    first_ptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(springs[:, 0], minlength=n), out=first_ptr[1:])
+    second = np.argsort(springs[:, 1], kind="stable")
+    second_ptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(springs[:, 1], minlength=n), out=second_ptr[1:])
+
+    return Model(
+        particle_x0=_frozen(points, np.float64),
+        particle_mass=_frozen(mass, np.float64),
+        particle_inv_mass=_frozen(1.0 / mass, np.float64),
+        spring_ij=_frozen(springs, np.int32),
+        spring_rest_length=_frozen(rest, np.float64),
+        spring_stiffness=_frozen(stiff, np.float64),
+        point_first_ptr=_frozen(first_ptr, np.int64),
+        point_second_ptr=_frozen(second_ptr, np.int64),
+        point_second_spring=_frozen(second, np.int32),
+        point_second_other=_frozen(springs[second, 0], np.int32),
+        damping=float(damping),
+        gravity=_frozen(gravity, np.float64),
+        body=body,
+    )

@@ -1,0 +1,100 @@
+"""Closed choices (Enums) and option records shared by the simulator, scenes and the CLI."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+__all__ = [
+    "Integrator",
+    "ProvotPairs",
+    "ProvotOrder",
+    "ProvotParams",
+    "GroundParams",
+    "MAX_ALL_PAIRS_POINTS",
+    "REPORT_DENSITY",
+]
+
+REPORT_DENSITY = 1141.0
+"""Density of jello [kg/m^3] quoted by the report (section 6.4)."""
+
+MAX_ALL_PAIRS_POINTS = 4000
+"""Largest body for ``ProvotPairs.ALL``: n (n - 1) / 2 = 8.0e6 pair checks per loop, about
+10-50 ms per loop here.  Above this the O(n^2) hack is refused."""
+
+
+class Integrator(str, Enum):
+    """Time integrators.
+
+    ``PAPER``: the report's order (section 4.1): ``x += v dt; v += a dt; a = F(x, v) / m``.
+    This is forward (explicit) Euler: without damping every vibration grows by a factor
+    ``1 + (omega dt)^2`` in energy per step, so it is only stable with damping and
+    ``dt < delta / (m omega_max^2)`` (the stability guard checks this).
+
+    ``SYMPLECTIC``: semi-implicit Euler: ``a = F(x, v) / m; v += a dt; x += v dt``.
+    Undamped it keeps energy bounded for ``dt < 2 / omega_max``.
+    """
+
+    PAPER = "paper"
+    SYMPLECTIC = "symplectic"
+
+
+class ProvotPairs(str, Enum):
+    """Which point pairs Provot strain limiting acts on."""
+
+    SPRINGS = "springs"
+    """Only the real springs (physically meaningful)."""
+    ALL = "all"
+    """Every point pair, rest length from the rest positions: the report's hack (section 4.1,
+    5.2), O(n^2), refused above :data:`MAX_ALL_PAIRS_POINTS` points."""
+
+
+class ProvotOrder(str, Enum):
+    """Order in which Provot corrections are applied within one loop."""
+
+    JACOBI = "jacobi"
+    """All corrections computed from the same positions, each point moved by the *average* of
+    its corrections.  Parallel, independent of spring numbering, deterministic.  The default:
+    an unaveraged Jacobi pass overshoots and diverges; the averaged one is stable."""
+    GAUSS_SEIDEL = "gauss-seidel"
+    """Springs processed one after another in index order, each correction applied at once.
+    Converges in fewer loops but is sequential and depends on the spring order."""
+
+
+@dataclass(frozen=True)
+class ProvotParams:
+    """Provot (1995) strain limiting (report section 4.1).
+
+    A pair whose length leaves ``[(1 - tau) L0, (1 + tau) L0]`` has both end points moved
+    equally along the pair to the nearest bound.
+    """
+
+    enabled: bool = True
+    tau: float = 0.001
+    """Tolerance, a fraction of the rest length (0.001 = the report's 0.1 %)."""
+    loops: int = 5
+    """Passes per time step (report: 5 was sufficient; its benchmark used 1)."""
+    pairs: ProvotPairs = ProvotPairs.SPRINGS
+    order: ProvotOrder = ProvotOrder.JACOBI
+    tolerance: float = 0.0
+    """Stop the loops early once the largest point correction of a pass is below this [m]
+    (0: always run ``loops`` passes)."""
+    velocity_update: bool = True
+    """After the position corrections, add (total correction) / dt to each point's velocity,
+    as position-based dynamics does.  The report does not say; without it a point held up by
+    Provot keeps the velocity it gained falling, and the body creeps through its own springs
+    (try ``velocity_update = false`` on the paper cube: it flattens)."""
+
+
+@dataclass(frozen=True)
+class GroundParams:
+    """The report's ground (section 4.1, equations 2 and 3) at ``y = height``.
+
+    A point below the plane is put on it, its y velocity set to 0, its x and z velocities
+    multiplied by ``mu``, and its y acceleration replaced by ``a_y - nu a_y``.
+    """
+
+    enabled: bool = True
+    mu: float = 0.1
+    nu: float = 0.2
+    height: float = 0.0
+    """Height of the ground plane [m]."""

@@ -1,0 +1,296 @@
+"""Scene files: one TOML file holds every parameter of a run.
+
+Every key is checked against :data:`SCHEMA`; any problem raises :class:`SceneError` with one line
+naming the file, the ``[section] key`` and what is allowed.  See ``docs/scene.md`` for the
+format (generated from the same schema: ``jellysim scene-help``).
+"""
+from __future__ import annotations
+
+import difflib
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from .errors import SceneError
+
+__all__ = ["Scene", "SCHEMA", "Spec", "schema_markdown"]
+
+REQUIRED = object()
+
+
+@dataclass(frozen=True)
+class Spec:
+    kind: str
+    """``float``, ``int``, ``bool``, ``str``, ``vec3`` or ``path``."""
+    default: Any
+    doc: str
+    check: Callable[[Any], bool] | None = None
+    allowed: str = ""
+    """Words for the allowed range, used in error messages."""
+    choices: tuple[str, ...] = ()
+
+
+def _pos(doc, default=REQUIRED, unit=""):
+    return Spec("float", default, doc, lambda v: v > 0, f"a number > 0{unit}")
+
+
+def _nonneg(doc, default, unit=""):
+    return Spec("float", default, doc, lambda v: v >= 0, f"a number >= 0{unit}")
+
+
+SCHEMA: dict[str, dict[str, Spec]] = {
+    "body": {
+        "type": Spec("str", "box", "Where the points come from.", choices=("box",)),
+        "points": Spec("int", REQUIRED, "Number of points of the random field.", lambda v: v >= 2,
+                       "an integer >= 2"),
+        "distribution": Spec("str", "edge", "Random field: 'uniform' or the report's "
+                             "edge-favouring (1 + cos(2 pi u)) / 2.", choices=("uniform", "edge")),
+        "lower": Spec("vec3", [0.0, 0.0, 0.0], "Lower box corner [m]."),
+        "upper": Spec("vec3", [1.0, 1.0, 1.0], "Upper box corner [m]."),
+        "seed": Spec("int", 0, "Random seed (same seed, same points).", lambda v: v >= 0,
+                     "an integer >= 0"),
+    },
+    "springs": {
+        "connect": Spec("str", "radius", "Spring builder: 'radius' (report: implicit).",
+                        choices=("radius",)),
+        "radius": _pos("Connection radius r [m]: every pair closer than r gets a spring.",
+                       unit=" (m)"),
+        "stiffness": _pos("Spring stiffness k [N/m].", unit=" (N/m)"),
+    },
+    "mass": {
+        "density": _pos("Density [kg/m^3]; total mass = density x volume, split evenly.",
+                        1141.0, " (kg/m^3)"),
+        "point_mass": Spec("float", None, "Mass of every point [kg] (overrides density).",
+                           lambda v: v > 0, "a number > 0 (kg)"),
+    },
+    "physics": {
+        "damping": _nonneg("Velocity damping delta [kg/s] (report eq. 1).", 0.0, " (kg/s)"),
+        "gravity": Spec("vec3", [0.0, -9.8, 0.0], "Gravitational acceleration [m/s^2]."),
+    },
+    "integrator": {
+        "name": Spec("str", "symplectic", "'paper' (report order: x, v, then a) or "
+                     "'symplectic' (semi-implicit Euler).", choices=("paper", "symplectic")),
+        "dt": _pos("Time step [s].", unit=" (s)"),
+        "steps": Spec("int", REQUIRED, "Number of time steps.", lambda v: v >= 1,
+                      "an integer >= 1"),
+        "backend": Spec("str", "numba", "Kernels: 'numba' or 'numpy' (reference).",
+                        choices=("numba", "numpy")),
+        "threads": Spec("int", None, "Numba threads (default: by problem size).",
+                        lambda v: v >= 1, "an integer >= 1"),
+    },
+    "provot": {
+        "enabled": Spec("bool", True, "Provot strain limiting on/off."),
+        "tau": Spec("float", 0.001, "Tolerance as a fraction of rest length (0.001 = 0.1 %).",
+                    lambda v: 0 < v < 1, "a number in (0, 1)"),
+        "loops": Spec("int", 5, "Passes per step (report: 5).", lambda v: v >= 1,
+                      "an integer >= 1"),
+        "pairs": Spec("str", "springs", "'springs' or 'all' (the report's O(n^2) hack).",
+                      choices=("springs", "all")),
+        "order": Spec("str", "jacobi", "'jacobi' (parallel, averaged) or 'gauss-seidel'.",
+                      choices=("jacobi", "gauss-seidel")),
+        "tolerance": _nonneg("Stop the loops once the largest correction is below this [m].",
+                             0.0, " (m)"),
+        "velocity_update": Spec("bool", True, "Add the correction / dt to the velocity."),
+    },
+    "ground": {
+        "enabled": Spec("bool", True, "The report's ground plane on/off."),
+        "model": Spec("str", "paper", "'paper': the report's mu/nu rule (eqs. 2, 3).",
+                      choices=("paper",)),
+        "height": Spec("float", 0.0, "Height of the plane y = height [m]."),
+        "mu": Spec("float", 0.1, "Factor on x/z velocity of a point on the ground.",
+                   lambda v: 0 <= v <= 1, "a number in [0, 1]"),
+        "nu": Spec("float", 0.2, "Fraction of y acceleration removed on the ground.",
+                   lambda v: 0 <= v <= 1, "a number in [0, 1]"),
+    },
+    "output": {
+        "every": Spec("int", None, "Steps between saved frames (default: about 100 frames).",
+                      lambda v: v >= 1, "an integer >= 1"),
+        "vtu": Spec("bool", True, "Write the ParaView series body.pvd + one .vtu per frame."),
+    },
+}
+REQUIRED_SECTIONS = ("body", "springs", "integrator")
+
+
+def schema_markdown() -> str:
+    """The scene format as a Markdown table (for docs/scene.md)."""
+    lines = []
+    for section, keys in SCHEMA.items():
+        lines += [f"### `[{section}]`", "", "| key | type | default | allowed | meaning |",
+                  "|---|---|---|---|---|"]
+        for key, spec in keys.items():
+            default = "**required**" if spec.default is REQUIRED else f"`{spec.default!r}`"
+            allowed = spec.allowed or (", ".join(f"`{c}`" for c in spec.choices))
+            lines.append(f"| `{key}` | {spec.kind} | {default} | {allowed} | {spec.doc} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _check(name: str, section: str, key: str, spec: Spec, value: Any) -> Any:
+    where = f"{name}: [{section}] {key}"
+    kind = spec.kind
+
+    def fail(problem: str, allowed: str) -> SceneError:
+        return SceneError(f"{where} = {value!r}: {problem}; expected {allowed}")
+
+    if kind == "float":
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise fail("wrong type", spec.allowed or "a number")
+        value = float(value)
+        if not math.isfinite(value):
+            raise fail("not a finite number", spec.allowed or "a finite number")
+    elif kind == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise fail("wrong type", spec.allowed or "an integer")
+    elif kind == "bool":
+        if not isinstance(value, bool):
+            raise fail("wrong type", "true or false")
+    elif kind == "str":
+        if not isinstance(value, str):
+            raise fail("wrong type", "one of " + ", ".join(repr(c) for c in spec.choices))
+        if spec.choices and value not in spec.choices:
+            raise fail("unknown choice", "one of " + ", ".join(repr(c) for c in spec.choices))
+    elif kind == "vec3":
+        ok = (isinstance(value, list) and len(value) == 3 and all(
+            isinstance(c, (int, float)) and not isinstance(c, bool) for c in value))
+        if not ok:
+            raise fail("wrong type", "a list of three numbers, e.g. [0.0, -9.8, 0.0]")
+        value = [float(c) for c in value]
+        if not all(math.isfinite(c) for c in value):
+            raise fail("not finite", "three finite numbers")
+    if spec.check is not None and not spec.check(value):
+        raise fail("out of range", spec.allowed)
+    return value
+
+
+class Scene:
+    """A validated scene: ``scene.params[section][key]`` with every default filled in."""
+
+    def __init__(self, params: dict, *, text: str = "", name: str = "<scene>"):
+        self.params = params
+        self.text = text
+        self.name = name
+
+    @classmethod
+    def load(cls, path) -> "Scene":
+        path = Path(path)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise SceneError(f"{path}: scene file not found") from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise SceneError(f"{path}: cannot read the scene file ({exc})") from None
+        return cls.from_text(text, name=str(path))
+
+    @classmethod
+    def from_text(cls, text: str, *, name: str = "<scene>") -> "Scene":
+        try:
+            raw = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise SceneError(f"{name}: not valid TOML: {exc}") from None
+        return cls(cls._validate(raw, name), text=text, name=name)
+
+    @classmethod
+    def from_dict(cls, raw: dict, *, name: str = "<scene>") -> "Scene":
+        return cls(cls._validate(raw, name), name=name)
+
+    @staticmethod
+    def _validate(raw: dict, name: str) -> dict:
+        out: dict[str, dict] = {}
+        for section in raw:
+            if section not in SCHEMA:
+                near = difflib.get_close_matches(section, SCHEMA, n=1)
+                hint = f" (did you mean [{near[0]}]?)" if near else ""
+                raise SceneError(f"{name}: unknown section [{section}]{hint}; allowed: "
+                                 + ", ".join(f"[{s}]" for s in SCHEMA))
+            if not isinstance(raw[section], dict):
+                raise SceneError(f"{name}: '{section}' must be a [{section}] table")
+        for section in REQUIRED_SECTIONS:
+            if section not in raw:
+                raise SceneError(f"{name}: missing section [{section}]")
+        for section, keys in SCHEMA.items():
+            given = raw.get(section, {})
+            for key in given:
+                if key not in keys:
+                    near = difflib.get_close_matches(key, keys, n=1)
+                    hint = f" (did you mean '{near[0]}'?)" if near else ""
+                    raise SceneError(f"{name}: [{section}] unknown key '{key}'{hint}; allowed: "
+                                     + ", ".join(keys))
+            values = {}
+            for key, spec in keys.items():
+                if key in given:
+                    values[key] = _check(name, section, key, spec, given[key])
+                elif spec.default is REQUIRED:
+                    raise SceneError(f"{name}: [{section}] missing value '{key}': {spec.doc} "
+                                     f"Expected {spec.allowed or spec.kind}.")
+                else:
+                    values[key] = spec.default
+            out[section] = values
+        b = out["body"]
+        if not all(u > lo for u, lo in zip(b["upper"], b["lower"])):
+            raise SceneError(f"{name}: [body] upper = {b['upper']} must exceed lower = "
+                             f"{b['lower']} in every coordinate")
+        return out
+
+    # -- building ---------------------------------------------------------------------------
+    def build_body(self):
+        from .body import Body
+        from .geometry.connect import radius_springs
+        from .geometry.sampling import box_field
+
+        b, s = self.params["body"], self.params["springs"]
+        points = box_field(b["points"], b["lower"], b["upper"], distribution=b["distribution"],
+                           seed=b["seed"])
+        springs = radius_springs(points, s["radius"])
+        volume = float(np.prod(np.subtract(b["upper"], b["lower"])))
+        return Body(points=points, springs=springs, volume=volume,
+                    meta={"builder": "box", "distribution": b["distribution"],
+                          "seed": b["seed"], "connect": "radius", "radius": s["radius"]})
+
+    def build_model(self, body=None):
+        from .model import finalize
+
+        body = self.build_body() if body is None else body
+        m, ph = self.params["mass"], self.params["physics"]
+        try:
+            return finalize(body, stiffness=self.params["springs"]["stiffness"],
+                            density=m["density"], point_mass=m["point_mass"],
+                            damping=ph["damping"], gravity=ph["gravity"])
+        except ValueError as exc:
+            raise SceneError(f"{self.name}: {exc}") from None
+
+    def provot_params(self):
+        from .params import ProvotOrder, ProvotPairs, ProvotParams
+
+        p = self.params["provot"]
+        return ProvotParams(enabled=p["enabled"], tau=p["tau"], loops=p["loops"],
+                            pairs=ProvotPairs(p["pairs"]), order=ProvotOrder(p["order"]),
+                            tolerance=p["tolerance"], velocity_update=p["velocity_update"])
+
+    def ground_params(self):
+        from .params import GroundParams
+
+        g = self.params["ground"]
+        return GroundParams(enabled=g["enabled"], mu=g["mu"], nu=g["nu"], height=g["height"])
+
+    def simulator(self, model=None, **overrides):
+        from .simulator import Simulator
+
+        model = self.build_model() if model is None else model
+        it = self.params["integrator"]
+        kw = dict(dt=it["dt"], integrator=it["name"], provot=self.provot_params(),
+                  ground=self.ground_params(), backend=it["backend"], threads=it["threads"])
+        kw.update(overrides)
+        return Simulator(model, **kw)
+
+    @property
+    def steps(self) -> int:
+        return int(self.params["integrator"]["steps"])
+
+    @property
+    def frame_every(self) -> int:
+        every = self.params["output"]["every"]
+        return every if every is not None else max(1, math.ceil(self.steps / 100))
