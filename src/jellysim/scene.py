@@ -221,7 +221,9 @@ class Scene:
                                      + ", ".join(keys))
             values = {}
             for key, spec in keys.items():
-                if key in given:
+                if key in given and given[key] is None and spec.default is None:
+                    values[key] = None  # "not set" (only reachable from Python dicts)
+                elif key in given:
                     values[key] = _check(name, section, key, spec, given[key])
                 elif spec.default is REQUIRED:
                     raise SceneError(f"{name}: [{section}] missing value '{key}': {spec.doc} "

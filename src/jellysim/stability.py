@@ -68,7 +68,7 @@ def _stiffness_matvec(model, u):
 def max_eigenvalue(model, *, iterations: int = 60, seed: int = 0) -> tuple[float, str]:
     """Largest eigenvalue of ``M^-1 K`` at rest [1/s^2] and the method used."""
     k = model.spring_count
-    if k == 0:
+    if k == 0 or not np.any(model.spring_stiffness > 0):
         return 0.0, "no-springs"
     m = model.particle_mass
     if k > POWER_ITERATION_MAX_SPRINGS:
@@ -83,7 +83,10 @@ def max_eigenvalue(model, *, iterations: int = 60, seed: int = 0) -> tuple[float
     u = np.random.default_rng(seed).standard_normal((len(m), 3))
     lam = 0.0
     for _ in range(iterations):
-        u /= np.linalg.norm(u)
+        norm = np.linalg.norm(u)
+        if norm == 0:
+            return 0.0, "power-iteration"
+        u /= norm
         w = s * _stiffness_matvec(model, s * u)
         lam = float(np.sum(u * w))
         u = w

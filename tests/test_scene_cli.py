@@ -1,0 +1,218 @@
+"""Scene files (validation errors), the CLI, outputs, and the stability guard."""
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from jellysim.cli import cli
+from jellysim.errors import SceneError, SimulationError
+from jellysim.io.trajectory import load_trajectory
+from jellysim.runner import run_scene
+from jellysim.scene import Scene
+
+ROOT = Path(__file__).resolve().parents[1]
+
+BASE = """
+[body]
+points = 40
+distribution = "uniform"
+lower = [0.0, 1.0, 0.0]
+upper = [0.2, 1.2, 0.2]
+seed = 3
+
+[springs]
+radius = 0.12
+stiffness = 1e-6  # weak springs: free fall to round-off
+
+[mass]
+point_mass = 0.01
+
+[integrator]
+name = "symplectic"
+dt = 0.01
+steps = 20
+
+[provot]
+enabled = false
+
+[ground]
+enabled = false
+
+[output]
+every = 5
+"""
+
+
+def with_line(section: str, line: str, text: str = BASE) -> str:
+    """Add or replace a key in a section of the base scene."""
+    key = line.split("=")[0].strip()
+    if f"[{section}]" not in text:
+        text = text + f"\n[{section}]\n"
+    out, in_section = [], False
+    for row in text.splitlines():
+        if row.startswith("["):
+            in_section = row == f"[{section}]"
+            out.append(row)
+            if in_section:
+                out.append(line)
+            continue
+        if in_section and row.split("=")[0].strip() == key:
+            continue
+        out.append(row)
+    return "\n".join(out) + "\n"
+
+
+@pytest.mark.parametrize("section,line,words", [
+    ("springs", "radus = 0.3", ["[springs]", "unknown key 'radus'", "did you mean 'radius'"]),
+    ("integrator", 'dt = "fast"', ["[integrator] dt", "wrong type", "a number > 0 (s)"]),
+    ("integrator", "dt = 0.0", ["[integrator] dt", "out of range", "a number > 0 (s)"]),
+    ("integrator", "dt = -0.01", ["[integrator] dt", "out of range", "> 0"]),
+    ("integrator", "dt = nan", ["[integrator] dt", "not a finite number"]),
+    ("springs", "stiffness = -2.0", ["[springs] stiffness", "out of range", "(N/m)"]),
+    ("springs", "radius = 0", ["[springs] radius", "out of range", "(m)"]),
+    ("springs", "radius = inf", ["[springs] radius", "not a finite number"]),
+    ("mass", "point_mass = 0.0", ["[mass] point_mass", "out of range", "(kg)"]),
+    ("mass", "density = -5", ["[mass] density", "out of range", "(kg/m^3)"]),
+    ("integrator", "steps = 2.5", ["[integrator] steps", "wrong type", "integer"]),
+    ("integrator", 'name = "rk4"', ["[integrator] name", "unknown choice", "'paper'"]),
+    ("physics", "gravity = [0, -9.8]", ["[physics] gravity", "three numbers"]),
+    ("provot", "tau = 1.5", ["[provot] tau", "out of range", "(0, 1)"]),
+    ("provot", "enabled = 1", ["[provot] enabled", "true or false"]),
+])
+def test_bad_scene_values_give_one_clear_line(tmp_path, section, line, words):
+    path = tmp_path / "bad.toml"
+    path.write_text(with_line(section, line))
+    with pytest.raises(SceneError) as info:
+        Scene.load(path)
+    msg = str(info.value)
+    assert "\n" not in msg and str(path) in msg
+    for w in words:
+        assert w in msg, (w, msg)
+
+
+@pytest.mark.parametrize("section,key", [("integrator", "dt"), ("integrator", "steps"),
+                                         ("body", "points"), ("springs", "radius")])
+def test_missing_value(tmp_path, section, key):
+    text = "\n".join(r for r in BASE.splitlines() if not r.startswith(f"{key} ="))
+    path = tmp_path / "missing.toml"
+    path.write_text(text)
+    with pytest.raises(SceneError, match=rf"\[{section}\] missing value '{key}'"):
+        Scene.load(path)
+
+
+def test_unknown_section_missing_section_and_bad_toml(tmp_path):
+    p = tmp_path / "s.toml"
+    p.write_text(BASE + "\n[grond]\nmu = 0.1\n")
+    with pytest.raises(SceneError, match=r"unknown section \[grond\].*did you mean \[ground\]"):
+        Scene.load(p)
+    p.write_text(BASE.replace("[integrator]", "[integ]"))
+    with pytest.raises(SceneError):
+        Scene.load(p)
+    p.write_text("[body\npoints = 3")
+    with pytest.raises(SceneError, match="not valid TOML"):
+        Scene.load(p)
+    with pytest.raises(SceneError, match="not found"):
+        Scene.load(tmp_path / "nope.toml")
+
+
+def test_cli_bad_scene_exits_with_one_line_no_traceback(tmp_path):
+    p = tmp_path / "bad.toml"
+    p.write_text(with_line("integrator", "dt = -1.0"))
+    res = CliRunner().invoke(cli, ["run", str(p), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2
+    assert "Traceback" not in res.output
+    assert "[integrator] dt" in res.output and "> 0" in res.output
+
+
+def test_cli_run_free_fall_outputs(tmp_path):
+    """End to end: a spring-free cloud in free fall; outputs agree with the exact answer."""
+    import meshio
+
+    p = tmp_path / "fall.toml"
+    p.write_text(BASE)
+    out = tmp_path / "out"
+    res = CliRunner().invoke(cli, ["run", str(p), "--out", str(out), "--quiet"])
+    assert res.exit_code == 0, res.output
+    traj = load_trajectory(out / "trajectory.npz")
+    assert traj.frame_count == 5 and traj.status == "complete"
+    assert np.allclose(traj.times, [0, 0.05, 0.1, 0.15, 0.2])
+    n = traj.steps[-1]
+    exp_y = traj.rest_positions[:, 1] - 9.8 * 0.01**2 * n * (n + 1) / 2
+    assert np.allclose(traj.positions[-1][:, 1], exp_y, atol=1e-12)
+    assert traj.params["integrator"]["dt"] == 0.01 and "[body]" in traj.scene_toml
+    pvd = (out / "body.pvd").read_text()
+    files = [line.split('file="')[1].split('"')[0] for line in pvd.splitlines() if "file=" in line]
+    assert len(files) == 5
+    for k, f in enumerate(files):
+        mesh = meshio.read(out / f)
+        assert np.allclose(mesh.points, traj.positions[k])
+        assert np.array_equal(mesh.cells_dict["line"], traj.springs)
+
+
+def test_paper_cube_holds_with_all_pairs_and_flattens_with_springs_only(tmp_path):
+    """The example's documented behaviour (report section 5.2)."""
+    scene = Scene.load(ROOT / "examples" / "paper_cube.toml")
+    assert scene.params["provot"]["pairs"] == "all"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the example runs without a stability warning
+        model = scene.build_model()
+        sim = scene.simulator(model)
+    assert model.particle_count == 600 and 9000 < model.spring_count < 11000
+    sim.advance(100)
+    y = sim.state.x[:, 1]
+    assert y.min() >= 0.0 and y.min() < 1e-9  # landed, nothing below the ground
+    assert y.max() - y.min() > 0.8  # the 1 m cube keeps its height
+    raw = dict(scene.params)
+    raw["provot"] = dict(raw["provot"], pairs="springs")
+    soft = Scene.from_dict(raw)
+    sim = soft.simulator(soft.build_model())
+    sim.advance(100)
+    assert sim.state.x[:, 1].max() < 0.5  # springs-only: the cube flattens
+
+
+def test_stability_estimate_matches_two_mass_analytic():
+    from jellysim.body import Body
+    from jellysim.model import finalize
+    from jellysim.stability import estimate_stability
+
+    m, k = 0.3, 12.0
+    model = finalize(Body(points=np.array([[0.0, 0, 0], [0.5, 0, 0]]), springs=np.array([[0, 1]])),
+                     stiffness=k, point_mass=m)
+    est = estimate_stability(model, "symplectic", 0.01)
+    assert 2 * k / m <= est.lambda_max <= 1.06 * 2 * k / m
+    assert est.dt_max == pytest.approx(2 / np.sqrt(est.lambda_max))
+
+
+def test_guard_warns_and_runaway_stops_with_step_and_keeps_frames(tmp_path):
+    text = BASE.replace("stiffness = 1e-6", "stiffness = 400.0").replace("steps = 20", "steps = 400")
+    scene = Scene.from_text(text, name="unstable.toml")
+    model = scene.build_model()
+    with pytest.warns(UserWarning, match="exceeds the estimated stable limit"):
+        scene.simulator(model)
+    # perturb so the unstable modes are excited
+    with pytest.raises(SimulationError) as info:
+        run_scene(scene, tmp_path / "o", progress=False)
+    err = info.value
+    assert f"step {err.step}" in str(err) and "try dt <=" in str(err)
+    traj = load_trajectory(tmp_path / "o" / "trajectory.npz")
+    assert traj.status.startswith("failed")
+    assert traj.frame_count >= 2 and np.all(np.isfinite(traj.positions[:-1]))
+    assert traj.steps[-1] == err.step
+    pvd = (tmp_path / "o" / "body.pvd").read_text()
+    assert pvd.count("<DataSet") == traj.frame_count
+    # the same scene at a dt below the estimate runs to the end
+    stable = Scene.from_text(text.replace("dt = 0.01", "dt = 0.002"), name="stable.toml")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        run_scene(stable, tmp_path / "ok", progress=False)
+
+
+def test_package_import_is_light():
+    code = ("import sys, jellysim; heavy = [m for m in ('numba', 'scipy', 'meshio', 'trimesh', "
+            "'pyvista', 'rich', 'click') if m in sys.modules]; print(heavy)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
