@@ -35,14 +35,15 @@ def test_same_seed_same_points_other_seed_other_points():
     assert not np.array_equal(a, c)
 
 
+@pytest.mark.parametrize("method", ["kdtree", "grid"])
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_radius_springs_equal_brute_force(seed):
+def test_radius_springs_equal_brute_force(seed, method):
     rng = np.random.default_rng(seed)
     pts = rng.random((400, 3))
     # include exact-distance ties: a pair at distance exactly r (query_pairs includes <= r)
     pts[1] = pts[0] + np.array([0.25, 0.0, 0.0])
     r = 0.25
-    springs = radius_springs(pts, r)
+    springs = radius_springs(pts, r, method=method)
     d = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
     i, j = np.nonzero(np.triu(d <= r, k=1))
     expected = np.stack([i, j], axis=1)
@@ -55,3 +56,10 @@ def test_radius_springs_equal_brute_force(seed):
 def test_radius_rejects_bad_radius():
     with pytest.raises(ValueError, match="radius"):
         radius_springs(np.zeros((3, 3)), -1.0)
+
+
+def test_grid_and_kdtree_agree_on_edge_field():
+    pts = box_field(30000, [0, 0, 0], [1, 2, 1], distribution="edge", seed=9)
+    r = 0.04
+    assert np.array_equal(radius_springs(pts, r, method="grid"),
+                          radius_springs(pts, r, method="kdtree"))

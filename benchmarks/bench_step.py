@@ -1,0 +1,136 @@
+"""Time-step throughput: steps/s and spring-updates/s, beside this machine's memory bandwidth.
+
+Scenes: the report's paper cube (600 edge-favouring points, r = 0.3, k = 2 N/m, delta = 0.8 kg/s,
+dt = 0.01 s, tau = 0.1 %, ONE Provot pass over the springs, the report's ground) and the same
+recipe at N = 10k, 100k, 1M points with r = 0.3 (600 / N)^(1/3) (so about 33 springs per point).
+Every body starts resting on the ground (y in [0, 1]) so that the ground rule and Provot
+corrections are active in every timed window; each window must end finite, else it is reported
+as failed.  A spring-update is one spring's force plus one Provot check: springs x steps/s.
+
+The bandwidth bound: a STREAM-style triad ``a = b + s c`` (numba, parallel) measures the
+streaming bandwidth B [bytes/s]; one spring-update moves at least ``BYTES_PER_SPRING`` bytes
+(index pair 8, rest length 8, stiffness 8, scalar written and read back 16, the second-point CSR
+entry 8, then the Provot pass: index pair 8, rest length 8, scalar 16, CSR 8 = 96), so no
+implementation of this data layout exceeds B / 96 spring-updates/s.
+
+Run:  python -m benchmarks.bench_step [--sizes 600,10000,100000,1000000] [--repeats 5]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import time
+
+import numpy as np
+
+BYTES_PER_SPRING = 96
+
+
+def stream_triad(n: int = 1 << 25, repeats: int = 5) -> dict:
+    import numba
+    from numba import njit, prange
+
+    @njit(parallel=True, cache=False)
+    def triad(a, b, c, s):
+        for i in prange(a.shape[0]):
+            a[i] = b[i] + s * c[i]
+
+    a = np.zeros(n)
+    b = np.ones(n)
+    c = np.full(n, 2.0)
+    out = {}
+    for threads in (1, 2):
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+        triad(a, b, c, 3.0)
+        times = []
+        for _ in range(repeats):
+            t = time.perf_counter()
+            triad(a, b, c, 3.0)
+            times.append(time.perf_counter() - t)
+        out[f"threads_{threads}_GBps"] = 24 * n / float(np.median(times)) / 1e9
+    out["best_GBps"] = max(out.values())
+    return out
+
+
+def paper_scene(n: int, seed: int = 2010):
+    from jellysim.body import Body
+    from jellysim.geometry.connect import radius_springs
+    from jellysim.geometry.sampling import box_field
+    from jellysim.model import finalize
+
+    r = 0.3 * (600 / n) ** (1 / 3)
+    t = time.perf_counter()
+    pts = box_field(n, [0, 0, 0], [1, 1, 1], distribution="edge", seed=seed)
+    springs = radius_springs(pts, r)
+    build = time.perf_counter() - t
+    model = finalize(Body(points=pts, springs=springs, volume=1.0), stiffness=2.0,
+                     density=1141.0, damping=0.8)
+    return model, r, build
+
+
+def time_steps(model, backend: str, threads: int, steps: int, repeats: int) -> dict:
+    from jellysim.errors import SimulationError
+    from jellysim.params import GroundParams, ProvotParams
+    from jellysim.simulator import Simulator
+
+    sim = Simulator(model, dt=0.01, integrator="paper", backend=backend, threads=threads,
+                    provot=ProvotParams(tau=0.001, loops=1, pairs="springs"),
+                    ground=GroundParams(mu=0.1, nu=0.2), check_stability=False)
+    sim.advance(1)  # compile / load cache, first touch
+    rates = []
+    corrected = []
+    try:
+        for _ in range(repeats):
+            before = sim.state.x.copy()
+            t = time.perf_counter()
+            sim.advance(steps)
+            rates.append(steps / (time.perf_counter() - t))
+            corrected.append(float(np.abs(sim._max_corr).max()))
+            assert np.all(np.isfinite(sim.state.x)) and not np.array_equal(before, sim.state.x)
+    except SimulationError as exc:
+        return {"failed": str(exc)}
+    med = float(np.median(rates))
+    return {"steps_per_s": med, "spring_updates_per_s": med * model.spring_count,
+            "rates": rates, "provot_last_pass_max_correction_m": max(corrected),
+            "on_ground": int(np.sum(sim.state.x[:, 1] == 0.0))}
+
+
+def main(argv=None) -> None:
+    import numba
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default="600,10000,100000,1000000")
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--numpy-max", type=int, default=100_000,
+                    help="largest N timed with the numpy reference backend")
+    args = ap.parse_args(argv)
+    bw = stream_triad()
+    result = {"machine": {"cpu_count": os.cpu_count(), "numba_threads": numba.config.NUMBA_NUM_THREADS,
+                          "python": platform.python_version(), "numba": numba.__version__,
+                          "numpy": np.__version__},
+              "stream_triad": bw, "bytes_per_spring_update": BYTES_PER_SPRING,
+              "bandwidth_bound_spring_updates_per_s": bw["best_GBps"] * 1e9 / BYTES_PER_SPRING,
+              "scenes": []}
+    for n in [int(s) for s in args.sizes.split(",")]:
+        model, r, build = paper_scene(n)
+        steps = max(2, min(2000, int(2e7 / max(model.spring_count, 1))))
+        entry = {"points": n, "radius_m": r, "springs": model.spring_count,
+                 "build_s": build, "steps_per_window": steps, "runs": {}}
+        for backend, threads in [("numba", 1), ("numba", 2), ("numpy", 1)]:
+            if backend == "numpy" and n > args.numpy_max:
+                continue
+            s = steps if backend == "numba" else max(1, steps // 50)
+            entry["runs"][f"{backend}_{threads}t"] = time_steps(model, backend, threads, s,
+                                                                args.repeats)
+        best = max((v.get("spring_updates_per_s", 0) for v in entry["runs"].values()),
+                   default=0)
+        entry["fraction_of_bandwidth_bound"] = best / result["bandwidth_bound_spring_updates_per_s"]
+        result["scenes"].append(entry)
+        print(json.dumps(entry), flush=True, file=__import__("sys").stderr)
+    print(json.dumps(result, indent=2))
+
+
+if __name__ == "__main__":
+    main()
