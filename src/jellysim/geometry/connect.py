@@ -65,3 +65,36 @@ def radius_springs(points: np.ndarray, r: float, *, method: str = "auto") -> np.
     pairs.sort(axis=1)
     order = np.lexsort((pairs[:, 1], pairs[:, 0]))
     return np.ascontiguousarray(pairs[order])
+
+
+def choose_radius(points: np.ndarray, neighbours: float = 24.0, *, sample: int = 4000,
+                  seed: int = 0) -> float:
+    """Connection radius [m] giving about ``neighbours`` springs per point on average.
+
+    Binary search on the mean neighbour count of (up to ``sample``) points, counted exactly
+    with a kd-tree over all points.  Boundary points have fewer neighbours, so the interior
+    has a few more than the mean.
+    """
+    from scipy.spatial import cKDTree
+
+    points = np.asarray(points, dtype=np.float64)
+    n = len(points)
+    if n < 2:
+        raise ValueError("need at least 2 points to choose a radius")
+    if not 0 < neighbours < n:
+        raise ValueError(f"target neighbour count must lie in (0, {n}), got {neighbours}")
+    tree = cKDTree(points)
+    rng = np.random.default_rng(seed)
+    idx = rng.choice(n, size=min(sample, n), replace=False)
+    kmax = int(min(n, 4 * neighbours + 2))
+    dist, _ = tree.query(points[idx], k=kmax)
+    dist = dist[:, 1:]  # drop the point itself
+    lo, hi = 0.0, float(dist[:, -1].max())
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        mean = np.mean(np.sum(dist <= mid, axis=1))
+        if mean < neighbours:
+            lo = mid
+        else:
+            hi = mid
+    return hi
