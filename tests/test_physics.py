@@ -121,7 +121,7 @@ def test_provot_springs_enough_loops_puts_every_spring_in_band(backend, order):
     loops = 3000 if order == "jacobi" else 400
     passes, largest = k.provot(
         x, model.particle_x0, model.spring_ij, model.spring_rest_length,
-        model.point_first_ptr, model.point_second_ptr, model.point_second_spring,
+        model.point_first_ptr, model.point_second_ptr, model.spring_second_slot,
         model.point_second_other, tau, loops, 1e-13, False, order == "gauss-seidel",
         np.zeros(ns), np.zeros((n, 3)), np.zeros(n, dtype=np.int64), np.zeros(n))
     L = np.linalg.norm(x[model.spring_ij[:, 1]] - x[model.spring_ij[:, 0]], axis=1)
@@ -137,7 +137,7 @@ def test_provot_all_pairs_limits_every_pair():
     x = model.particle_x0 + 0.01 * np.random.default_rng(6).standard_normal((60, 3))
     n = 60
     k.provot(x, model.particle_x0, model.spring_ij, model.spring_rest_length,
-             model.point_first_ptr, model.point_second_ptr, model.point_second_spring,
+             model.point_first_ptr, model.point_second_ptr, model.spring_second_slot,
              model.point_second_other, 0.01, 5000, 1e-13, True, False,
              np.zeros(model.spring_count), np.zeros((n, 3)), np.zeros(n, dtype=np.int64),
              np.zeros(n))

@@ -28,8 +28,11 @@ class Model:
     The spring adjacency is stored twice so that per-point sums are race-free gathers
     (each spring's force is computed once, then every point reads the springs it belongs to):
     springs are sorted by their first point ``i``, so the springs whose first point is ``p`` are
-    ``spring_ij[point_first_ptr[p]:point_first_ptr[p+1]]``; the springs whose *second* point is
-    ``q`` are ``point_second_spring[point_second_ptr[q]:point_second_ptr[q+1]]``.
+    ``spring_ij[point_first_ptr[p]:point_first_ptr[p+1]]``.  The springs whose *second* point is
+    ``q`` occupy the "second-list slots" ``point_second_ptr[q]:point_second_ptr[q+1]``; slot t
+    holds spring ``point_second_spring[t]`` whose first point is ``point_second_other[t]``, and
+    spring s sits in slot ``spring_second_slot[s]``.  The numba kernels write each spring's
+    scalar straight into its slot, so the second pass reads them sequentially.
     """
 
     particle_x0: np.ndarray
@@ -49,7 +52,9 @@ class Model:
     point_second_ptr: np.ndarray
     """CSR offsets [-], shape (n + 1,), int64: springs whose second point is q."""
     point_second_spring: np.ndarray
-    """Spring indices [-], shape (k,), int32, grouped by second point (see above)."""
+    """Spring index of each second-list slot [-], shape (k,), int32 (see above)."""
+    spring_second_slot: np.ndarray
+    """Second-list slot of each spring [-], shape (k,), int32: inverse of the above."""
     point_second_other: np.ndarray
     """First point of each entry of ``point_second_spring`` [-], shape (k,), int32."""
     damping: float
@@ -166,6 +171,7 @@ def finalize(
         point_first_ptr=_frozen(first_ptr, np.int64),
         point_second_ptr=_frozen(second_ptr, np.int64),
         point_second_spring=_frozen(second, np.int32),
+        spring_second_slot=_frozen(np.argsort(second, kind="stable"), np.int32),
         point_second_other=_frozen(springs[second, 0], np.int32),
         damping=float(damping),
         gravity=_frozen(gravity, np.float64),

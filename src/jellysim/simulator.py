@@ -130,7 +130,7 @@ class Simulator:
                 int(steps), self.dt, INTEGRATOR_CODES[self.integrator.value], s.x, s.v, s.a,
                 m.particle_x0, m.particle_inv_mass, m.damping, m.gravity,
                 m.spring_ij, m.spring_rest_length, m.spring_stiffness, m.point_first_ptr,
-                m.point_second_ptr, m.point_second_spring, m.point_second_other,
+                m.point_second_ptr, m.spring_second_slot, m.point_second_other,
                 int(p.loops) if p.enabled else 0, float(p.tau), float(p.tolerance),
                 ProvotPairs(p.pairs) is ProvotPairs.ALL,
                 ProvotOrder(p.order) is ProvotOrder.GAUSS_SEIDEL, bool(p.velocity_update),

@@ -35,7 +35,7 @@ class State:
         nb.accelerations(x, v, model.particle_inv_mass, model.damping, model.gravity,
                          model.spring_ij, model.spring_rest_length, model.spring_stiffness,
                          model.point_first_ptr, model.point_second_ptr,
-                         model.point_second_spring, model.point_second_other, scalar, a)
+                         model.spring_second_slot, model.point_second_other, scalar, a)
         return cls(x=x, v=v, a=a)
 
     def copy(self) -> "State":

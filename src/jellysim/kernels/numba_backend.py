@@ -2,8 +2,10 @@
 
 Parallel loops run over *points*, never over springs with a scatter-add (that would race):
 a spring's scalar is computed once, by the thread that owns its first point, while that thread
-sums the spring's force on the first point; a second pass gathers each point's forces from the
-springs where it is the second point, reading the stored scalars.  Each point's sum is taken in
+sums the spring's force on the first point, and written into the spring's slot of its second
+point's list (``second_slot``: each slot has exactly one writer); a second pass gathers each
+point's forces from its own contiguous slots.  Reading the scalars sequentially instead of
+through an index halves the time of large bodies (BENCHMARKS.md).  Each point's sum is taken in
 a fixed order, so the result is bitwise identical for any number of threads.  Floating-point
 reductions across threads (like the largest Provot correction) are taken from per-point arrays
 in a serial loop, also order-fixed.  ``cache=True``: a second process loads the compiled code.
@@ -20,7 +22,7 @@ _opts = dict(parallel=True, cache=True, nogil=True, error_model="numpy")
 
 @njit(**_opts)
 def accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff,
-                  first_ptr, second_ptr, second_spring, second_other, spring_scalar, a_out):
+                  first_ptr, second_ptr, second_slot, second_other, spring_scalar, a_out):
     n = x.shape[0]
     gx, gy, gz = gravity[0], gravity[1], gravity[2]
     for p in prange(n):
@@ -37,7 +39,7 @@ def accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff,
             c = 0.0
             if length > 0.0:
                 c = stiff[s] * (length - rest[s]) / length
-            spring_scalar[s] = c
+            spring_scalar[second_slot[s]] = c
             fx += c * dx
             fy += c * dy
             fz += c * dz
@@ -50,7 +52,7 @@ def accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff,
         fz = a_out[q, 2]
         qx, qy, qz = x[q, 0], x[q, 1], x[q, 2]
         for t in range(second_ptr[q], second_ptr[q + 1]):
-            c = spring_scalar[second_spring[t]]
+            c = spring_scalar[t]
             i = second_other[t]
             fx += c * (x[i, 0] - qx)
             fy += c * (x[i, 1] - qy)
@@ -75,7 +77,7 @@ def _provot_c(length, rest, tau):
 
 
 @njit(**_opts)
-def _provot_jacobi_springs(x, spring_ij, rest, first_ptr, second_ptr, second_spring,
+def _provot_jacobi_springs(x, spring_ij, rest, first_ptr, second_ptr, second_slot,
                            second_other, tau, spring_scalar, dx, count, max_corr):
     n = x.shape[0]
     for p in prange(n):
@@ -90,7 +92,7 @@ def _provot_jacobi_springs(x, spring_ij, rest, first_ptr, second_ptr, second_spr
             ey = x[q, 1] - py
             ez = x[q, 2] - pz
             c = _provot_c(np.sqrt(ex * ex + ey * ey + ez * ez), rest[s], tau)
-            spring_scalar[s] = c
+            spring_scalar[second_slot[s]] = c
             if c != 0.0:
                 sx += c * ex
                 sy += c * ey
@@ -107,7 +109,7 @@ def _provot_jacobi_springs(x, spring_ij, rest, first_ptr, second_ptr, second_spr
         cnt = count[q]
         qx, qy, qz = x[q, 0], x[q, 1], x[q, 2]
         for t in range(second_ptr[q], second_ptr[q + 1]):
-            c = spring_scalar[second_spring[t]]
+            c = spring_scalar[t]
             if c != 0.0:
                 i = second_other[t]
                 sx -= c * (qx - x[i, 0])
@@ -211,7 +213,7 @@ def _serial_max(values):
 
 
 @njit(cache=True)
-def provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_spring, second_other,
+def provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_slot, second_other,
            tau, loops, tolerance, all_pairs, gauss_seidel, spring_scalar, dx, count, max_corr):
     passes = 0
     largest = 0.0
@@ -223,7 +225,7 @@ def provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_spring, second_
             _provot_jacobi_all(x, x0, tau, dx, max_corr)
             largest = _serial_max(max_corr)
         else:
-            _provot_jacobi_springs(x, spring_ij, rest, first_ptr, second_ptr, second_spring,
+            _provot_jacobi_springs(x, spring_ij, rest, first_ptr, second_ptr, second_slot,
                                    second_other, tau, spring_scalar, dx, count, max_corr)
             largest = _serial_max(max_corr)
         if largest <= tolerance:
@@ -289,7 +291,7 @@ def _add_velocity(v, x, x_pre, dt):
 
 @njit(cache=True)
 def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
-              spring_ij, rest, stiff, first_ptr, second_ptr, second_spring, second_other,
+              spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other,
               provot_loops, tau, tolerance, all_pairs, gauss_seidel, velocity_update,
               ground, height, mu, nu, center, bound2,
               spring_scalar, dx, count, max_corr, x_pre):
@@ -297,15 +299,15 @@ def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
         if integrator == 0:
             _drift(x, v, a, dt, True)
             accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff, first_ptr,
-                          second_ptr, second_spring, second_other, spring_scalar, a)
+                          second_ptr, second_slot, second_other, spring_scalar, a)
         else:
             accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff, first_ptr,
-                          second_ptr, second_spring, second_other, spring_scalar, a)
+                          second_ptr, second_slot, second_other, spring_scalar, a)
             _drift(x, v, a, dt, False)
         if provot_loops > 0:
             if velocity_update:
                 _copy(x_pre, x)
-            provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_spring, second_other,
+            provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_slot, second_other,
                    tau, provot_loops, tolerance, all_pairs, gauss_seidel, spring_scalar, dx,
                    count, max_corr)
             if velocity_update:

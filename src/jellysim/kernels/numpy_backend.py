@@ -4,8 +4,9 @@ Every function here has a numba twin of the same name and signature in
 :mod:`jellysim.kernels.numba_backend`; tests check that they agree.  Arrays follow the Model's
 conventions: positions ``x`` [m] (n, 3), velocities ``v`` [m/s] (n, 3), accelerations ``a``
 [m/s^2] (n, 3), springs ``spring_ij`` (k, 2) with i < j.  The CSR arguments (``first_ptr``,
-``second_ptr``, ``second_spring``, ``second_other``) are unused here; they are part of the
-shared signature because the numba kernels gather through them.
+``second_ptr``, ``second_slot``, ``second_other``) are unused here; they are part of the
+shared signature because the numba kernels gather through them.  ``spring_scalar`` is scratch
+whose layout is backend-specific (numpy: spring order; numba: second-list slot order).
 """
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ def _scatter(n: int, idx: np.ndarray, values: np.ndarray) -> np.ndarray:
 
 
 def accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff,
-                  first_ptr, second_ptr, second_spring, second_other, spring_scalar, a_out):
+                  first_ptr, second_ptr, second_slot, second_other, spring_scalar, a_out):
     """Report eq. 1: ``a = (sum_s k_s (|d| - L0_s) d / |d| - delta v) / m + g``.
 
     For spring s = (i, j), ``d = x_j - x_i``; the force ``k (|d| - L0) d / |d|`` acts on i and
@@ -50,7 +51,7 @@ def _provot_scalar(length, rest, tau):
     return np.where(length > 0.0, 0.5 * (length - target) / safe, 0.0)
 
 
-def provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_spring, second_other,
+def provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_slot, second_other,
            tau, loops, tolerance, all_pairs, gauss_seidel, spring_scalar, dx, count, max_corr):
     """Provot (1995) strain limiting, in place on ``x`` [m] (n, 3).
 
@@ -129,7 +130,7 @@ def finish_step(x, v, a, ground, height, mu, nu, center, bound2):
 
 
 def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
-              spring_ij, rest, stiff, first_ptr, second_ptr, second_spring, second_other,
+              spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other,
               provot_loops, tau, tolerance, all_pairs, gauss_seidel, velocity_update,
               ground, height, mu, nu, center, bound2,
               spring_scalar, dx, count, max_corr, x_pre):
@@ -149,16 +150,16 @@ def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
             x += v * dt
             v += a * dt
             accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff, first_ptr,
-                          second_ptr, second_spring, second_other, spring_scalar, a)
+                          second_ptr, second_slot, second_other, spring_scalar, a)
         else:
             accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff, first_ptr,
-                          second_ptr, second_spring, second_other, spring_scalar, a)
+                          second_ptr, second_slot, second_other, spring_scalar, a)
             v += a * dt
             x += v * dt
         if provot_loops > 0:
             if velocity_update:
                 x_pre[:] = x
-            provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_spring, second_other,
+            provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_slot, second_other,
                    tau, provot_loops, tolerance, all_pairs, gauss_seidel, spring_scalar, dx,
                    count, max_corr)
             if velocity_update:
