@@ -90,6 +90,7 @@ class Simulator:
         self._count = np.zeros(n, dtype=np.int64)
         self._max_corr = np.zeros(n)
         self._x_pre = np.zeros((n, 3))
+        self._provot_scalar = np.zeros(k)
         self.stability: StabilityEstimate | None = None
         if check_stability:
             self.check_stability()
@@ -136,7 +137,8 @@ class Simulator:
                 ProvotOrder(p.order) is ProvotOrder.GAUSS_SEIDEL, bool(p.velocity_update),
                 bool(g.enabled), float(g.height), float(g.mu), float(g.nu),
                 self.center, self.runaway_distance**2,
-                self._scalar, self._dx, self._count, self._max_corr, self._x_pre)
+                self._scalar, self._dx, self._count, self._max_corr, self._x_pre,
+                self._provot_scalar)
         finally:
             numba.set_num_threads(previous)
         s.step += int(done)

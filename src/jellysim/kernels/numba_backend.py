@@ -131,6 +131,93 @@ def _provot_jacobi_springs(x, spring_ij, rest, first_ptr, second_ptr, second_slo
 
 
 @njit(**_opts)
+def _accelerations_provot_fused(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff,
+                                first_ptr, second_ptr, second_slot, second_other, tau,
+                                spring_scalar, provot_scalar, a_out, dx, max_corr):
+    """``accelerations`` and the first Jacobi Provot pass over the springs, sharing one
+    length computation per spring: valid when Provot follows the force evaluation with no
+    position change in between (the report's order).  Positions are corrected in place."""
+    n = x.shape[0]
+    for p in prange(n):
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        sx = 0.0
+        sy = 0.0
+        sz = 0.0
+        cnt = 0
+        px, py, pz = x[p, 0], x[p, 1], x[p, 2]
+        for s in range(first_ptr[p], first_ptr[p + 1]):
+            q = spring_ij[s, 1]
+            ex = x[q, 0] - px
+            ey = x[q, 1] - py
+            ez = x[q, 2] - pz
+            length = np.sqrt(ex * ex + ey * ey + ez * ez)
+            c = 0.0
+            if length > 0.0:
+                c = stiff[s] * (length - rest[s]) / length
+            slot = second_slot[s]
+            spring_scalar[slot] = c
+            fx += c * ex
+            fy += c * ey
+            fz += c * ez
+            cp = _provot_c(length, rest[s], tau)
+            provot_scalar[slot] = cp
+            if cp != 0.0:
+                sx += cp * ex
+                sy += cp * ey
+                sz += cp * ez
+                cnt += 1
+        a_out[p, 0] = fx
+        a_out[p, 1] = fy
+        a_out[p, 2] = fz
+        dx[p, 0] = sx
+        dx[p, 1] = sy
+        dx[p, 2] = sz
+        max_corr[p] = cnt
+    for q in prange(n):
+        fx = a_out[q, 0]
+        fy = a_out[q, 1]
+        fz = a_out[q, 2]
+        sx = dx[q, 0]
+        sy = dx[q, 1]
+        sz = dx[q, 2]
+        cnt = int(max_corr[q])
+        qx, qy, qz = x[q, 0], x[q, 1], x[q, 2]
+        for t in range(second_ptr[q], second_ptr[q + 1]):
+            i = second_other[t]
+            ex = x[i, 0] - qx
+            ey = x[i, 1] - qy
+            ez = x[i, 2] - qz
+            c = spring_scalar[t]
+            fx += c * ex
+            fy += c * ey
+            fz += c * ez
+            cp = provot_scalar[t]
+            if cp != 0.0:
+                sx += cp * ex
+                sy += cp * ey
+                sz += cp * ez
+                cnt += 1
+        w = inv_mass[q]
+        a_out[q, 0] = (fx - damping * v[q, 0]) * w + gravity[0]
+        a_out[q, 1] = (fy - damping * v[q, 1]) * w + gravity[1]
+        a_out[q, 2] = (fz - damping * v[q, 2]) * w + gravity[2]
+        if cnt > 0:
+            sx /= cnt
+            sy /= cnt
+            sz /= cnt
+        dx[q, 0] = sx
+        dx[q, 1] = sy
+        dx[q, 2] = sz
+        max_corr[q] = np.sqrt(sx * sx + sy * sy + sz * sz)
+    for p in prange(n):
+        x[p, 0] += dx[p, 0]
+        x[p, 1] += dx[p, 1]
+        x[p, 2] += dx[p, 2]
+
+
+@njit(**_opts)
 def _provot_jacobi_all(x, x0, tau, dx, max_corr):
     n = x.shape[0]
     for p in prange(n):
@@ -294,22 +381,39 @@ def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
               spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other,
               provot_loops, tau, tolerance, all_pairs, gauss_seidel, velocity_update,
               ground, height, mu, nu, center, bound2,
-              spring_scalar, dx, count, max_corr, x_pre):
+              spring_scalar, dx, count, max_corr, x_pre, provot_scalar):
+    fuse = integrator == 0 and provot_loops > 0 and not all_pairs and not gauss_seidel
     for step in range(nsteps):
         if integrator == 0:
             _drift(x, v, a, dt, True)
-            accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff, first_ptr,
-                          second_ptr, second_slot, second_other, spring_scalar, a)
+            if provot_loops > 0 and velocity_update:
+                _copy(x_pre, x)
+            if fuse:
+                # the report's order evaluates forces and then corrects the same positions:
+                # one pass serves both (identical results to the separate kernels)
+                _accelerations_provot_fused(x, v, inv_mass, damping, gravity, spring_ij, rest,
+                                            stiff, first_ptr, second_ptr, second_slot,
+                                            second_other, tau, spring_scalar, provot_scalar,
+                                            a, dx, max_corr)
+                if provot_loops > 1 and _serial_max(max_corr) > tolerance:
+                    provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_slot,
+                           second_other, tau, provot_loops - 1, tolerance, all_pairs,
+                           gauss_seidel, spring_scalar, dx, count, max_corr)
+            else:
+                accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff,
+                              first_ptr, second_ptr, second_slot, second_other, spring_scalar,
+                              a)
         else:
             accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff, first_ptr,
                           second_ptr, second_slot, second_other, spring_scalar, a)
             _drift(x, v, a, dt, False)
-        if provot_loops > 0:
-            if velocity_update:
+            if provot_loops > 0 and velocity_update:
                 _copy(x_pre, x)
-            provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_slot, second_other,
-                   tau, provot_loops, tolerance, all_pairs, gauss_seidel, spring_scalar, dx,
-                   count, max_corr)
+        if provot_loops > 0:
+            if not fuse:
+                provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_slot,
+                       second_other, tau, provot_loops, tolerance, all_pairs, gauss_seidel,
+                       spring_scalar, dx, count, max_corr)
             if velocity_update:
                 _add_velocity(v, x, x_pre, dt)
         status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)

@@ -133,7 +133,7 @@ def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
               spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other,
               provot_loops, tau, tolerance, all_pairs, gauss_seidel, velocity_update,
               ground, height, mu, nu, center, bound2,
-              spring_scalar, dx, count, max_corr, x_pre):
+              spring_scalar, dx, count, max_corr, x_pre, provot_scalar):
     """Advance ``nsteps`` steps of size ``dt`` [s] in place on x, v, a.
 
     One step (``integrator`` 0 = paper, 1 = symplectic):
@@ -142,13 +142,16 @@ def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
     * symplectic: ``a = F(x, v) / m; v += a dt; x += v dt``;
 
     then ``provot_loops`` Provot passes (if > 0; with ``velocity_update`` the total
-    correction / dt is added to v), then :func:`finish_step`.  Returns ``(steps_done, status)``:
+    correction / dt is added to v), then :func:`finish_step`.  ``provot_scalar`` (k,) is
+    scratch for the numba backend's fused force + first Provot pass (paper order).  Returns ``(steps_done, status)``:
     on a non-zero status, ``steps_done`` counts the steps completed including the failing one.
     """
     for step in range(nsteps):
         if integrator == 0:
             x += v * dt
             v += a * dt
+            if provot_loops > 0 and velocity_update:
+                x_pre[:] = x
             accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff, first_ptr,
                           second_ptr, second_slot, second_other, spring_scalar, a)
         else:
@@ -156,9 +159,9 @@ def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
                           second_ptr, second_slot, second_other, spring_scalar, a)
             v += a * dt
             x += v * dt
-        if provot_loops > 0:
-            if velocity_update:
+            if provot_loops > 0 and velocity_update:
                 x_pre[:] = x
+        if provot_loops > 0:
             provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_slot, second_other,
                    tau, provot_loops, tolerance, all_pairs, gauss_seidel, spring_scalar, dx,
                    count, max_corr)
