@@ -5,13 +5,18 @@ dt = 0.01 s, tau = 0.1 %, ONE Provot pass over the springs, the report's ground)
 recipe at N = 10k, 100k, 1M points with r = 0.3 (600 / N)^(1/3) (so about 33 springs per point).
 Every body starts resting on the ground (y in [0, 1]) so that the ground rule and Provot
 corrections are active in every timed window; each window must end finite, else it is reported
-as failed.  A spring-update is one spring's force plus one Provot check: springs x steps/s.
+as failed.  The report's dt = 0.01 s is kept for the paper scene; the larger edge-favouring
+fields crowd many points into the cube's corners (up to hundreds of springs per point), which
+pushes the forward-Euler limit dt < delta / lambda_max(K) far below 0.01 s, so those scenes use
+dt = min(0.01 s, half the stability guard's estimate) with the report's k, delta and density.  A spring-update is one spring's force plus one Provot check: springs x steps/s.
 
 The bandwidth bound: a STREAM-style triad ``a = b + s c`` (numba, parallel) measures the
-streaming bandwidth B [bytes/s]; one spring-update moves at least ``BYTES_PER_SPRING`` bytes
-(index pair 8, rest length 8, stiffness 8, scalar written and read back 16, the second-point CSR
-entry 8, then the Provot pass: index pair 8, rest length 8, scalar 16, CSR 8 = 96), so no
-implementation of this data layout exceeds B / 96 spring-updates/s.
+streaming bandwidth B [bytes/s].  In the report's order the force evaluation and the (one)
+Provot pass share one sweep over the springs (``_accelerations_provot_fused``), which moves per
+spring: the index pair 8, rest length 8, stiffness 8, its second-list slot 4, the force and
+Provot scalars written 16 and read back 16, the other end's index 4 = ``BYTES_PER_SPRING`` = 64,
+so no implementation of this data layout exceeds B / 64 spring-updates/s (point arrays are
+small beside these and stay in cache).
 
 Run:  python -m benchmarks.bench_step [--sizes 600,10000,100000,1000000] [--repeats 5]
 """
@@ -25,7 +30,7 @@ import time
 
 import numpy as np
 
-BYTES_PER_SPRING = 96
+BYTES_PER_SPRING = 64
 
 
 def stream_triad(n: int = 1 << 25, repeats: int = 5) -> dict:
@@ -70,12 +75,20 @@ def paper_scene(n: int, seed: int = 2010):
     return model, r, build
 
 
-def time_steps(model, backend: str, threads: int, steps: int, repeats: int) -> dict:
+def scene_dt(model) -> float:
+    from jellysim.stability import estimate_stability
+
+    if model.particle_count == 600:
+        return 0.01
+    return min(0.01, 0.5 * estimate_stability(model, "paper", 0.01).dt_max)
+
+
+def time_steps(model, backend: str, threads: int, steps: int, repeats: int, dt: float) -> dict:
     from jellysim.errors import SimulationError
     from jellysim.params import GroundParams, ProvotParams
     from jellysim.simulator import Simulator
 
-    sim = Simulator(model, dt=0.01, integrator="paper", backend=backend, threads=threads,
+    sim = Simulator(model, dt=dt, integrator="paper", backend=backend, threads=threads,
                     provot=ProvotParams(tau=0.001, loops=1, pairs="springs"),
                     ground=GroundParams(mu=0.1, nu=0.2), check_stability=False)
     sim.advance(1)  # compile / load cache, first touch
@@ -116,14 +129,15 @@ def main(argv=None) -> None:
     for n in [int(s) for s in args.sizes.split(",")]:
         model, r, build = paper_scene(n)
         steps = max(2, min(2000, int(2e7 / max(model.spring_count, 1))))
-        entry = {"points": n, "radius_m": r, "springs": model.spring_count,
+        dt = scene_dt(model)
+        entry = {"points": n, "radius_m": r, "springs": model.spring_count, "dt_s": dt,
                  "build_s": build, "steps_per_window": steps, "runs": {}}
         for backend, threads in [("numba", 1), ("numba", 2), ("numpy", 1)]:
             if backend == "numpy" and n > args.numpy_max:
                 continue
             s = steps if backend == "numba" else max(1, steps // 50)
             entry["runs"][f"{backend}_{threads}t"] = time_steps(model, backend, threads, s,
-                                                                args.repeats)
+                                                                args.repeats, dt)
         best = max((v.get("spring_updates_per_s", 0) for v in entry["runs"].values()),
                    default=0)
         entry["fraction_of_bandwidth_bound"] = best / result["bandwidth_bound_spring_updates_per_s"]
