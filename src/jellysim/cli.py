@@ -51,6 +51,91 @@ def run(scene_file, out_dir, steps, no_vtu, quiet) -> None:
         click.echo(f"wrote {result.pvd} (+ {result.frames} .vtu frames)")
 
 
+@cli.command()
+@click.argument("mesh_file", type=click.Path(dir_okay=False))
+@click.option("-o", "--out", "out_file", type=click.Path(dir_okay=False), required=True,
+              help="Body file to write (.jello text or .npz).")
+@click.option("--points", type=click.IntRange(min=4), default=5000, show_default=True,
+              help="Points to sample inside (a target for marching/tetgen).")
+@click.option("--connect", type=click.Choice(["radius", "marching", "delaunay", "tetgen"]),
+              default="radius", show_default=True, help="Spring builder.")
+@click.option("--sampling", type=click.Choice(["uniform", "edge", "grid", "poisson"]),
+              default="uniform", show_default=True, help="How points are placed inside.")
+@click.option("--radius", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Connection radius [m] for radius springs (default: from --neighbours).")
+@click.option("--neighbours", type=click.FloatRange(min=1), default=24.0, show_default=True,
+              help="Target mean neighbour count when --radius is not given.")
+@click.option("--h", "h", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Cube edge [m] of the marching grid.")
+@click.option("--surface-vertices/--no-surface-vertices", default=None,
+              help="Add the mesh vertices to the points (default: on for delaunay).")
+@click.option("--density", type=click.FloatRange(min=0, min_open=True), default=1141.0,
+              show_default=True, help="Density [kg/m^3].")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
+          surface_vertices, density, seed) -> None:
+    """Build a jello body from MESH_FILE and write it to a .jello or .npz file."""
+    import warnings
+
+    from .build import body_stats, build_body
+    from .geometry.jellyfile import write_body
+
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            body = build_body(mesh_file, points=points, connect=connect, sampling=sampling,
+                              radius=radius, neighbours=neighbours, h=h,
+                              surface_vertices=surface_vertices, density=density, seed=seed)
+        write_body(out_file, body)
+    except JellysimError as exc:
+        _fail(str(exc))
+    for w in caught:
+        click.secho(f"warning: {w.message}", fg="yellow", err=True)
+    st = body_stats(body, density=density)
+    extra = ""
+    if body.meta.get("radius_chosen_for_neighbours"):
+        extra = (f"; radius r = {body.meta['radius']:.4g} m chosen for "
+                 f"{body.meta['radius_chosen_for_neighbours']:g} neighbours")
+    click.echo(f"{st['points']} points, {st['springs']} springs, {st['tets']} tets, "
+               f"volume {st['volume']:.6g} m^3, mass {st['mass']:.6g} kg{extra}")
+    click.echo(f"wrote {out_file}")
+
+
+@cli.command()
+@click.argument("path", type=click.Path(dir_okay=False))
+def inspect(path) -> None:
+    """Describe a surface mesh (defects) or a body file (.jello/.npz: counts and stats)."""
+    from pathlib import Path
+
+    suffix = Path(path).suffix.lower()
+    try:
+        if suffix in (".jello", ".npz"):
+            from .build import body_stats
+            from .geometry.jellyfile import read_body
+
+            st = body_stats(read_body(path))
+            click.echo(f"{path}: body")
+            rows = [
+                ("points", st["points"]), ("springs", st["springs"]), ("tets", st["tets"]),
+                ("surface triangles", st["triangles"]),
+                ("springs per point", f"min {st['degree_min']}, mean {st['degree_mean']:.2f}, "
+                                      f"max {st['degree_max']}"),
+                ("rest length [m]", f"min {st['rest_length_min']:.4g}, mean "
+                                    f"{st['rest_length_mean']:.4g}, max {st['rest_length_max']:.4g}"),
+                ("volume [m^3]", "unknown" if st["volume"] is None else f"{st['volume']:.6g}"),
+                ("mass [kg]", "unknown" if st["mass"] is None else f"{st['mass']:.6g}"),
+                ("bounds [m]", f"{st['bounds'][0]} .. {st['bounds'][1]}"),
+            ]
+            for k, v in rows:
+                click.echo(f"  {k:<20} {v}")
+        else:
+            from .geometry.mesh import load_mesh
+
+            click.echo(load_mesh(path).defects.describe())
+    except JellysimError as exc:
+        _fail(str(exc))
+
+
 @cli.command("scene-help")
 def scene_help() -> None:
     """Print every scene key, its default and allowed range (Markdown)."""
