@@ -550,7 +550,8 @@ def tetgen_body(vertices, faces, *, max_volume: float | None = None, quality: bo
     Parameters
     ----------
     vertices, faces: the surface, (n, 3) float [m] and (f, 3) int.
-    max_volume: TetGen's maximum tet volume [m^3] (``-a``), ``None`` for no limit.
+    max_volume: TetGen's maximum tet volume [m^3] (``-a``), ``None`` for no limit.  TetGen's
+        final mesh smoothing may leave a few tets somewhat (observed: < 2x) above it.
     quality: TetGen quality refinement (``-q``; radius-edge ratio <= 2).
     closed_check: check the edge topology before calling TetGen.
     inside_fn: optional point-in-mesh test to decide which regions are solid.
@@ -559,6 +560,8 @@ def tetgen_body(vertices, faces, *, max_volume: float | None = None, quality: bo
     """
     v = _as_vertices(vertices)
     f = _as_faces(faces, v.shape[0])
+    if max_volume is not None and not (math.isfinite(float(max_volume)) and max_volume > 0):
+        raise BuildError(f"max_volume must be a positive volume [m^3], got {max_volume!r}")
     # merge vertices by exact position; drop unused vertices
     uv, inv = np.unique(v, axis=0, return_inverse=True)
     f = inv.reshape(-1)[f]
@@ -592,6 +595,7 @@ def tetgen_body(vertices, faces, *, max_volume: float | None = None, quality: bo
             quality=quality,
             regionattrib=True,
             maxvolume=float(max_volume) if max_volume is not None else -1.0,
+            fixedvolume=max_volume is not None,  # without it TetGen ignores maxvolume
             nomergefacet=True,  # merged near-coplanar facets would move the surface
             quiet=True,
             nowarning=True,
