@@ -103,9 +103,17 @@ def tet_quality(points: np.ndarray, tets: np.ndarray,
     """
     p = np.asarray(points, dtype=np.float64)
     t = np.asarray(tets, dtype=np.int64)
-    vol = np.abs(tet_signed_volumes(p, t) if volumes is None else volumes)
-    e = p[t[:, _TET_EDGES[:, 1]]] - p[t[:, _TET_EDGES[:, 0]]]  # (t, 6, 3)
-    l2 = np.einsum("ijk,ijk->i", e, e) / 6.0
+    a = p[t[:, 0]]
+    u = p[t[:, 1]] - a
+    v = p[t[:, 2]] - a
+    w = p[t[:, 3]] - a
+    if volumes is None:
+        volumes = np.einsum("ij,ij->i", u, np.cross(v, w)) / 6.0
+    vol = np.abs(volumes)
+    l2 = np.zeros(t.shape[0])
+    for e in (u, v, w, v - u, w - u, w - v):
+        l2 += np.einsum("ij,ij->i", e, e)
+    l2 /= 6.0
     with np.errstate(divide="ignore", invalid="ignore"):
         q = 6.0 * math.sqrt(2.0) * vol / (l2 * np.sqrt(l2))
     return np.where(l2 > 0, q, 0.0)
@@ -146,8 +154,13 @@ def tet_edges(tets: np.ndarray, n_points: int | None = None) -> np.ndarray:
     """Unique edges of ``tets``: shape (k, 2) int64, rows ``i < j``, sorted lexicographically."""
     t = np.asarray(tets, dtype=np.int64).reshape(-1, 4)
     n = int(t.max()) + 1 if n_points is None and t.size else int(n_points or 0)
-    e = np.sort(t[:, _TET_EDGES].reshape(-1, 2), axis=1)
-    return _unique_rows_sorted(e, n)[0]
+    a, b = t[:, _TET_EDGES[:, 0]].ravel(), t[:, _TET_EDGES[:, 1]].ravel()
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    if n > 0 and float(n) ** 2 < 2.0**62:
+        key = np.sort(lo * n + hi)  # plain sort: faster than np.unique's argsort
+        key = key[np.concatenate(([True], key[1:] != key[:-1]))]
+        return np.stack([key // n, key % n], axis=1)
+    return _unique_rows_sorted(np.stack([lo, hi], axis=1), n)[0]
 
 
 def boundary_faces(tets: np.ndarray, n_points: int | None = None) -> np.ndarray:
@@ -159,7 +172,18 @@ def boundary_faces(tets: np.ndarray, n_points: int | None = None) -> np.ndarray:
     t = np.asarray(tets, dtype=np.int64).reshape(-1, 4)
     n = int(t.max()) + 1 if n_points is None and t.size else int(n_points or 0)
     faces = t[:, _TET_FACES].reshape(-1, 3)
-    _, first, counts = _unique_rows_sorted(np.sort(faces, axis=1), n, return_counts=True)
+    sf = np.sort(faces, axis=1)
+    if n > 0 and float(n) ** 3 < 2.0**62:
+        key = (sf[:, 0] * n + sf[:, 1]) * n + sf[:, 2]
+        sk = np.sort(key)
+        differs = sk[1:] != sk[:-1]
+        once = np.concatenate(([True], differs)) & np.concatenate((differs, [True]))
+        single = sk[once]
+        if single.size == 0:
+            return np.empty((0, 3), dtype=np.int64)
+        pos = np.minimum(np.searchsorted(single, key), single.size - 1)
+        return faces[single[pos] == key]
+    _, first, counts = _unique_rows_sorted(sf, n, return_counts=True)
     return faces[np.sort(first[counts == 1])]
 
 
@@ -396,11 +420,12 @@ def _default_epsilon(tree, pts: np.ndarray) -> float:
 def _carve(p: np.ndarray, tets: np.ndarray, inside_fn: InsideFn, vertices, faces) -> np.ndarray:
     """Mask of tets whose centroid ``inside_fn`` accepts, with fewer calls of ``inside_fn``.
 
-    A tet lies in the ball around its centroid through its farthest corner.  When that ball
-    cannot reach the surface (distance to the nearest triangle centre minus the largest
-    triangle radius exceeds the ball radius), every point of the tet is on the same side of
-    the surface, so the tet's status is its first corner's; only the corners of such tets and
-    the centroids of the tets near the surface are tested.  This equals testing every centroid
+    A tet lies in the ball around its centroid through its farthest corner (radius ``rad``).
+    Each point ``k`` has a lower bound ``L_k`` on its distance to the surface (distance to the
+    nearest triangle centre minus the largest triangle radius); the centroid is then at least
+    ``L_k - rad`` from the surface.  When ``max_k L_k > 2 rad`` the ball cannot reach the
+    surface, every point of the tet is on the same side of it, and the tet's status is its
+    first corner's.  Only the corners of such tets and the centroids of the others are tested.  This equals testing every centroid
     for any inside test that is constant away from the surface (winding number, parity).
     """
     from scipy.spatial import cKDTree
@@ -415,8 +440,10 @@ def _carve(p: np.ndarray, tets: np.ndarray, inside_fn: InsideFn, vertices, faces
     tc = tri.mean(axis=1)
     tr = float(np.sqrt(((tri - tc[:, None]) ** 2).sum(axis=2)).max())
     rad = np.sqrt(((p[tets] - cent[:, None]) ** 2).sum(axis=2)).max(axis=1)
-    d, _ = cKDTree(tc).query(cent, workers=-1)
-    far = d - tr > rad * (1 + 1e-9) + 1e-12 * (1 + np.abs(cent).max())
+    used = np.unique(tets)
+    lower = np.full(p.shape[0], -np.inf)
+    lower[used] = cKDTree(tc).query(p[used])[0] - tr
+    far = lower[tets].max(axis=1) > 2.0 * rad * (1 + 1e-9) + 1e-12 * (1 + np.abs(cent).max())
     out = np.empty(tets.shape[0], dtype=bool)
     near = ~far
     out[near] = _check_inside(inside_fn, cent[near], "tet centroids")
