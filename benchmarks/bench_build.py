@@ -117,6 +117,7 @@ def main() -> None:
         "tetgen_body_points": tg.point_count,
         "tetgen_volume_rel_error": tg.volume / float(m.volume) - 1.0,
         "cpu_count": os.cpu_count(),
+        "load_average_1_5_15_min_at_end": [round(x, 2) for x in os.getloadavg()],
         "python": platform.python_version(),
         "numpy": np.__version__,
     }

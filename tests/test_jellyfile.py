@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -113,8 +114,6 @@ def test_round_trip_of_a_built_body(tmp_path):
     tetra = pytest.importorskip("jellysim.geometry.tetra")
     pytest.importorskip("tetgen")
     trimesh = pytest.importorskip("trimesh")
-    from pathlib import Path
-
     m = trimesh.load(Path(__file__).parent / "data" / "sphere.obj", force="mesh", process=True)
     b = tetra.tetgen_body(m.vertices, m.faces)
     for suffix in (".jello", ".npz"):
@@ -154,6 +153,11 @@ MALFORMED = {
     "unsupported version": (with_line(1, "jello 2"), 1, 7, r"unsupported version '2'"),
     "repeated tet corner": (with_line(13, "0 1 1 3"), 13, 5, r"point 1 repeated in one tet"),
     "text after end": (VALID + "points 1\n", 15, 1, r"unexpected text after 'end'"),
+    "repeated section": (VALID.replace("end\n", "tets 0\nend\n"), 14, 1,
+                         r"section 'tets' repeated \(first at line 12\)"),
+    "bad meta json": (VALID.replace("end\n", "meta {\"a\": }\nend\n"), 14, 12,
+                      r"bad JSON in 'meta'"),
+    "zero volume": (VALID.replace("end\n", "volume 0.0\nend\n"), 14, 8, r"volume 0\.0 must be > 0"),
     "section before points": (VALID.replace("jello 1\n", "jello 1\nsprings 0\n", 1), 2, 1,
                               r"before 'points'"),
 }
@@ -238,3 +242,19 @@ def test_npz_errors_name_file_and_array(tmp_path):
 def test_unknown_suffix_is_refused(tmp_path):
     with pytest.raises(JelloFileError, match=r"unknown body file suffix '\.txt'"):
         read_body(tmp_path / "x.txt")
+
+
+def test_example_in_the_spec_reads(tmp_path):
+    spec = Path(__file__).resolve().parents[1] / "docs" / "jello-format.md"
+    if not spec.exists():
+        pytest.skip("docs/jello-format.md absent")
+    text = spec.read_text().split("## Example", 1)[1].split("```", 2)[1].lstrip("\n")
+    b = read_jello(_write(tmp_path / "example.jello", text))
+    assert b.masses.sum() == 1.0 and b.spring_count == 6 and b.stiffness.tolist() == [500.0] * 6
+    assert b.volume == pytest.approx(1 / 6) and b.meta == {"builder": "hand-written"}
+
+
+def test_crlf_line_endings(tmp_path):
+    p = tmp_path / "crlf.jello"
+    p.write_bytes(VALID.replace("\n", "\r\n").encode())
+    body_equal(read_jello(p), read_jello(_write(tmp_path / "v.jello", VALID)))
