@@ -311,3 +311,20 @@ def test_tetgen_and_delaunay_bunny():
     body = delaunay_body(pts, v, f, inside)
     check_delaunay(body, inside, 0.05)
     assert body.volume == pytest.approx(m.volume, rel=3e-2)
+
+
+def test_delaunay_carving_shortcut_equals_testing_every_centroid():
+    from scipy.spatial import Delaunay
+
+    from jellysim.geometry.tetra import _carve
+
+    for name in ("torus.obj", "hollow_sphere.obj"):
+        v, f, m = load(DATA / name)
+        inside = winding_inside(v, f)
+        rng = np.random.default_rng(5)
+        p = rng.uniform(v.min(axis=0), v.max(axis=0), size=(4000, 3))
+        p = np.vstack([p[inside(p)], v])
+        tets = Delaunay(p).simplices.astype(np.int64)
+        expected = inside(p[tets].mean(axis=1))
+        assert np.array_equal(_carve(p, tets, inside, v, f), expected)
+        assert 0 < expected.sum() < len(tets)
