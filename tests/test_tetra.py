@@ -291,12 +291,15 @@ def test_tetgen_refuses_open_mesh_with_clear_error():
         tetgen_body(v, f, closed_check=False)
 
 
-def test_tetgen_refuses_teapot_open_and_self_intersecting():
+def test_tetgen_refuses_teapot_open_and_self_intersecting(tmp_path, monkeypatch):
     v, f, m = load(DATA / "teapot.obj")
-    with pytest.raises(BuildError, match=r"boundary edges.*delaunay"):
+    with pytest.raises(BuildError, match=r"160 boundary edges.*delaunay"):
         tetgen_body(v, f)
-    with pytest.raises(BuildError, match=r"intersects itself.*delaunay"):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(BuildError, match=r"intersects itself.*faces involved.*delaunay"):
         tetgen_body(v, f, closed_check=False)
+    assert list(tmp_path.iterdir()) == []  # TetGen's _skipped.* files do not land in the cwd
+    assert Path.cwd() == tmp_path
 
 
 @pytest.mark.skipif(not (SHARED / "bunny.obj").exists(), reason="shared/meshes/bunny.obj absent "

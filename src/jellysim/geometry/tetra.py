@@ -37,7 +37,10 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
+import tempfile
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
@@ -597,6 +600,14 @@ def surface_defects(faces: np.ndarray) -> dict:
     }
 
 
+def _count_skipped_faces(path: Path) -> int:
+    try:
+        with open(path) as fh:
+            return int(fh.readline().split()[0])
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
 def tetgen_body(vertices, faces, *, max_volume: float | None = None, quality: bool = True,
                 closed_check: bool = True, inside_fn: InsideFn | None = None,
                 holes=None, density: float = DEFAULT_DENSITY) -> Body:
@@ -664,6 +675,12 @@ def tetgen_body(vertices, faces, *, max_volume: float | None = None, quality: bo
     tg = tetgen.TetGen(v, f.astype(np.int32))
     for hp in np.asarray(holes if holes is not None else np.empty((0, 3)), float).reshape(-1, 3):
         tg.add_hole(hp)
+    # TetGen writes the faces it found intersecting to ./_skipped.{node,face}; run it in a
+    # scratch directory so nothing lands in the caller's working directory, and use the file
+    # to say how many faces are involved.
+    old_cwd = os.getcwd()
+    scratch = tempfile.TemporaryDirectory(prefix="jellysim-tetgen-")
+    os.chdir(scratch.name)
     try:
         res = tg.tetrahedralize(
             quality=quality,
@@ -677,12 +694,17 @@ def tetgen_body(vertices, faces, *, max_volume: float | None = None, quality: bo
     except RuntimeError as exc:
         msg = str(exc)
         if "self-intersection" in msg:
-            defect = "the surface intersects itself (TetGen: " + msg.strip() + ")"
+            defect = "the surface intersects itself (TetGen: " + msg.strip()
+            n_bad = _count_skipped_faces(Path(scratch.name) / "_skipped.face")
+            defect += f"; {n_bad} faces involved)" if n_bad else ")"
         elif "manifold" in msg:
             defect = "the surface is not a closed manifold (TetGen: " + msg.strip() + ")"
         else:
             defect = "TetGen failed: " + msg.strip()
         raise BuildError(f"tetgen could not tetrahedralize the surface: {defect}; {hint}") from exc
+    finally:
+        os.chdir(old_cwd)
+        scratch.cleanup()
     nodes = np.asarray(res[0], dtype=np.float64)
     elem = np.asarray(res[1], dtype=np.int64)
     attr = np.asarray(res[2]).reshape(elem.shape[0], -1)
