@@ -130,6 +130,8 @@ MALFORMED = {
                        r"3 fields in section 'points'; expected 4 \(x y z mass\)"),
     "too many fields": (with_line(13, "0 1 2 3 3"), 13, 9, r"5 fields.*expected 4"),
     "unparsable number": (with_line(5, "1.0 0.x 0.0 0.25"), 5, 5, r"cannot parse '0\.x'"),
+    "underscore number": (with_line(5, "1_0 0.0 0.0 0.25"), 5, 1, r"cannot parse '1_0'"),
+    "overflow": (with_line(5, "1e999 0.0 0.0 0.25"), 5, 1, r"'1e999' is not finite"),
     "float index": (with_line(10, "0 2.0 1.0 100.0"), 10, 3, r"cannot parse '2\.0' as an int"),
     "index out of range": (with_line(10, "0 7 1.0 100.0"), 10, 3, r"index 7 out of range.*0\.\.3"),
     "negative index": (with_line(13, "0 1 -2 3"), 13, 5, r"index -2 out of range"),

@@ -84,12 +84,17 @@ class _Lines:
         return JelloFileError(f"{self.path}:{line}:{col}: {msg}")
 
 
+_FLOAT = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+_NONFINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
+
+
 def _parse_float(lines: _Lines, line: int, col: int, tok: str, what: str) -> float:
-    try:
-        val = float(tok)
-    except ValueError:
-        raise lines.error(line, col, f"cannot parse {tok!r} as a number; expected {what}") from None
-    if not math.isfinite(val):
+    if _NONFINITE.fullmatch(tok):
+        raise lines.error(line, col, f"{tok!r} is not finite; expected a finite {what}")
+    if not _FLOAT.fullmatch(tok):  # C syntax only: no '1_000', no hex
+        raise lines.error(line, col, f"cannot parse {tok!r} as a number; expected {what}")
+    val = float(tok)
+    if not math.isfinite(val):  # e.g. 1e999 overflows
         raise lines.error(line, col, f"{tok!r} is not finite; expected a finite {what}")
     return val
 

@@ -359,7 +359,7 @@ def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
     lo, hi = v.min(axis=0), v.max(axis=0)
     ext = hi - lo
     ncell = np.maximum(1, np.ceil(ext / h - 1e-9).astype(np.int64))
-    if int(np.prod(ncell + 1)) > 200_000_000:
+    if int(np.prod(ncell + 1)) > 50_000_000:
         raise BuildError(f"h={h} gives a {tuple(int(c) for c in ncell)} grid; too many nodes")
     origin = lo - (ncell * h - ext) / 2.0
     nx, ny, nz = (int(c) + 1 for c in ncell)  # node counts
