@@ -428,8 +428,9 @@ def _carve(p: np.ndarray, tets: np.ndarray, inside_fn: InsideFn, vertices, faces
     nearest triangle centre minus the largest triangle radius); the centroid is then at least
     ``L_k - rad`` from the surface.  When ``max_k L_k > 2 rad`` the ball cannot reach the
     surface, every point of the tet is on the same side of it, and the tet's status is its
-    first corner's.  Only the corners of such tets and the centroids of the others are tested.  This equals testing every centroid
-    for any inside test that is constant away from the surface (winding number, parity).
+    first corner's.  Only the corners of such tets and the centroids of the others are tested.
+    This equals testing every centroid for any inside test that is constant away from the
+    surface (winding number, parity); without a usable surface every centroid is tested.
     """
     from scipy.spatial import cKDTree
 
@@ -475,17 +476,19 @@ def delaunay_body(points, vertices, faces, inside_fn: InsideFn, *, epsilon: floa
        unique; the body keeps the original, un-jittered positions.
     3. ``scipy.spatial.Delaunay`` (Qhull).
     4. **Slivers.**  Tets with :func:`tet_quality` ``< min_quality`` (default 0.05; 1 is a
-       regular tet, 0 a flat one) are dropped.
+       regular tet, 0 a flat one) are dropped; flat tets (quality 0) always are.
     5. **Carving.**  Tets whose centroid is outside (``inside_fn``) are dropped.  (A tet with
        its centroid inside may still poke out of a concave surface; use a finer point set near
        the surface or :func:`tetgen_body` for a boundary-conforming mesh.)
     6. Points in no kept tet are dropped and the rest renumbered; springs = unique edges of the
-       kept tets.
+       kept tets.  ``meta["dropped_points"]`` counts every input point not in the body
+       (near duplicates included).
 
     Parameters
     ----------
     points: candidate points [m], shape (n, 3) (e.g. sampled inside the mesh, plus its vertices).
-    vertices, faces: the surface mesh (recorded in ``meta``; the inside test encloses it).
+    vertices, faces: the surface the inside test describes; used to skip the inside test for
+        tets far from it (see :func:`_carve`), or ``None``.
     inside_fn: point-in-mesh test, ``(n, 3) float64 -> (n,) bool``.
     epsilon: near-duplicate distance [m], >= 0; ``None`` for the default above.
     min_quality: sliver threshold on :func:`tet_quality`, in [0, 1).
@@ -531,7 +534,8 @@ def delaunay_body(points, vertices, faces, inside_fn: InsideFn, *, epsilon: floa
     n_delaunay = simplices.shape[0]
 
     sv = tet_signed_volumes(p, simplices)
-    good = tet_quality(p, simplices, sv) >= float(min_quality)
+    q = tet_quality(p, simplices, sv)
+    good = (q >= float(min_quality)) & (q > 0)
     simplices, sv = simplices[good], sv[good]
     n_slivers = n_delaunay - simplices.shape[0]
     carve = _carve(p, simplices, inside_fn, vertices, faces)
