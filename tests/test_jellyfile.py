@@ -241,6 +241,12 @@ def test_npz_errors_name_file_and_array(tmp_path):
         read_body(q)
 
 
+def test_written_file_is_world_readable_like_a_normal_file(tmp_path):
+    p = tmp_path / "m.jello"
+    write_body(p, read_jello(_write(tmp_path / "v.jello", VALID)))
+    assert p.stat().st_mode & 0o777 == 0o644
+
+
 def test_unknown_suffix_is_refused(tmp_path):
     with pytest.raises(JelloFileError, match=r"unknown body file suffix '\.txt'"):
         read_body(tmp_path / "x.txt")
