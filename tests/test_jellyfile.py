@@ -160,6 +160,9 @@ MALFORMED = {
     "bad meta json": (VALID.replace("end\n", "meta {\"a\": }\nend\n"), 14, 12,
                       r"bad JSON in 'meta'"),
     "zero volume": (VALID.replace("end\n", "volume 0.0\nend\n"), 14, 8, r"volume 0\.0 must be > 0"),
+    "missing springs": ("\n".join(VALID.splitlines()[:7] + VALID.splitlines()[11:]) + "\n",
+                        10, 1, r"missing section 'springs'"),
+    "empty file": ("# nothing but a comment\n\n", 1, 1, r"empty file; expected the header"),
     "section before points": (VALID.replace("jello 1\n", "jello 1\nsprings 0\n", 1), 2, 1,
                               r"before 'points'"),
 }
