@@ -89,7 +89,8 @@ def random_body(rng, with_extras=True):
         rest_length=rng.uniform(0.1, 2.0, k) if with_extras else None,
         stiffness=rng.uniform(1.0, 1e4, k) if with_extras else None,
         masses=rng.uniform(1e-6, 1.0, n) if with_extras else None,
-        tets=np.argsort(rng.random((7, n)), axis=1)[:, :4].astype(np.int64) if with_extras else None,
+        tets=np.argsort(rng.random((7, n)), axis=1)[:, :4].astype(np.int64)
+        if with_extras else None,
         triangles=np.array([[0, 1, 2], [3, 4, 5]], dtype=np.int64) if with_extras else None,
         volume=float(rng.uniform(0.1, 1.0)) if with_extras else None,
         meta={"builder": "test", "h": 0.1, "nested": {"a": [1, 2.5, None]}, "s": "x # y"}
@@ -222,7 +223,8 @@ def test_npz_errors_name_file_and_array(tmp_path):
     write_body(p, b)
     z = dict(np.load(p))
     cases = {
-        "springs": (dict(z, springs=np.array([[0, 9]])), r"array 'springs': row 0 has an index out"),
+        "springs": (dict(z, springs=np.array([[0, 9]])),
+                    r"array 'springs': row 0 has an index out"),
         "self": (dict(z, springs=np.array([[1, 1]]), rest_length=np.array([1.0]),
                       stiffness=np.array([1.0])), r"array 'springs': row 0 is a self-spring"),
         "dup": (dict(z, springs=np.array([[0, 1], [0, 1], [1, 2]])), r"row 1 duplicates row 0"),

@@ -87,6 +87,26 @@ def test_lump_tet_masses_quarter_per_corner_and_total():
         lump_tet_masses(pts, tets, 0.0)
 
 
+def test_tet_utilities_orient_edges_and_outward_boundary():
+    from jellysim.geometry.tetra import orient_tets, tet_edges
+
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]], dtype=float)
+    tets = orient_tets(pts, np.array([[0, 2, 1, 3], [1, 2, 3, 4]]))  # first one inverted
+    assert (tet_signed_volumes(pts, tets) > 0).all()
+    assert tet_edges(tets).tolist() == [[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [1, 4],
+                                        [2, 3], [2, 4], [3, 4]]
+    faces = boundary_faces(tets)
+    assert len(faces) == 6  # the shared face (1, 2, 3) is interior
+    assert not any(sorted(f) == [1, 2, 3] for f in faces.tolist())
+    # outward: every face normal points away from the opposite corner of its tet
+    centre = pts[tets].mean(axis=1).mean(axis=0)
+    t = pts[faces]
+    normal = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    assert (np.einsum("ij,ij->i", normal, t.mean(axis=1) - centre) > 0).all()
+    assert tet_quality(np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], float),
+                       np.array([[0, 1, 2, 3]]))[0] == pytest.approx(1.0)
+
+
 def test_errors_hierarchy():
     assert issubclass(BuildError, JellysimError) and issubclass(BuildError, ValueError)
 
@@ -126,7 +146,7 @@ def test_marching_box_volume_is_exact_and_faces_conform():
 
 
 def grid_kuhn_edges(cells):
-    """All edges of the 6-tet Kuhn split of a cells[0] x cells[1] x cells[2] grid, as node triples."""
+    """All edges of the 6-tet Kuhn split of a grid of ``cells`` cubes, as pairs of (i, j, k)."""
     edges = set()
     for c in itertools.product(*(range(n) for n in cells)):
         c = np.array(c)

@@ -43,7 +43,7 @@ VERSION = 1
 NPZ_FORMAT = "jello-npz 1"
 
 _TOKEN = re.compile(r"\S+")
-# section -> (fixed fields, allowed optional columns, optional column kinds)
+# section -> (fixed fields, allowed optional columns)
 _SECTIONS = {
     "points": (("x", "y", "z"), ("mass",)),
     "springs": (("i", "j"), ("rest_length", "stiffness")),
@@ -301,7 +301,8 @@ def _validate(src: str, points, springs, rest_length=None, stiffness=None, masse
             raise err(name, f"dtype {a.dtype}; expected float64")
         a = a.astype(np.float64)
         if a.ndim != len(shape) or any(s is not None and s != d for s, d in zip(shape, a.shape)):
-            raise err(name, f"shape {a.shape}; expected {tuple('n' if s is None else s for s in shape)}")
+            want = tuple("n" if s is None else s for s in shape)
+            raise err(name, f"shape {a.shape}; expected {want}")
         bad = np.flatnonzero(~np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)) if a.size else []
         if len(bad):
             raise err(name, f"row {bad[0]} is NaN or infinite; expected finite values")
