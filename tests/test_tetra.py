@@ -281,6 +281,14 @@ def test_tetgen_fills_closed_surface_exactly(name):
     assert winding_inside(v, f)(body.points[body.tets].mean(axis=1)).all()
 
 
+def test_tetgen_merges_uv_seam_vertices_by_position():
+    raw = trimesh.load(DATA / "cube.obj", force="mesh", process=True)  # UV seams split vertices
+    assert len(raw.vertices) > 26 and not raw.is_watertight
+    body = tetgen_body(raw.vertices, raw.faces)
+    assert body.volume == pytest.approx(8.0, rel=1e-12)
+    assert body.meta["surface_vertices"] == 26
+
+
 def test_tetgen_hollow_sphere_cavity_empty_with_and_without_inside_fn():
     v, f, m = load(DATA / "hollow_sphere.obj")
     for kw in ({}, {"inside_fn": winding_inside(v, f)}):
