@@ -1,0 +1,518 @@
+"""The ``.jello`` points-and-springs file (report section 4.2) and its ``.npz`` twin.
+
+The text format is specified in ``docs/jello-format.md``; in short::
+
+    jello 1                          # magic + format version, first non-comment line
+    points 3 mass                    # section: name, row count, optional columns
+    0.0 0.0 0.0 0.1                  # x y z [m] (mass [kg])
+    ...
+    springs 2 rest_length stiffness  # i j (rest_length [m]) (stiffness [N/m]), 0-based
+    0 1 0.5 100.0
+    ...
+    tets 0                           # optional: a b c d
+    triangles 0                      # optional: a b c
+    volume 0.125                     # optional: [m^3]
+    meta {"builder": "delaunay"}     # optional: one line of JSON
+    end
+
+:func:`write_jello` / :func:`read_jello` round-trip a :class:`~jellysim.body.Body` exactly
+(floats are written with Python's shortest round-trip ``repr``).  :func:`write_body` /
+:func:`read_body` pick the format by suffix (``.jello`` or ``.npz``).  Every problem in a file
+raises :class:`~jellysim.errors.JelloFileError` naming the file, the line and column (text) or the
+array (npz), and what was expected.  Writing is atomic: the data goes to a temporary file in
+the target directory, which then replaces the target with :func:`os.replace`.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from jellysim.body import Body
+from jellysim.errors import JelloFileError
+
+__all__ = ["MAGIC", "VERSION", "read_jello", "write_jello", "read_body", "write_body"]
+
+MAGIC = "jello"
+VERSION = 1
+NPZ_FORMAT = "jello-npz 1"
+
+_TOKEN = re.compile(r"\S+")
+# section -> (fixed fields, allowed optional columns)
+_SECTIONS = {
+    "points": (("x", "y", "z"), ("mass",)),
+    "springs": (("i", "j"), ("rest_length", "stiffness")),
+    "tets": (("a", "b", "c", "d"), ()),
+    "triangles": (("a", "b", "c"), ()),
+}
+_ORDER = ("points", "springs", "tets", "triangles", "volume", "meta")
+_POSITIVE = {"mass": "mass [kg]", "rest_length": "rest length [m]", "stiffness": "stiffness [N/m]"}
+
+
+# ----------------------------------------------------------------------------------------------
+# Text reader
+# ----------------------------------------------------------------------------------------------
+class _Lines:
+    """Significant lines of a text file: (line number, [(column, token), ...]); comments and
+    blank lines skipped.  Columns and line numbers are 1-based."""
+
+    def __init__(self, path: str, text: str):
+        self.path = path
+        self.rows: list[tuple[int, list[tuple[int, str]], str]] = []
+        for no, raw in enumerate(text.splitlines(), start=1):
+            body = raw.split("#", 1)[0]
+            toks = [(m.start() + 1, m.group()) for m in _TOKEN.finditer(body)]
+            if toks:
+                self.rows.append((no, toks, body))
+        self.pos = 0
+        self.last_line = text.count("\n") + (0 if text.endswith("\n") or not text else 1)
+
+    def next(self, expected: str):
+        if self.pos >= len(self.rows):
+            raise self.error(self.last_line + 1, 1,
+                             f"truncated file: it ends here, expected {expected}")
+        row = self.rows[self.pos]
+        self.pos += 1
+        return row
+
+    def error(self, line: int, col: int, msg: str) -> JelloFileError:
+        return JelloFileError(f"{self.path}:{line}:{col}: {msg}")
+
+
+_FLOAT = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+_NONFINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
+
+
+def _parse_float(lines: _Lines, line: int, col: int, tok: str, what: str) -> float:
+    if _NONFINITE.fullmatch(tok):
+        raise lines.error(line, col, f"{tok!r} is not finite; expected a finite {what}")
+    if not _FLOAT.fullmatch(tok):  # C syntax only: no '1_000', no hex
+        raise lines.error(line, col, f"cannot parse {tok!r} as a number; expected {what}")
+    val = float(tok)
+    if not math.isfinite(val):  # e.g. 1e999 overflows
+        raise lines.error(line, col, f"{tok!r} is not finite; expected a finite {what}")
+    return val
+
+
+def _parse_int(lines: _Lines, line: int, col: int, tok: str, what: str, n: int) -> int:
+    if not re.fullmatch(r"[+-]?\d+", tok):
+        raise lines.error(line, col, f"cannot parse {tok!r} as an integer; expected {what}")
+    val = int(tok)
+    if not 0 <= val < n:
+        raise lines.error(line, col, f"index {val} out of range; expected {what} in 0..{n - 1}"
+                          if n else f"index {val} out of range: there are no points")
+    return val
+
+
+def _parse_count(lines: _Lines, line: int, col: int, tok: str | None, name: str) -> int:
+    if tok is None:
+        raise lines.error(line, col, f"missing row count after '{name}'; expected "
+                          f"'{name} <count>'")
+    if not re.fullmatch(r"\+?\d+", tok):
+        raise lines.error(line, col, f"bad row count {tok!r} for section '{name}'; expected a "
+                          "non-negative integer")
+    return int(tok)
+
+
+def read_jello(path) -> Body:
+    """Read a ``.jello`` text file (format version 1) into a :class:`Body`.
+
+    Springs may be written in any order and orientation; the returned body has rows
+    ``i < j`` sorted lexicographically (per-spring columns permuted alongside).
+    """
+    path = Path(path)
+    name = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise JelloFileError(f"{name}: not a UTF-8 text file ({exc})") from None
+    lines = _Lines(name, text)
+
+    # header
+    if not lines.rows:
+        raise lines.error(1, 1, f"empty file; expected the header '{MAGIC} {VERSION}'")
+    no, toks, _ = lines.next("the header")
+    if toks[0][1] != MAGIC:
+        raise lines.error(no, toks[0][0], f"missing header: found {toks[0][1]!r}, expected "
+                          f"'{MAGIC} {VERSION}' as the first line")
+    if len(toks) != 2:
+        col = toks[2][0] if len(toks) > 2 else toks[0][0] + len(MAGIC)
+        raise lines.error(no, col, f"header must be exactly '{MAGIC} <version>'")
+    if toks[1][1] != str(VERSION):
+        raise lines.error(no, toks[1][0], f"unsupported version {toks[1][1]!r}; this reader "
+                          f"supports version {VERSION}")
+
+    seen: dict[str, int] = {}
+    data: dict[str, object] = {}
+    n_points = 0
+    while True:
+        no, toks, _ = lines.next("a section ('points', 'springs', 'tets', 'triangles', "
+                                 "'volume', 'meta') or 'end'")
+        col, word = toks[0]
+        if word == "end":
+            if len(toks) > 1:
+                raise lines.error(no, toks[1][0], "unexpected text after 'end'")
+            break
+        if word not in _ORDER:
+            raise lines.error(no, col, f"unknown section {word!r}; expected one of "
+                              + ", ".join(repr(s) for s in _ORDER) + " or 'end'")
+        if word in seen:
+            raise lines.error(no, col, f"section {word!r} repeated (first at line {seen[word]})")
+        if word != "points" and "points" not in seen:
+            raise lines.error(no, col, f"section {word!r} before 'points'; expected 'points' "
+                              "first")
+        seen[word] = no
+        if word == "volume":
+            if len(toks) != 2:
+                raise lines.error(no, col, "expected 'volume <V [m^3]>'")
+            v = _parse_float(lines, no, toks[1][0], toks[1][1], "volume [m^3]")
+            if v <= 0:
+                raise lines.error(no, toks[1][0], f"volume {toks[1][1]} must be > 0")
+            data["volume"] = v
+            continue
+        if word == "meta":
+            # the rest of the raw line is JSON ('#' is no comment here: it may be in a string)
+            raw = text.splitlines()[no - 1]
+            js = raw[toks[1][0] - 1:].strip() if len(toks) > 1 else ""
+            try:
+                meta = json.loads(js)
+            except json.JSONDecodeError as exc:
+                raise lines.error(no, (toks[1][0] if len(toks) > 1 else col) + exc.pos,
+                                  f"bad JSON in 'meta': {exc.msg}") from None
+            if not isinstance(meta, dict):
+                raise lines.error(no, toks[1][0], "expected a JSON object after 'meta'")
+            data["meta"] = meta
+            continue
+
+        fixed, optional = _SECTIONS[word]
+        count = _parse_count(lines, no, toks[1][0] if len(toks) > 1 else col + len(word) + 1,
+                             toks[1][1] if len(toks) > 1 else None, word)
+        cols = []
+        for c, t in toks[2:]:
+            if t not in optional:
+                raise lines.error(no, c, f"unknown column {t!r} for section {word!r}; expected "
+                                  + (" / ".join(optional) if optional else "no columns"))
+            if t in cols:
+                raise lines.error(no, c, f"column {t!r} given twice")
+            cols.append(t)
+        nf = len(fixed) + len(cols)
+        what = " ".join(fixed + tuple(cols))
+        rows = []
+        idx_rows = []
+        for r in range(count):
+            rno, rtoks, _ = lines.next(f"row {r + 1} of {count} of section '{word}' ({what})")
+            if len(rtoks) != nf:
+                c = rtoks[nf][0] if len(rtoks) > nf else rtoks[-1][0] + len(rtoks[-1][1])
+                raise lines.error(rno, c, f"{len(rtoks)} fields in section '{word}'; expected "
+                                  f"{nf} ({what})")
+            if word == "points":
+                vals = [_parse_float(lines, rno, c, t, "coordinate [m]" if k < 3 else
+                                     _POSITIVE[cols[k - 3]]) for k, (c, t) in enumerate(rtoks)]
+            else:
+                nidx = len(fixed)
+                vals = [_parse_int(lines, rno, c, t, "a point index", n_points)
+                        for c, t in rtoks[:nidx]]
+                for (c, t), (c2, t2) in ((a, b) for k, a in enumerate(rtoks[:nidx])
+                                         for b in rtoks[k + 1:nidx]):
+                    if int(t) == int(t2):
+                        msg = (f"self-spring: both ends are point {int(t)}" if word == "springs"
+                               else f"point {int(t)} repeated in one {word[:-1]}")
+                        raise lines.error(rno, c2, msg)
+                vals += [_parse_float(lines, rno, c, t, _POSITIVE[cols[k]])
+                         for k, (c, t) in enumerate(rtoks[nidx:])]
+            # positivity of optional columns
+            for k, cname in enumerate(cols):
+                c, t = rtoks[len(fixed) + k]
+                if vals[len(fixed) + k] <= 0:
+                    raise lines.error(rno, c, f"{_POSITIVE[cname]} {t} must be > 0")
+            rows.append(vals)
+            idx_rows.append((rno, rtoks[0][0]))
+        if word == "points":
+            n_points = count
+        data[word] = (cols, rows, idx_rows)
+
+    # trailing content after 'end'
+    if lines.pos < len(lines.rows):
+        no, toks, _ = lines.rows[lines.pos]
+        raise lines.error(no, toks[0][0], "unexpected text after 'end'")
+    for req in ("points", "springs"):
+        if req not in data:
+            raise lines.error(no, 1, f"missing section {req!r} before 'end'")
+
+    cols, rows, _ = data["points"]
+    arr = np.array(rows, dtype=np.float64).reshape(-1, 3 + len(cols))
+    points = np.ascontiguousarray(arr[:, :3])
+    masses = np.ascontiguousarray(arr[:, 3]) if cols else None
+
+    cols, rows, rnos = data["springs"]
+    k = len(rows)
+    ij = np.array([r[:2] for r in rows], dtype=np.int64).reshape(k, 2)
+    extra = {c: np.array([r[2 + m] for r in rows], dtype=np.float64) for m, c in enumerate(cols)}
+    lo, hi = ij.min(axis=1), ij.max(axis=1)
+    key = lo * max(n_points, 1) + hi
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    dup = np.flatnonzero(ks[1:] == ks[:-1])
+    if dup.size:
+        a, b = order[dup[0]], order[dup[0] + 1]
+        line, col = rnos[max(a, b)]
+        raise lines.error(line, col, f"duplicate spring {lo[a]}-{hi[a]} (already at line "
+                          f"{rnos[min(a, b)][0]}; i-j and j-i are the same spring)")
+    springs = np.stack([lo, hi], axis=1)[order].astype(np.int64).reshape(k, 2)
+
+    def _idx(sec, width):
+        if sec not in data:
+            return None
+        return np.array(data[sec][1], dtype=np.int64).reshape(-1, width)
+
+    return Body(
+        points=points,
+        springs=np.ascontiguousarray(springs),
+        rest_length=np.ascontiguousarray(extra["rest_length"][order]) if "rest_length" in extra
+        else None,
+        stiffness=np.ascontiguousarray(extra["stiffness"][order]) if "stiffness" in extra
+        else None,
+        masses=masses,
+        tets=_idx("tets", 4),
+        triangles=_idx("triangles", 3),
+        volume=data.get("volume"),
+        meta=data.get("meta", {}),
+    )
+
+
+# ----------------------------------------------------------------------------------------------
+# Array validation (npz reader and both writers)
+# ----------------------------------------------------------------------------------------------
+def _validate(src: str, points, springs, rest_length=None, stiffness=None, masses=None,
+              tets=None, triangles=None, volume=None) -> dict:
+    """Check body arrays; return them normalised (dtype, contiguous).  ``src`` names the file."""
+
+    def err(array: str, msg: str) -> JelloFileError:
+        return JelloFileError(f"{src}: array '{array}': {msg}")
+
+    def floats(name, a, shape):
+        a = np.asarray(a)
+        if a.dtype.kind not in "fiu":
+            raise err(name, f"dtype {a.dtype}; expected float64")
+        a = a.astype(np.float64)
+        if a.ndim != len(shape) or any(s is not None and s != d for s, d in zip(shape, a.shape)):
+            want = tuple("n" if s is None else s for s in shape)
+            raise err(name, f"shape {a.shape}; expected {want}")
+        bad = np.flatnonzero(~np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)) if a.size else []
+        if len(bad):
+            raise err(name, f"row {bad[0]} is NaN or infinite; expected finite values")
+        return np.ascontiguousarray(a)
+
+    def ints(name, a, width, n):
+        a = np.asarray(a)
+        if a.dtype.kind not in "iu":
+            raise err(name, f"dtype {a.dtype}; expected an integer array")
+        if a.ndim != 2 or a.shape[1] != width:
+            raise err(name, f"shape {a.shape}; expected (rows, {width})")
+        a = a.astype(np.int64)
+        bad = np.flatnonzero(((a < 0) | (a >= n)).any(axis=1))
+        if bad.size:
+            raise err(name, f"row {bad[0]} has an index out of range 0..{n - 1}")
+        s = np.sort(a, axis=1)
+        rep = np.flatnonzero((s[:, 1:] == s[:, :-1]).any(axis=1))
+        if rep.size:
+            what = "self-spring" if name == "springs" else "repeated point index"
+            raise err(name, f"row {rep[0]} is a {what} ({a[rep[0]].tolist()})")
+        return np.ascontiguousarray(a)
+
+    def positive(name, a, k):
+        if a is None:
+            return None
+        a = floats(name, a, (k,))
+        bad = np.flatnonzero(a <= 0)
+        if bad.size:
+            raise err(name, f"row {bad[0]} is {a[bad[0]]!r}; expected > 0")
+        return a
+
+    points = floats("points", points, (None, 3))
+    n = points.shape[0]
+    springs = ints("springs", springs, 2, n)
+    k = springs.shape[0]
+    if k:
+        if not (springs[:, 0] < springs[:, 1]).all():
+            r = int(np.flatnonzero(springs[:, 0] >= springs[:, 1])[0])
+            raise err("springs", f"row {r} {springs[r].tolist()}: expected i < j")
+        key = springs[:, 0] * n + springs[:, 1]
+        if (np.diff(key) == 0).any():
+            r = int(np.flatnonzero(np.diff(key) == 0)[0]) + 1
+            raise err("springs", f"row {r} duplicates row {r - 1} ({springs[r].tolist()})")
+        if (np.diff(key) < 0).any():
+            r = int(np.flatnonzero(np.diff(key) < 0)[0]) + 1
+            raise err("springs", f"row {r}: rows must be sorted lexicographically")
+    out = {
+        "points": points,
+        "springs": springs,
+        "rest_length": positive("rest_length", rest_length, k),
+        "stiffness": positive("stiffness", stiffness, k),
+        "masses": positive("masses", masses, n),
+        "tets": None if tets is None else ints("tets", tets, 4, n),
+        "triangles": None if triangles is None else ints("triangles", triangles, 3, n),
+        "volume": None,
+    }
+    if volume is not None:
+        v = np.asarray(volume)
+        if v.shape != () or v.dtype.kind not in "fiu" or not math.isfinite(float(v)) or v <= 0:
+            raise err("volume", f"{volume!r}; expected one finite number > 0")
+        out["volume"] = float(v)
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# Writers (atomic)
+# ----------------------------------------------------------------------------------------------
+def _atomic_write(path: Path, write) -> None:
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        # mkstemp makes the file private (0600); give it the target's mode or rw-r--r--
+        try:
+            mode = path.stat().st_mode & 0o7777
+        except FileNotFoundError:
+            mode = 0o644
+        os.chmod(tmp, mode)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def _body_arrays(path, body: Body) -> dict:
+    return _validate(f"{path} (writing)", body.points, body.springs, body.rest_length,
+                     body.stiffness, body.masses, body.tets, body.triangles, body.volume)
+
+
+def write_jello(path, body: Body) -> None:
+    """Write ``body`` as a ``.jello`` text file (atomically).  Floats use ``repr`` (shortest
+    string that reads back to the same float64), so :func:`read_jello` returns equal arrays."""
+    path = Path(path)
+    a = _body_arrays(path, body)
+    try:
+        meta_line = json.dumps(body.meta or {}, allow_nan=False, sort_keys=True)
+    except (TypeError, ValueError) as exc:
+        raise JelloFileError(f"{path} (writing): meta is not JSON-serialisable: {exc}") from None
+    if "\n" in meta_line:  # pragma: no cover - json.dumps escapes newlines
+        raise JelloFileError(f"{path} (writing): meta does not fit on one line")
+
+    def fmt(rows) -> str:
+        return "".join(" ".join(map(repr, r)) + "\n" for r in rows)
+
+    def write(fh):
+        out = [f"{MAGIC} {VERSION}\n",
+               "# jellysim body: SI units (m, kg, N/m), 0-based point indices; "
+               "spec: docs/jello-format.md\n"]
+        pts = a["points"]
+        if a["masses"] is not None:
+            out.append(f"points {pts.shape[0]} mass\n")
+            out.append(fmt(np.column_stack([pts, a["masses"]]).tolist()))
+        else:
+            out.append(f"points {pts.shape[0]}\n")
+            out.append(fmt(pts.tolist()))
+        cols = [c for c in ("rest_length", "stiffness") if a[c] is not None]
+        s = a["springs"]
+        out.append(" ".join(["springs", str(s.shape[0])] + cols) + "\n")
+        rows = [list(map(int, r)) for r in s.tolist()]
+        for c in cols:
+            for r, x in zip(rows, a[c].tolist()):
+                r.append(x)
+        out.append(fmt(rows))
+        for sec in ("tets", "triangles"):
+            if a[sec] is not None:
+                out.append(f"{sec} {a[sec].shape[0]}\n")
+                out.append(fmt(a[sec].tolist()))
+        if a["volume"] is not None:
+            out.append(f"volume {a['volume']!r}\n")
+        if body.meta:
+            out.append(f"meta {meta_line}\n")
+        out.append("end\n")
+        fh.write("".join(out).encode("utf-8"))
+
+    _atomic_write(path, write)
+
+
+def write_npz(path, body: Body) -> None:
+    """Write ``body`` as an uncompressed ``.npz`` (atomically; arrays as in :class:`Body`)."""
+    path = Path(path)
+    a = _body_arrays(path, body)
+    try:
+        meta = json.dumps(body.meta or {}, allow_nan=False, sort_keys=True)
+    except (TypeError, ValueError) as exc:
+        raise JelloFileError(f"{path} (writing): meta is not JSON-serialisable: {exc}") from None
+    arrays = {k: v for k, v in a.items() if v is not None and k != "volume"}
+    if a["volume"] is not None:
+        arrays["volume"] = np.float64(a["volume"])
+    arrays["format"] = np.str_(NPZ_FORMAT)
+    arrays["meta"] = np.str_(meta)
+    _atomic_write(path, lambda fh: np.savez(fh, **arrays))
+
+
+def read_npz(path) -> Body:
+    """Read a body written by :func:`write_npz`, validated like the text format."""
+    path = Path(path)
+    src = str(path)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    except (OSError, ValueError, EOFError) as exc:
+        raise JelloFileError(f"{src}: not a readable .npz file ({exc})") from None
+    fmt = arrays.pop("format", None)
+    if fmt is None or fmt.shape != () or str(fmt) != NPZ_FORMAT:
+        raise JelloFileError(f"{src}: array 'format': expected {NPZ_FORMAT!r}, found "
+                             f"{None if fmt is None else str(fmt)!r}")
+    for req in ("points", "springs"):
+        if req not in arrays:
+            raise JelloFileError(f"{src}: array '{req}' is missing")
+    known = {"points", "springs", "rest_length", "stiffness", "masses", "tets", "triangles",
+             "volume", "meta"}
+    unknown = sorted(set(arrays) - known)
+    if unknown:
+        raise JelloFileError(f"{src}: array '{unknown[0]}' is not part of the format; expected "
+                             "only " + ", ".join(sorted(known | {"format"})))
+    meta_s = arrays.pop("meta", None)
+    meta = {}
+    if meta_s is not None:
+        try:
+            meta = json.loads(str(meta_s))
+        except json.JSONDecodeError as exc:
+            raise JelloFileError(f"{src}: array 'meta': bad JSON ({exc.msg})") from None
+        if not isinstance(meta, dict):
+            raise JelloFileError(f"{src}: array 'meta': expected a JSON object")
+    a = _validate(src, **arrays)
+    return Body(meta=meta, **a)
+
+
+# ----------------------------------------------------------------------------------------------
+# Dispatch
+# ----------------------------------------------------------------------------------------------
+def _kind(path) -> str:
+    suffix = Path(path).suffix.lower()
+    if suffix not in (".jello", ".npz"):
+        raise JelloFileError(f"{path}: unknown body file suffix {suffix!r}; expected '.jello' "
+                             "or '.npz'")
+    return suffix
+
+
+def write_body(path, body: Body) -> None:
+    """Write ``body`` to ``path``: ``.jello`` text or ``.npz`` by suffix (atomically)."""
+    (write_jello if _kind(path) == ".jello" else write_npz)(path, body)
+
+
+def read_body(path) -> Body:
+    """Read a body from ``path``: ``.jello`` text or ``.npz`` by suffix."""
+    return (read_jello if _kind(path) == ".jello" else read_npz)(path)
