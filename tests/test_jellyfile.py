@@ -271,3 +271,12 @@ def test_crlf_line_endings(tmp_path):
     p = tmp_path / "crlf.jello"
     p.write_bytes(VALID.replace("\n", "\r\n").encode())
     body_equal(read_jello(p), read_jello(_write(tmp_path / "v.jello", VALID)))
+
+
+def test_missing_body_file_is_a_clear_error(tmp_path):
+    from jellysim.errors import JelloFileError
+    from jellysim.geometry.jellyfile import read_body
+
+    for suffix in (".jello", ".npz"):
+        with pytest.raises(JelloFileError, match="file not found"):
+            read_body(tmp_path / f"absent{suffix}")

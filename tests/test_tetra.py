@@ -11,6 +11,7 @@ from scipy.spatial import cKDTree
 
 from jellysim.errors import BuildError, JellysimError
 from jellysim.geometry.tetra import (
+    DEFAULT_DENSITY,
     boundary_faces,
     delaunay_body,
     lump_tet_masses,
@@ -166,7 +167,7 @@ def test_marching_springs_are_grid_tet_edges_between_inside_points():
     inside = winding_inside(v, f)
     h = 0.2
     body = marching_grid(v, f, inside, h=h)
-    check_body_invariants(body, 1000.0)
+    check_body_invariants(body, DEFAULT_DENSITY)
     assert inside(body.points).all()
     origin = np.array(body.meta["grid_origin"])
     ijk = np.rint((body.points - origin) / h).astype(int)
@@ -187,7 +188,7 @@ def test_marching_sphere_volume_within_resolution_bound():
         # mesh volume; every cube farther than sqrt(3) h from the surface is entirely kept
         assert body.volume <= m.volume * (1 + 1e-12)
         assert body.volume >= m.volume - math.sqrt(3) * h * m.area
-        check_body_invariants(body, 1000.0)
+        check_body_invariants(body, DEFAULT_DENSITY)
 
 
 def test_marching_rejects_bad_h():
@@ -206,7 +207,7 @@ def grid_points_inside(v, inside, h):
 
 
 def check_delaunay(body, inside, min_quality):
-    check_body_invariants(body, 1000.0)
+    check_body_invariants(body, DEFAULT_DENSITY)
     q = tet_quality(body.points, body.tets)
     assert (q >= min_quality).all()
     assert (tet_signed_volumes(body.points, body.tets) > 0).all()
@@ -335,7 +336,7 @@ def test_tetgen_refuses_teapot_open_and_self_intersecting(tmp_path, monkeypatch)
 def test_tetgen_and_delaunay_bunny():
     v, f, m = load(SHARED / "bunny.obj")
     body = tetgen_body(v, f)
-    check_body_invariants(body, 1000.0)
+    check_body_invariants(body, DEFAULT_DENSITY)
     assert body.volume == pytest.approx(m.volume, rel=1e-9)
     inside = winding_inside(v, f)
     pts = np.vstack([grid_points_inside(v, inside, 0.06), v])

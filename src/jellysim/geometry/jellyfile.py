@@ -131,6 +131,10 @@ def read_jello(path) -> Body:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
         raise JelloFileError(f"{name}: not a UTF-8 text file ({exc})") from None
+    except FileNotFoundError:
+        raise JelloFileError(f"{name}: file not found") from None
+    except OSError as exc:
+        raise JelloFileError(f"{name}: cannot read ({exc.strerror})") from None
     lines = _Lines(name, text)
 
     # header
@@ -469,6 +473,8 @@ def read_npz(path) -> Body:
     try:
         with np.load(path, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
+    except FileNotFoundError:
+        raise JelloFileError(f"{src}: file not found") from None
     except (OSError, ValueError, EOFError) as exc:
         raise JelloFileError(f"{src}: not a readable .npz file ({exc})") from None
     fmt = arrays.pop("format", None)

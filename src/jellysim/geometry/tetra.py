@@ -64,8 +64,8 @@ __all__ = [
 
 InsideFn = Callable[[np.ndarray], np.ndarray]
 
-#: Default mass density [kg/m^3] (gelatin dessert is mostly water).
-DEFAULT_DENSITY = 1000.0
+#: Default mass density [kg/m^3]: the report's figure for jello (section 6.4).
+DEFAULT_DENSITY = 1141.0
 
 #: Default sliver threshold of :func:`delaunay_body` on :func:`tet_quality` (1 = regular tet).
 DEFAULT_MIN_QUALITY = 0.05
