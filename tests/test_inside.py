@@ -60,7 +60,7 @@ def point_sets(m, seed=0):
     sets["random_bbox"] = rng.uniform(lo, hi, (200_000, 3))
 
     # axis-parallel lines through vertices: one coordinate re-drawn (uniform, or another vertex's)
-    n = 40_000
+    n = 25_000
     p = v[rng.integers(0, len(v), n)].copy()
     axis = rng.integers(0, 3, n)
     other = v[rng.integers(0, len(v), n)]
@@ -70,7 +70,7 @@ def point_sets(m, seed=0):
     sets["axis_lines_through_vertices"] = p
 
     # every coordinate drawn from the mesh's own vertex coordinates
-    n = 40_000
+    n = 25_000
     sets["vertex_coordinates"] = np.column_stack(
         [v[rng.integers(0, len(v), n), k] for k in range(3)]
     )

@@ -149,13 +149,22 @@ def _two_product(a, b):
 
 @njit(cache=True)
 def _grow(e, n, b):
-    """Add the double b to the expansion e[:n] in place (Shewchuk's Grow-Expansion); returns n+1."""
+    """Add the double b to the expansion e[:n] in place (Shewchuk's Grow-Expansion with zero
+    elimination: components stay non-overlapping and in increasing magnitude); returns the new
+    length."""
+    if b == 0.0:
+        return n
     q = b
+    m = 0
     for i in range(n):
         q, h = _two_sum(q, e[i])
-        e[i] = h
-    e[n] = q
-    return n + 1
+        if h != 0.0:
+            e[m] = h
+            m += 1
+    if q != 0.0:
+        e[m] = q
+        m += 1
+    return m
 
 
 @njit(cache=True)

@@ -242,11 +242,11 @@ def _fan_split(polys) -> np.ndarray:
 
 def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol: float) -> Mesh:
     d = MeshDefects()
-    if v.ndim != 2 or v.shape[1] != 3 or len(v) == 0:
-        raise MeshError(f"{name}: no vertices")
     f = np.asarray(f, dtype=np.int64).reshape(-1, 3)
     if len(f) == 0:
-        raise MeshError(f"{name}: no faces")
+        raise MeshError(f"{name}: no faces (nothing in the file could be read as a triangle or polygon)")
+    if v.ndim != 2 or v.shape[1] != 3 or len(v) == 0:
+        raise MeshError(f"{name}: no vertices")
     if f.min() < 0 or f.max() >= len(v):
         raise MeshError(f"{name}: face vertex index out of range (0..{len(v) - 1})")
     if not np.all(np.isfinite(v[np.unique(f)])):
