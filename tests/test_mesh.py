@@ -186,3 +186,24 @@ def test_stanford_scan_loads_with_holes():
         pytest.skip(f"Stanford model not redistributed; read from {SHARED}, absent here")
     d = load_mesh(p).defects
     assert d.boundary_edges == 223 and not d.watertight and d.face_count == 69451
+
+
+@pytest.mark.parametrize("compression", [None, "zlib"])
+def test_vtp_polydata(tmp_path, compression):
+    """VTP (XML PolyData): meshio writes the same XML encoding for VTU; turn its VTU into VTP."""
+    meshio = pytest.importorskip("meshio")
+    ref = load_mesh(DATA / "torus.obj")
+    vtu = tmp_path / "torus.vtu"
+    meshio.write(vtu, meshio.Mesh(ref.vertices, [("triangle", ref.faces)]), binary=True,
+                 compression=compression)
+    text = vtu.read_text()
+    text = (text.replace("UnstructuredGrid", "PolyData").replace("NumberOfCells", "NumberOfPolys")
+            .replace("<Cells>", "<Polys>").replace("</Cells>", "</Polys>"))
+    vtp = tmp_path / "torus.vtp"
+    vtp.write_text(text)
+    m = load_mesh(vtp)
+    assert np.array_equal(m.vertices, ref.vertices) and np.array_equal(m.faces, ref.faces)
+    bad = tmp_path / "bad.vtp"
+    bad.write_text("<VTKFile type='PolyData'><PolyData><Piece>")
+    with pytest.raises(MeshError, match="could not parse"):
+        load_mesh(bad)

@@ -210,6 +210,8 @@ def _read_trimesh(p: Path, name: str):
 
 
 def _read_meshio(p: Path, name: str):
+    if p.suffix.lower() == ".vtp":  # meshio reads .vtk and .vtu but not XML PolyData
+        return _read_vtp(p, name)
     import meshio  # imported where used
 
     try:
@@ -226,6 +228,74 @@ def _read_meshio(p: Path, name: str):
             polys.extend(list(data))
     tris = _fan_split(polys) if polys else np.zeros((0, 3), np.int64)
     return v, tris
+
+
+_VTK_TYPES = {
+    "Int8": np.int8, "UInt8": np.uint8, "Int16": np.int16, "UInt16": np.uint16,
+    "Int32": np.int32, "UInt32": np.uint32, "Int64": np.int64, "UInt64": np.uint64,
+    "Float32": np.float32, "Float64": np.float64,
+}
+
+
+def _read_vtp(p: Path, name: str):
+    """Minimal VTK XML PolyData reader: Points and Polys, ascii or inline base64 binary
+    (optionally zlib-compressed). Appended data is not supported."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.parse(p).getroot()
+        if root.get("type") != "PolyData":
+            raise ValueError(f"VTKFile type is {root.get('type')!r}, not 'PolyData'")
+        order = "<" if root.get("byte_order", "LittleEndian") == "LittleEndian" else ">"
+        header = np.dtype(order + ("u8" if root.get("header_type") == "UInt64" else "u4"))
+        compressed = root.get("compressor") is not None
+        pts, polys = [], []
+        for piece in root.iter("Piece"):
+            pts_arr = piece.find("Points/DataArray")
+            if pts_arr is None:
+                raise ValueError("a Piece has no Points")
+            offset = sum(len(x) for x in pts)
+            pts.append(_vtp_array(pts_arr, order, header, compressed).reshape(-1, 3))
+            arrays = {a.get("Name"): a for a in piece.findall("Polys/DataArray")}
+            if "connectivity" in arrays and "offsets" in arrays:
+                conn = _vtp_array(arrays["connectivity"], order, header, compressed)
+                offs = _vtp_array(arrays["offsets"], order, header, compressed)
+                begin = np.concatenate([[0], offs[:-1]])
+                polys.extend(conn[b:e] + offset for b, e in zip(begin, offs))
+        v = np.concatenate(pts).astype(np.float64) if pts else np.zeros((0, 3))
+    except Exception as exc:
+        raise MeshError(f"{name}: could not parse the file ({type(exc).__name__}: {exc})") from exc
+    return v, (_fan_split(polys) if polys else np.zeros((0, 3), np.int64))
+
+
+def _vtp_array(el, order: str, header: np.dtype, compressed: bool) -> np.ndarray:
+    import base64
+    import zlib
+
+    dtype = np.dtype(order + np.dtype(_VTK_TYPES[el.get("type")]).str[1:])
+    fmt = el.get("format", "ascii")
+    text = (el.text or "").strip()
+    if fmt == "ascii":
+        return np.array(text.split(), dtype=np.float64).astype(dtype)
+    if fmt != "binary":
+        raise ValueError(f"DataArray format {fmt!r} is not supported (ascii or binary only)")
+    raw = base64.b64decode(text)
+    hs = header.itemsize
+    if not compressed:
+        nbytes = int(np.frombuffer(raw[:hs], header)[0])
+        return np.frombuffer(raw[hs:hs + nbytes], dtype).copy()
+    nblocks = int(np.frombuffer(raw[:hs], header)[0])
+    # the header is base64-encoded separately from the blocks in VTK's writer: decode in two steps
+    head_len = hs * (3 + nblocks)
+    head_b64 = 4 * ((head_len + 2) // 3)
+    head = np.frombuffer(base64.b64decode(text[:head_b64])[:head_len], header)
+    sizes = head[3:]
+    body = base64.b64decode(text[head_b64:])
+    out, pos = [], 0
+    for size in sizes:
+        out.append(zlib.decompress(body[pos:pos + int(size)]))
+        pos += int(size)
+    return np.frombuffer(b"".join(out), dtype).copy()
 
 
 def _fan_split(polys) -> np.ndarray:
