@@ -310,3 +310,16 @@ def test_mesh_built_in_code():
     assert np.array_equal(inside(m, p), truth)
     with pytest.raises(ValueError):
         inside(m, np.array([[np.nan, 0, 0]]))
+
+
+def test_point_on_the_cap_falls_back_to_the_direct_sum():
+    """The cap that closes an open mesh is an implementation detail: a point lying exactly on it
+    (here its apex) must still get the mesh's own generalized winding number."""
+    m = load_mesh(mesh_path("cube_no_bottom.obj"))
+    q = InsideQuery(m, rule="winding")
+    apex = q.cap[:1, 6:9]
+    pts = np.concatenate([apex, apex + [[0.0, 0.0, 1e-9]], apex - [[0.0, 0.0, 1e-9]]])
+    _, _, flag = q.crossings(pts)
+    assert flag[0] == 2
+    w = igl.winding_number(m.vertices, m.faces, pts)
+    assert np.allclose(q.winding_number(pts), w, atol=1e-9)

@@ -627,6 +627,9 @@ class InsideQuery:
         mesh without boundary; nan for points on the surface)."""
         pts = _as_points(points)
         count, _, flag = self.crossings(pts)
+        return self._winding_from(pts, count, flag)
+
+    def _winding_from(self, pts, count, flag):
         w = count.astype(np.float64)
         if len(self.cap):
             wc = np.empty(len(pts))
@@ -643,17 +646,14 @@ class InsideQuery:
     def classify(self, points) -> np.ndarray:
         """0 outside, 1 inside, 2 on the surface, shape (n,) int8."""
         pts = _as_points(points)
+        count, parity, flag = self.crossings(pts)
         if self.rule == "parity":
-            count, parity, flag = self.crossings(pts)
-            out = parity.astype(np.int8)
-            out[flag == 1] = ON_SURFACE
-            return out
-        count, _, flag = self.crossings(pts)
-        if len(self.cap) == 0:
-            out = (count >= 1).astype(np.int8)
+            out = parity.view(np.int8)
+        elif len(self.cap) == 0:
+            out = (count >= 1).view(np.int8)
         else:
-            w = self.winding_number(pts)
-            out = (w > 0.5).astype(np.int8)
+            with np.errstate(invalid="ignore"):
+                out = (self._winding_from(pts, count, flag) > 0.5).view(np.int8)
         out[flag == 1] = ON_SURFACE
         return out
 
