@@ -73,8 +73,8 @@ the surface wraps a point twice.
 the triangle's normal x-component. On a mesh whose boundary is zero as a chain (every edge
 traversed as often in one direction as in the other, which includes all closed meshes, also
 self-intersecting ones) the signed count *is* the winding number, an exact integer. A mesh with
-boundary (open, cracked) is closed by a cone of "cap" triangles over its boundary chain from one
-apex; the generalized winding number (sum of signed solid angles over 4 pi) of the mesh is then
+boundary (open, cracked) is closed by cones of "cap" triangles over its boundary chain (one apex
+per boundary component); the generalized winding number (sum of signed solid angles over 4 pi) of the mesh is then
 ``w = W_closed - w_cap``: the exact integer crossing count of mesh + cap, minus the solid angle
 (a float sum, Van Oosterom-Strackee) of the few cap triangles only. The float part is accurate to
 ~1e-12 except within a few ulps of the cap, where the jump of the cap's solid angle is taken from
@@ -88,7 +88,8 @@ Speed
 -----
 :class:`InsideQuery` builds, once, a uniform 2D grid over the (y, z) bounding boxes of the
 triangles (CSR lists, triangle data copied into list order for cache locality). A query looks up
-the one cell that contains ``(py, pz)`` and tests only the triangles listed there. Cell indices are
+the one cell that contains ``(py, pz)`` and tests only the triangles listed there; large batches
+are first counting-sorted by cell so that consecutive points reuse the same lists. Cell indices are
 computed by the same monotone float function at build and query time, so a triangle whose closed
 bounding box contains ``(py, pz)`` is always in that cell. Queries run in a ``numba`` kernel with
 ``prange`` over points; each point writes only its own outputs, so results do not depend on the
@@ -344,6 +345,8 @@ def _order_by_cell(points, y0, z0, inv_hy, inv_hz, ny, nz):
         counts[c] += 1
     return order
 
+_MAX_ENTRIES_PER_TRIANGLE = 8
+
 # columns of the per-entry float data
 # 0..8: Ax Ay Az Bx By Bz Cx Cy Cz; 9..14: xmin ymin zmin xmax ymax zmax
 _NF = 15
@@ -504,6 +507,32 @@ def _boundary_chain(faces: np.ndarray) -> np.ndarray:
     return np.repeat(np.stack([u_dir, v_dir], axis=1), mult, axis=0)
 
 
+def _cap_triangles(v: np.ndarray, chain: np.ndarray) -> np.ndarray:
+    """Close the boundary chain by cones: one apex per connected boundary component.
+
+    For each boundary edge u -> v the cap triangle is (v, u, apex): together with the mesh face
+    that traverses u -> v the edge cancels, and the apex edges cancel between consecutive edges of
+    the (balanced) boundary cycle. Any apex would do; a generic offset from the component's
+    centroid keeps the cap out of the planes and lines that test points and grids sit on, and
+    one apex per component keeps the cap triangles small (few grid cells each).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    nv = len(v)
+    g = coo_matrix((np.ones(len(chain)), (chain[:, 0], chain[:, 1])), shape=(nv, nv))
+    _, label = connected_components(g, directed=False)
+    comp = label[chain[:, 0]]
+    offset = np.array([0.0123456789, -0.0071234567, 0.0093456781])
+    apex = np.empty((len(chain), 3))
+    for c in np.unique(comp):
+        idx = np.unique(chain[comp == c].ravel())
+        pts = v[idx]
+        size = float(np.linalg.norm(pts.max(0) - pts.min(0))) or 1.0
+        apex[comp == c] = pts.mean(axis=0) + size * offset
+    return np.concatenate([v[chain[:, 1]], v[chain[:, 0]], apex], axis=1)
+
+
 class InsideQuery:
     """A prepared point-in-mesh query: build once (grid, caps), query many times.
 
@@ -547,15 +576,7 @@ class InsideQuery:
         """Mesh triangles, shape (m, 9): Ax Ay Az Bx By Bz Cx Cy Cz."""
         cap = np.zeros((0, 9))
         if rule == "winding" and len(chain):
-            bverts = np.unique(chain.ravel())
-            diag = float(np.linalg.norm(v.max(0) - v.min(0))) or 1.0
-            # any apex closes the chain; a generic offset keeps the cap out of the planes and
-            # lines that test points and grids like to sit on
-            apex = v[bverts].mean(axis=0) + diag * np.array([0.0123456789, -0.0071234567,
-                                                             0.0093456781])
-            a = v[chain[:, 1]]
-            b = v[chain[:, 0]]
-            cap = np.concatenate([a, b, np.broadcast_to(apex, a.shape)], axis=1)
+            cap = _cap_triangles(v, chain)
         self.cap = np.ascontiguousarray(cap)
         """Cap triangles (v, u, apex) for each boundary edge u -> v, shape (k, 9)."""
         all_tri = np.concatenate([tri, cap]) if len(cap) else tri
@@ -570,18 +591,24 @@ class InsideQuery:
         wy = float(bb[:, 4].max()) - y0
         wz = float(bb[:, 5].max()) - z0
         ncell = max(1.0, cells_per_triangle * m)
-        if wy > 0 and wz > 0:
-            h = math.sqrt(wy * wz / ncell)
-        else:
-            h = max(wy, wz) / ncell or 1.0
-        ny = int(min(max(1, math.ceil(wy / h)), 4096)) if wy > 0 else 1
-        nz = int(min(max(1, math.ceil(wz / h)), 4096)) if wz > 0 else 1
-        inv_hy = ny / wy if wy > 0 else 0.0
-        inv_hz = nz / wz if wz > 0 else 0.0
-        rng = _cell_ranges(bb, y0, z0, inv_hy, inv_hz, ny, nz)
-        cy = rng[:, 1] - rng[:, 0] + 1
-        cz = rng[:, 3] - rng[:, 2] + 1
-        per = cy * cz
+        while True:
+            if wy > 0 and wz > 0:
+                h = math.sqrt(wy * wz / ncell)
+            else:
+                h = max(wy, wz) / ncell or 1.0
+            ny = int(min(max(1, math.ceil(wy / h)), 4096)) if wy > 0 else 1
+            nz = int(min(max(1, math.ceil(wz / h)), 4096)) if wz > 0 else 1
+            inv_hy = ny / wy if wy > 0 else 0.0
+            inv_hz = nz / wz if wz > 0 else 0.0
+            rng = _cell_ranges(bb, y0, z0, inv_hy, inv_hz, ny, nz)
+            cy = rng[:, 1] - rng[:, 0] + 1
+            cz = rng[:, 3] - rng[:, 2] + 1
+            per = cy * cz
+            # small triangles seen from far (scans): coarsen until each triangle is listed in
+            # a few cells only, which bounds memory at ~MAX_ENTRIES_PER_TRIANGLE x m
+            if per.sum() <= _MAX_ENTRIES_PER_TRIANGLE * m or ncell <= 1.0:
+                break
+            ncell = max(1.0, ncell / 2.0)
         tid = np.repeat(np.arange(m), per)
         off = np.arange(len(tid)) - np.repeat(np.cumsum(per) - per, per)
         iy = rng[tid, 0] + off // cz[tid]
