@@ -423,9 +423,30 @@ def _query_kernel(points, order, y0, z0, inv_hy, inv_hz, ny, nz, start, fd, sgn,
             elif hit and o == s:
                 cnt += s
                 par ^= 1
-        count[i] = cnt
-        parity[i] = par
-        flag[i] = fl
+        # outputs in work order (sequential writes); _scatter puts them back in input order
+        count[j] = cnt
+        parity[j] = par
+        flag[j] = fl
+
+
+@njit(cache=True, parallel=True)
+def _gather(points, order):
+    out = np.empty_like(points)
+    for j in prange(order.shape[0]):
+        i = order[j]
+        out[j, 0] = points[i, 0]
+        out[j, 1] = points[i, 1]
+        out[j, 2] = points[i, 2]
+    return out
+
+
+@njit(cache=True, parallel=True)
+def _scatter(order, count_w, parity_w, flag_w, count, parity, flag):
+    for j in prange(order.shape[0]):
+        i = order[j]
+        count[i] = count_w[j]
+        parity[i] = parity_w[j]
+        flag[i] = flag_w[j]
 
 
 @njit(cache=True, inline="always")
@@ -643,10 +664,18 @@ class InsideQuery:
         if n:
             if n >= 4 * ny * nz:
                 order = _order_by_cell(pts, y0, z0, inv_hy, inv_hz, ny, nz)
+                cw = np.empty(n, np.int32)
+                pw = np.empty(n, np.uint8)
+                fw = np.empty(n, np.uint8)
+                # contiguous sorted copy: the kernel then streams through points and lists
+                _query_kernel(_gather(pts, order), np.arange(n, dtype=np.int64), y0, z0, inv_hy,
+                              inv_hz, ny, nz, start, self._fd, self._sgn, self._proj,
+                              self._is_cap, cw, pw, fw)
+                _scatter(order, cw, pw, fw, count, parity, flag)
             else:
                 order = np.arange(n, dtype=np.int64)
-            _query_kernel(pts, order, y0, z0, inv_hy, inv_hz, ny, nz, start, self._fd, self._sgn,
-                          self._proj, self._is_cap, count, parity, flag)
+                _query_kernel(pts, order, y0, z0, inv_hy, inv_hz, ny, nz, start, self._fd,
+                              self._sgn, self._proj, self._is_cap, count, parity, flag)
         return count, parity, flag
 
     def winding_number(self, points):
