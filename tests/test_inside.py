@@ -323,3 +323,19 @@ def test_point_on_the_cap_falls_back_to_the_direct_sum():
     assert flag[0] == 2
     w = igl.winding_number(m.vertices, m.faces, pts)
     assert np.allclose(q.winding_number(pts), w, atol=1e-9)
+
+
+def test_raw_mesh_object_is_cleaned_and_reported():
+    """A Mesh made directly (no defects report) or any object with vertices/faces works."""
+    from types import SimpleNamespace
+
+    from jellysim.geometry import Mesh
+
+    ref, q = get("torus.obj")
+    raw = Mesh(vertices=ref.vertices, faces=ref.faces)
+    pts = point_sets(ref, seed=11)["vertex_coordinates"]
+    assert np.array_equal(classify(raw, pts), q.classify(pts))
+    ns = SimpleNamespace(vertices=ref.vertices, faces=ref.faces)
+    assert np.array_equal(classify(ns, pts), q.classify(pts))
+    with pytest.raises(ValueError, match="rule"):
+        InsideQuery(ref, rule="nonzero")

@@ -571,7 +571,8 @@ class InsideQuery:
     def __init__(self, mesh, *, rule: str = "auto", cells_per_triangle: float = 2.0):
         if rule not in _RULES:
             raise ValueError(f"rule must be one of {_RULES}, got {rule!r}")
-        if not isinstance(mesh, Mesh):
+        if not isinstance(mesh, Mesh) or mesh.defects.face_count != len(mesh.faces):
+            # not made by load_mesh / from_arrays: clean it and compute its defects report
             mesh = Mesh.from_arrays(mesh.vertices, mesh.faces)
         v = np.ascontiguousarray(mesh.vertices, dtype=np.float64)
         f = np.ascontiguousarray(mesh.faces, dtype=np.int64)
