@@ -186,6 +186,7 @@ def test_stanford_scan_loads_with_holes():
         pytest.skip(f"Stanford model not redistributed; read from {SHARED}, absent here")
     d = load_mesh(p).defects
     assert d.boundary_edges == 223 and not d.watertight and d.face_count == 69451
+    assert d.unreferenced_vertices == 1113 and d.vertex_count == 34834  # README: unused by faces
 
 
 @pytest.mark.parametrize("compression", [None, "zlib"])

@@ -199,7 +199,10 @@ def _read_trimesh(p: Path, name: str):
     import trimesh  # optional dependency, imported where used
 
     try:
-        loaded = trimesh.load(str(p), force="mesh", process=False)
+        # maintain_order keeps the OBJ's vertex list as written, so that vertices no face uses
+        # are counted (and then dropped) here rather than silently by the loader
+        kwargs = {"maintain_order": True} if p.suffix.lower() == ".obj" else {}
+        loaded = trimesh.load(str(p), force="mesh", process=False, **kwargs)
     except Exception as exc:  # trimesh raises many different types
         raise MeshError(f"{name}: could not parse the file ({type(exc).__name__}: {exc})") from exc
     if not isinstance(loaded, trimesh.Trimesh):
