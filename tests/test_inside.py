@@ -339,3 +339,12 @@ def test_raw_mesh_object_is_cleaned_and_reported():
     assert np.array_equal(classify(ns, pts), q.classify(pts))
     with pytest.raises(ValueError, match="rule"):
         InsideQuery(ref, rule="nonzero")
+
+
+def test_empty_and_single_point_inputs():
+    m, q = get("sphere.obj")
+    assert q.query(np.zeros((0, 3))).shape == (0,)
+    assert q.query([0.0, 0.0, 0.0]).tolist() == [True]
+    assert q.classify([[0.0, 0.0, 2.0]]).tolist() == [0]
+    with pytest.raises(ValueError, match="shape"):
+        q.query(np.zeros((4, 2)))
