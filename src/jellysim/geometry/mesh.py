@@ -430,22 +430,25 @@ def _remove_duplicates(f: np.ndarray):
     in_dup = np.isin(inv, dup_groups)
     # directed half-edges of faces outside duplicate groups
     others = f[~in_dup]
-    half = {(int(a), int(b)) for a, b in np.concatenate([others[:, [0, 1]], others[:, [1, 2]], others[:, [2, 0]]])}
+    half = {
+        (int(a), int(b))
+        for a, b in np.concatenate([others[:, [0, 1]], others[:, [1, 2]], others[:, [2, 0]]])
+    }
+
+    def score(tri):
+        """+1 per edge whose reverse a neighbour traverses, -1 per edge a neighbour repeats."""
+        s = 0
+        for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
+            s += ((int(b), int(a)) in half) - ((int(a), int(b)) in half)
+        return s
+
     n_same = n_rev = 0
     members_of = {}
     for idx in np.flatnonzero(in_dup):
         members_of.setdefault(int(inv[idx]), []).append(int(idx))
     out = f.copy()
-    for g, members in members_of.items():
+    for members in members_of.values():
         ref = f[members[0]]
-
-        def score(tri):
-            s = 0
-            for e in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
-                e = (int(e[0]), int(e[1]))
-                s += (e[::-1] in half) - (e in half)
-            return s
-
         tri = ref if score(ref) >= score(ref[::-1]) else ref[::-1]
         out[members[0]] = tri
         kept_parity = _perm_parity(tri)
