@@ -79,7 +79,8 @@ def point_sets(m, seed=0):
     # (y, z) of a vertex, or of a point on an edge's (y, z) projection, with x anywhere
     n = 20_000
     vy = v[rng.integers(0, len(v), n)]
-    x = np.where(rng.random(n) < 0.5, rng.uniform(lo[0], hi[0], n), v[rng.integers(0, len(v), n), 0])
+    x = np.where(rng.random(n) < 0.5, rng.uniform(lo[0], hi[0], n),
+                 v[rng.integers(0, len(v), n), 0])
     through_vertex = np.column_stack([x, vy[:, 1], vy[:, 2]])
     e = f[rng.integers(0, len(f), n)]
     a, b = v[e[:, 0]], v[e[:, 1]]

@@ -9,4 +9,7 @@ class JellysimError(Exception):
 
 
 class MeshError(JellysimError, ValueError):
-    """A surface mesh could not be loaded or is unusable; the message names the file and the problem."""
+    """A surface mesh could not be loaded or is unusable.
+
+    The message names the file and the problem.
+    """

@@ -74,12 +74,15 @@ the triangle's normal x-component. On a mesh whose boundary is zero as a chain (
 traversed as often in one direction as in the other, which includes all closed meshes, also
 self-intersecting ones) the signed count *is* the winding number, an exact integer. A mesh with
 boundary (open, cracked) is closed by cones of "cap" triangles over its boundary chain (one apex
-per boundary component); the generalized winding number (sum of signed solid angles over 4 pi) of the mesh is then
-``w = W_closed - w_cap``: the exact integer crossing count of mesh + cap, minus the solid angle
-(a float sum, Van Oosterom-Strackee) of the few cap triangles only. The float part is accurate to
-~1e-12 except within a few ulps of the cap, where the jump of the cap's solid angle is taken from
-the same exact orient3d sign as the crossing count; a point exactly on a cap triangle falls back to
-the direct float sum over the mesh's triangles.
+per boundary component); the generalized winding number (sum of signed solid angles over 4 pi)
+of the mesh is then ``w = W_closed - w_cap``: the exact integer crossing count of mesh + cap,
+minus the solid angle (a float sum, Van Oosterom-Strackee) of the few cap triangles only. The
+float part has an error of order (number of cap triangles) x 1e-16 relative, except near the cap,
+where the jump of the cap's solid angle is taken from the same exact orient3d sign as the
+crossing count so that the two parts stay consistent; a point exactly on a cap triangle falls back
+to the direct float sum over the mesh's triangles. Only the final comparison ``w > 1/2`` is
+inexact, for points where the true ``w`` is within ~1e-12 of 1/2 (for example in the plane of a
+missing face, where ``w`` is exactly 1/2 and no float method can decide).
 
 ``auto``: parity on a closed, consistently oriented, edge-manifold mesh; otherwise the winding
 rule with a :class:`UserWarning` naming the defects.

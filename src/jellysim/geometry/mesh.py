@@ -137,14 +137,18 @@ class Mesh:
     defects: MeshDefects = field(default_factory=MeshDefects)
 
     @classmethod
-    def from_arrays(cls, vertices, faces, *, name: str = "<arrays>", weld_tol: float = WELD_REL) -> "Mesh":
+    def from_arrays(
+        cls, vertices, faces, *, name: str = "<arrays>", weld_tol: float = WELD_REL
+    ) -> "Mesh":
         """Build a cleaned mesh from arrays: vertices (n, 3) float, faces (m, 3) or (m, 4) int."""
         v = np.asarray(vertices, dtype=np.float64)
         f = np.asarray(faces)
         if v.ndim != 2 or v.shape[1] != 3:
             raise MeshError(f"{name}: vertices must have shape (n, 3), got {v.shape}")
         if f.ndim != 2 or f.shape[1] < 3 or (f.size and not np.issubdtype(f.dtype, np.integer)):
-            raise MeshError(f"{name}: faces must be an (m, k>=3) integer array, got {f.shape} {f.dtype}")
+            raise MeshError(
+                f"{name}: faces must be an (m, k>=3) integer array, got {f.shape} {f.dtype}"
+            )
         tris = _fan_split([row for row in f]) if f.shape[1] > 3 else f.astype(np.int64)
         return _clean(v, tris, name, None, weld_tol)
 
@@ -317,7 +321,9 @@ def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol:
     d = MeshDefects()
     f = np.asarray(f, dtype=np.int64).reshape(-1, 3)
     if len(f) == 0:
-        raise MeshError(f"{name}: no faces (nothing in the file could be read as a triangle or polygon)")
+        raise MeshError(
+            f"{name}: no faces (nothing in the file could be read as a triangle or polygon)"
+        )
     if v.ndim != 2 or v.shape[1] != 3 or len(v) == 0:
         raise MeshError(f"{name}: no vertices")
     if f.min() < 0 or f.max() >= len(v):
@@ -362,7 +368,9 @@ def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol:
     d.volume = float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
     d.face_count = int(len(f))
     d.vertex_count = int(len(v))
-    return Mesh(vertices=np.ascontiguousarray(v), faces=np.ascontiguousarray(f), path=path, defects=d)
+    return Mesh(
+        vertices=np.ascontiguousarray(v), faces=np.ascontiguousarray(f), path=path, defects=d
+    )
 
 
 def _weld(v: np.ndarray, rel_tol: float):
