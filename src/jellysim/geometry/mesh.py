@@ -1,0 +1,503 @@
+"""Surface meshes: loading, welding, cleaning and a defects report.
+
+:func:`load_mesh` reads OBJ, PLY, STL, OFF and GLB/GLTF through ``trimesh`` and VTK, VTU and VTP
+through ``meshio`` (both imported inside the function, never at package import), then
+
+1. fan-splits polygons (quads) into triangles,
+2. welds vertices that have exactly the same position (``-0.0`` and ``0.0`` are the same),
+3. drops vertices no face uses,
+4. removes faces that repeat a vertex index, faces with zero area (collinear vertices, decided
+   exactly) and duplicate faces (a face with the same three vertices as another, in the same or in
+   the reversed orientation; of a group one face is kept, oriented like its neighbours).
+
+Removing zero-area faces never changes the solid: they bound no volume, contribute no ray crossing
+and no solid angle. They can only hide zero-width cracks, which then show up as boundary edges in
+the report (and :func:`jellysim.geometry.inside` then uses the winding-number rule, which is
+insensitive to zero-width cracks).
+
+Every step is counted in :class:`MeshDefects`, whose :meth:`MeshDefects.describe` is what
+``jellysim inspect`` prints.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from jellysim.errors import MeshError
+
+__all__ = ["Mesh", "MeshDefects", "load_mesh"]
+
+_TRIMESH_SUFFIXES = {".obj", ".ply", ".stl", ".off", ".glb", ".gltf"}
+_MESHIO_SUFFIXES = {".vtk", ".vtu", ".vtp"}
+
+WELD_REL = 1e-10
+"""Default weld distance, relative to the bounding-box diagonal."""
+SLIVER_REL = 1e-12
+"""A face is degenerate when 2 x area <= SLIVER_REL x (longest edge)^2."""
+
+
+@dataclass
+class MeshDefects:
+    """What :func:`load_mesh` found (and repaired) in a surface mesh.
+
+    Counts refer to the file as read (after quads were split) unless said otherwise; the edge,
+    shell, volume and watertightness entries describe the cleaned mesh that is returned.
+    """
+
+    welded_vertices: int = 0
+    """Vertices merged into another vertex with exactly the same position."""
+    unreferenced_vertices: int = 0
+    """Vertices no face uses (dropped)."""
+    repeated_index_faces: int = 0
+    """Faces that use one vertex twice, after welding (removed)."""
+    zero_area_faces: int = 0
+    """Faces with three distinct but collinear vertices, decided exactly (removed)."""
+    duplicate_faces: int = 0
+    """Extra copies of a face with the same vertices and orientation (removed)."""
+    reversed_duplicate_faces: int = 0
+    """Extra copies of a face with the same vertices and the opposite orientation (removed)."""
+    boundary_edges: int = 0
+    """Undirected edges used by exactly one face."""
+    non_manifold_edges: int = 0
+    """Undirected edges used by more than two faces."""
+    inconsistent_edges: int = 0
+    """Edges shared by two faces that traverse it in the same direction (orientation flips)."""
+    shells: int = 0
+    """Connected components (faces connected through shared vertices)."""
+    volume: float = 0.0
+    """Signed volume [mesh units^3] enclosed, sum over faces of det(a, b, c) / 6."""
+    face_count: int = 0
+    """Triangles in the cleaned mesh."""
+    vertex_count: int = 0
+    """Vertices in the cleaned mesh."""
+
+    @property
+    def watertight(self) -> bool:
+        """Every edge is shared by exactly two faces that traverse it in opposite directions."""
+        return (
+            self.boundary_edges == 0
+            and self.non_manifold_edges == 0
+            and self.inconsistent_edges == 0
+            and self.face_count > 0
+        )
+
+    def problems(self) -> list[str]:
+        """Short phrases naming what keeps the mesh from being a closed oriented manifold."""
+        out = []
+        if self.boundary_edges:
+            out.append(f"{self.boundary_edges} boundary edges")
+        if self.non_manifold_edges:
+            out.append(f"{self.non_manifold_edges} non-manifold edges")
+        if self.inconsistent_edges:
+            out.append(f"{self.inconsistent_edges} inconsistently oriented edges")
+        return out
+
+    def describe(self) -> str:
+        """A human-readable multi-line report (what ``jellysim inspect`` prints)."""
+        lines = [
+            f"vertices / faces:        {self.vertex_count} / {self.face_count}",
+            f"watertight:              {'yes' if self.watertight else 'no'}",
+            f"shells:                  {self.shells}",
+            f"volume (signed):         {self.volume:.6g}",
+            f"boundary edges:          {self.boundary_edges}",
+            f"non-manifold edges:      {self.non_manifold_edges}",
+            f"inconsistent edges:      {self.inconsistent_edges}",
+            f"duplicate faces:         {self.duplicate_faces} (removed)",
+            f"reversed duplicates:     {self.reversed_duplicate_faces} (removed)",
+            f"repeated-index faces:    {self.repeated_index_faces} (removed)",
+            f"zero-area faces:         {self.zero_area_faces} (removed)",
+            f"welded vertices:         {self.welded_vertices}",
+            f"unreferenced vertices:   {self.unreferenced_vertices} (dropped)",
+        ]
+        return "\n".join(lines)
+
+
+@dataclass
+class Mesh:
+    """A cleaned triangle surface mesh.
+
+    Attributes
+    ----------
+    vertices:
+        Vertex positions [mesh units], shape (n, 3), float64.
+    faces:
+        Vertex indices of each triangle, shape (m, 3), int64, counter-clockwise seen from outside
+        for a correctly oriented closed mesh.
+    path:
+        The file the mesh came from, or ``None`` for :meth:`from_arrays`.
+    defects:
+        What was found and repaired, see :class:`MeshDefects`.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    path: Path | None = None
+    defects: MeshDefects = field(default_factory=MeshDefects)
+
+    @classmethod
+    def from_arrays(
+        cls, vertices, faces, *, name: str = "<arrays>", weld_tol: float = WELD_REL
+    ) -> "Mesh":
+        """Build a cleaned mesh from arrays: vertices (n, 3) float, faces (m, 3) or (m, 4) int."""
+        v = np.asarray(vertices, dtype=np.float64)
+        f = np.asarray(faces)
+        if v.ndim != 2 or v.shape[1] != 3:
+            raise MeshError(f"{name}: vertices must have shape (n, 3), got {v.shape}")
+        if f.ndim != 2 or f.shape[1] < 3 or (f.size and not np.issubdtype(f.dtype, np.integer)):
+            raise MeshError(
+                f"{name}: faces must be an (m, k>=3) integer array, got {f.shape} {f.dtype}"
+            )
+        tris = _fan_split([row for row in f]) if f.shape[1] > 3 else f.astype(np.int64)
+        return _clean(v, tris, name, None, weld_tol)
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """Axis-aligned bounding box, shape (2, 3): min and max corner."""
+        return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+
+    @property
+    def diagonal(self) -> float:
+        """Length of the bounding-box diagonal [mesh units]."""
+        b = self.bounds
+        return float(np.linalg.norm(b[1] - b[0]))
+
+
+def load_mesh(path, *, weld_tol: float = WELD_REL) -> Mesh:
+    """Read, weld, clean and validate a triangle surface mesh.
+
+    Supported: ``.obj .ply .stl .off .glb .gltf`` (trimesh) and ``.vtk .vtu .vtp`` (meshio).
+    Raises :class:`jellysim.errors.MeshError` naming the file and the problem for a missing,
+    empty or unparsable file, non-finite coordinates, or a file without (non-degenerate) faces.
+
+    ``weld_tol`` is relative to the bounding-box diagonal: vertices closer than
+    ``weld_tol * diagonal`` are merged (0 merges only identical positions). The default,
+    1e-10, closes the cracks of float32 STL exports (0.0 next to -2.7e-16) and nothing else.
+    """
+    p = Path(path)
+    name = str(p)
+    if not p.exists():
+        raise MeshError(f"{name}: file not found")
+    if not p.is_file():
+        raise MeshError(f"{name}: not a regular file")
+    if p.stat().st_size == 0:
+        raise MeshError(f"{name}: file is empty")
+    suffix = p.suffix.lower()
+    if suffix in _TRIMESH_SUFFIXES:
+        v, polys = _read_trimesh(p, name)
+    elif suffix in _MESHIO_SUFFIXES:
+        v, polys = _read_meshio(p, name)
+    else:
+        raise MeshError(
+            f"{name}: unsupported file type {suffix!r} "
+            f"(supported: {', '.join(sorted(_TRIMESH_SUFFIXES | _MESHIO_SUFFIXES))})"
+        )
+    return _clean(v, polys, name, p, weld_tol)
+
+
+# --------------------------------------------------------------------------- readers
+
+
+def _read_trimesh(p: Path, name: str):
+    import trimesh  # optional dependency, imported where used
+
+    try:
+        # maintain_order keeps the OBJ's vertex list as written, so that vertices no face uses
+        # are counted (and then dropped) here rather than silently by the loader
+        kwargs = {"maintain_order": True} if p.suffix.lower() == ".obj" else {}
+        loaded = trimesh.load(str(p), force="mesh", process=False, **kwargs)
+    except Exception as exc:  # trimesh raises many different types
+        raise MeshError(f"{name}: could not parse the file ({type(exc).__name__}: {exc})") from exc
+    if not isinstance(loaded, trimesh.Trimesh):
+        raise MeshError(f"{name}: the file holds no triangle mesh (got {type(loaded).__name__})")
+    v = np.asarray(loaded.vertices, dtype=np.float64)
+    f = np.asarray(loaded.faces, dtype=np.int64)
+    return v, f
+
+
+def _read_meshio(p: Path, name: str):
+    if p.suffix.lower() == ".vtp":  # meshio reads .vtk and .vtu but not XML PolyData
+        return _read_vtp(p, name)
+    import meshio  # imported where used
+
+    try:
+        m = meshio.read(str(p))
+    except Exception as exc:
+        raise MeshError(f"{name}: could not parse the file ({type(exc).__name__}: {exc})") from exc
+    v = np.asarray(m.points, dtype=np.float64)
+    if v.ndim == 2 and v.shape[1] == 2:
+        v = np.column_stack([v, np.zeros(len(v))])
+    polys = []
+    for block in m.cells:
+        data = np.asarray(block.data)
+        if block.type in ("triangle", "quad") or block.type.startswith("polygon"):
+            polys.extend(list(data))
+    tris = _fan_split(polys) if polys else np.zeros((0, 3), np.int64)
+    return v, tris
+
+
+_VTK_TYPES = {
+    "Int8": np.int8, "UInt8": np.uint8, "Int16": np.int16, "UInt16": np.uint16,
+    "Int32": np.int32, "UInt32": np.uint32, "Int64": np.int64, "UInt64": np.uint64,
+    "Float32": np.float32, "Float64": np.float64,
+}
+
+
+def _read_vtp(p: Path, name: str):
+    """Minimal VTK XML PolyData reader: Points and Polys, ascii or inline base64 binary
+    (optionally zlib-compressed). Appended data is not supported."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.parse(p).getroot()
+        if root.get("type") != "PolyData":
+            raise ValueError(f"VTKFile type is {root.get('type')!r}, not 'PolyData'")
+        order = "<" if root.get("byte_order", "LittleEndian") == "LittleEndian" else ">"
+        header = np.dtype(order + ("u8" if root.get("header_type") == "UInt64" else "u4"))
+        compressed = root.get("compressor") is not None
+        pts, polys = [], []
+        for piece in root.iter("Piece"):
+            pts_arr = piece.find("Points/DataArray")
+            if pts_arr is None:
+                raise ValueError("a Piece has no Points")
+            offset = sum(len(x) for x in pts)
+            pts.append(_vtp_array(pts_arr, order, header, compressed).reshape(-1, 3))
+            arrays = {a.get("Name"): a for a in piece.findall("Polys/DataArray")}
+            if "connectivity" in arrays and "offsets" in arrays:
+                conn = _vtp_array(arrays["connectivity"], order, header, compressed)
+                offs = _vtp_array(arrays["offsets"], order, header, compressed)
+                begin = np.concatenate([[0], offs[:-1]])
+                polys.extend(conn[b:e] + offset for b, e in zip(begin, offs))
+        v = np.concatenate(pts).astype(np.float64) if pts else np.zeros((0, 3))
+    except Exception as exc:
+        raise MeshError(f"{name}: could not parse the file ({type(exc).__name__}: {exc})") from exc
+    return v, (_fan_split(polys) if polys else np.zeros((0, 3), np.int64))
+
+
+def _vtp_array(el, order: str, header: np.dtype, compressed: bool) -> np.ndarray:
+    import base64
+    import zlib
+
+    dtype = np.dtype(order + np.dtype(_VTK_TYPES[el.get("type")]).str[1:])
+    fmt = el.get("format", "ascii")
+    text = (el.text or "").strip()
+    if fmt == "ascii":
+        return np.array(text.split(), dtype=np.float64).astype(dtype)
+    if fmt != "binary":
+        raise ValueError(f"DataArray format {fmt!r} is not supported (ascii or binary only)")
+    raw = base64.b64decode(text)
+    hs = header.itemsize
+    if not compressed:
+        nbytes = int(np.frombuffer(raw[:hs], header)[0])
+        return np.frombuffer(raw[hs:hs + nbytes], dtype).copy()
+    nblocks = int(np.frombuffer(raw[:hs], header)[0])
+    # the header is base64-encoded separately from the blocks in VTK's writer: decode in two steps
+    head_len = hs * (3 + nblocks)
+    head_b64 = 4 * ((head_len + 2) // 3)
+    head = np.frombuffer(base64.b64decode(text[:head_b64])[:head_len], header)
+    sizes = head[3:]
+    body = base64.b64decode(text[head_b64:])
+    out, pos = [], 0
+    for size in sizes:
+        out.append(zlib.decompress(body[pos:pos + int(size)]))
+        pos += int(size)
+    return np.frombuffer(b"".join(out), dtype).copy()
+
+
+def _fan_split(polys) -> np.ndarray:
+    out = []
+    for poly in polys:
+        poly = [int(i) for i in poly]
+        for k in range(1, len(poly) - 1):
+            out.append((poly[0], poly[k], poly[k + 1]))
+    return np.asarray(out, dtype=np.int64).reshape(-1, 3)
+
+
+# --------------------------------------------------------------------------- cleaning
+
+
+def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol: float) -> Mesh:
+    d = MeshDefects()
+    f = np.asarray(f, dtype=np.int64).reshape(-1, 3)
+    if len(f) == 0:
+        raise MeshError(
+            f"{name}: no faces (nothing in the file could be read as a triangle or polygon)"
+        )
+    if v.ndim != 2 or v.shape[1] != 3 or len(v) == 0:
+        raise MeshError(f"{name}: no vertices")
+    if f.min() < 0 or f.max() >= len(v):
+        raise MeshError(f"{name}: face vertex index out of range (0..{len(v) - 1})")
+    if not np.all(np.isfinite(v[np.unique(f)])):
+        raise MeshError(f"{name}: non-finite (NaN or infinite) vertex coordinates")
+
+    # weld by exact position (+0.0 turns -0.0 into 0.0)
+    used = np.zeros(len(v), bool)
+    used[f.ravel()] = True
+    d.unreferenced_vertices = int((~used).sum())
+    vu = v[used] + 0.0
+    old_to_used = np.cumsum(used) - 1
+    uniq, inv = _weld(vu, weld_tol)
+    d.welded_vertices = int(len(vu) - len(uniq))
+    f = inv[old_to_used[f]]
+    v = uniq
+
+    # repeated indices
+    rep = (f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 0] == f[:, 2])
+    d.repeated_index_faces = int(rep.sum())
+    f = f[~rep]
+    # exact zero area
+    zero = _degenerate(v, f)
+    d.zero_area_faces = int(zero.sum())
+    f = f[~zero]
+    # duplicates
+    f, d.duplicate_faces, d.reversed_duplicate_faces = _remove_duplicates(f)
+    if len(f) == 0:
+        raise MeshError(f"{name}: no faces with non-zero area")
+
+    # drop vertices that became unreferenced by face removal
+    used = np.zeros(len(v), bool)
+    used[f.ravel()] = True
+    remap = np.cumsum(used) - 1
+    v = v[used]
+    f = remap[f].astype(np.int64)
+
+    _edge_report(f, d)
+    d.shells = _shell_count(f, len(v))
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    d.volume = float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+    d.face_count = int(len(f))
+    d.vertex_count = int(len(v))
+    return Mesh(
+        vertices=np.ascontiguousarray(v), faces=np.ascontiguousarray(f), path=path, defects=d
+    )
+
+
+def _weld(v: np.ndarray, rel_tol: float):
+    """Merge vertices closer than rel_tol x diagonal (clusters joined transitively).
+
+    Returns the unique positions (the lowest-index vertex of each cluster, or the exact position
+    for rel_tol = 0) and the old -> new index map.
+    """
+    if rel_tol <= 0 or len(v) < 2:
+        uniq, inv = np.unique(v, axis=0, return_inverse=True)
+        return uniq, inv.reshape(-1)
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    r = rel_tol * float(np.linalg.norm(v.max(0) - v.min(0)))
+    pairs = cKDTree(v).query_pairs(r, output_type="ndarray") if r > 0 else np.zeros((0, 2), int)
+    # identical positions are always merged, also when the diagonal is 0
+    _, ex = np.unique(v, axis=0, return_inverse=True)
+    ex = ex.reshape(-1)
+    n = len(v)
+    rows = np.concatenate([pairs[:, 0], np.arange(n)])
+    cols = np.concatenate([pairs[:, 1], ex + n])
+    g = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(2 * n, 2 * n))
+    _, lab = connected_components(g, directed=False)
+    lab = lab[:n]
+    # number clusters by their lowest vertex index; the representative is that vertex
+    order = np.argsort(lab, kind="stable")
+    first_of = np.full(lab.max() + 1, -1)
+    first_of[lab[order[::-1]]] = order[::-1]
+    reps = np.unique(first_of[lab])
+    new_index = np.full(n, -1)
+    new_index[reps] = np.arange(len(reps))
+    inv = new_index[first_of[lab]]
+    return v[reps], inv
+
+
+def _degenerate(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Faces of (numerically) zero area: twice the area <= SLIVER_REL x (longest edge)^2.
+
+    This catches exactly collinear vertices and slivers such as (a, midpoint(a, b), b) whose
+    midpoint was rounded when written to the file (relative height ~1e-17).
+    """
+    if len(f) == 0:
+        return np.zeros(0, bool)
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    cross = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    longest = np.max(
+        np.stack([((b - a) ** 2).sum(1), ((c - b) ** 2).sum(1), ((a - c) ** 2).sum(1)]), axis=0
+    )
+    return cross <= SLIVER_REL * longest
+
+
+def _remove_duplicates(f: np.ndarray):
+    """Keep one face per vertex set; orient the kept one like its neighbours."""
+    key = np.sort(f, axis=1)
+    _, first, inv, counts = np.unique(key, axis=0, return_index=True, return_inverse=True,
+                                      return_counts=True)
+    inv = inv.reshape(-1)
+    if np.all(counts == 1):
+        return f, 0, 0
+    keep = np.zeros(len(f), bool)
+    keep[first] = True
+    dup_groups = np.flatnonzero(counts > 1)
+    in_dup = np.isin(inv, dup_groups)
+    # directed half-edges of faces outside duplicate groups
+    others = f[~in_dup]
+    half = {
+        (int(a), int(b))
+        for a, b in np.concatenate([others[:, [0, 1]], others[:, [1, 2]], others[:, [2, 0]]])
+    }
+
+    def score(tri):
+        """+1 per edge whose reverse a neighbour traverses, -1 per edge a neighbour repeats."""
+        s = 0
+        for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
+            s += ((int(b), int(a)) in half) - ((int(a), int(b)) in half)
+        return s
+
+    n_same = n_rev = 0
+    members_of = {}
+    for idx in np.flatnonzero(in_dup):
+        members_of.setdefault(int(inv[idx]), []).append(int(idx))
+    out = f.copy()
+    for members in members_of.values():
+        ref = f[members[0]]
+        tri = ref if score(ref) >= score(ref[::-1]) else ref[::-1]
+        out[members[0]] = tri
+        kept_parity = _perm_parity(tri)
+        # of the k copies one is kept; each removed copy is a duplicate when it has the kept
+        # orientation and a reversed duplicate otherwise
+        n_kept_orient = sum(_perm_parity(f[m]) == kept_parity for m in members)
+        n_same += max(n_kept_orient - 1, 0)
+        n_rev += len(members) - n_kept_orient - (1 if n_kept_orient == 0 else 0)
+    return out[keep], n_same, n_rev
+
+
+def _perm_parity(tri) -> int:
+    a, b, c = (int(x) for x in tri)
+    # even permutation of the sorted triple <=> cyclic rotation of (lo, mid, hi)
+    lo = min(a, b, c)
+    if lo == a:
+        return 0 if b < c else 1
+    if lo == b:
+        return 0 if c < a else 1
+    return 0 if a < b else 1
+
+
+def _edge_report(f: np.ndarray, d: MeshDefects) -> None:
+    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    forward = e[:, 0] < e[:, 1]
+    und = np.sort(e, axis=1)
+    _, inv, counts = np.unique(und, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.reshape(-1)
+    d.boundary_edges = int((counts == 1).sum())
+    d.non_manifold_edges = int((counts > 2).sum())
+    n_fwd = np.bincount(inv, weights=forward, minlength=len(counts))
+    two = counts == 2
+    d.inconsistent_edges = int((two & (n_fwd != 1)).sum())
+
+
+def _shell_count(f: np.ndarray, n_vertices: int) -> int:
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    rows = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
+    cols = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
+    g = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_vertices, n_vertices))
+    n, _ = connected_components(g, directed=False)
+    return int(n)

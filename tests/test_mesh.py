@@ -1,0 +1,210 @@
+"""load_mesh: formats, welding, cleaning, the defects report and clear errors.
+
+Expected counts come from the shared meshes' README (measured there with trimesh) or from
+construction (the defect list in spot_defects.obj's header, a cube's exact volume).
+"""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from jellysim.errors import JellysimError, MeshError
+from jellysim.geometry import Mesh, load_mesh
+
+DATA = Path(__file__).resolve().parent / "data"
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "meshes"
+
+# file: (vertices, faces, watertight, shells, boundary edges) from tests/data/README.md
+README = {
+    "cube.obj": (26, 48, True, 1, 0),
+    "sphere.obj": (642, 1280, True, 1, 0),
+    "torus.obj": (2304, 4608, True, 1, 0),
+    "spot.obj": (2930, 5856, True, 1, 0),
+    "featuretype.stl": (1722, 3476, True, 1, 0),
+    "hollow_sphere.obj": (1284, 2560, True, 2, 0),
+    "nested_spheres_same_orientation.obj": (1284, 2560, True, 2, 0),
+    "overlapping_spheres.obj": (1284, 2560, True, 2, 0),
+    "cube_no_bottom.obj": (25, 40, False, 1, 8),
+}
+
+
+@pytest.mark.parametrize("name", sorted(README))
+def test_counts_match_the_readme(name):
+    nv, nf, wt, shells, boundary = README[name]
+    m = load_mesh(DATA / name)
+    d = m.defects
+    assert (d.vertex_count, d.face_count) == (nv, nf) == (len(m.vertices), len(m.faces))
+    assert d.watertight is wt
+    assert d.shells == shells
+    assert d.boundary_edges == boundary
+    assert m.vertices.dtype == np.float64 and m.faces.dtype == np.int64
+    assert "watertight" in d.describe()
+
+
+def test_cube_volume_and_report():
+    m = load_mesh(DATA / "cube.obj")
+    assert m.defects.volume == 8.0  # [-1, 1]^3, exact in floating point
+    assert m.defects.non_manifold_edges == 0 and m.defects.inconsistent_edges == 0
+
+
+@pytest.mark.parametrize("name", ["sphere.obj", "torus.obj", "spot.obj", "featuretype.stl"])
+def test_volume_matches_trimesh(name):
+    trimesh = pytest.importorskip("trimesh")
+    ours = load_mesh(DATA / name).defects.volume
+    theirs = trimesh.load(DATA / name, force="mesh").volume  # trimesh merges and processes itself
+    assert ours == pytest.approx(theirs, rel=1e-9)
+
+
+def test_open_and_defective_meshes_are_reported():
+    teapot = load_mesh(DATA / "teapot.obj").defects
+    assert teapot.boundary_edges == 160 and not teapot.watertight
+    assert teapot.welded_vertices == 403  # positions repeated in the file
+    suz = load_mesh(DATA / "suzanne.obj").defects
+    # 468 quads fan-split: 968 triangles, minus the one duplicated face
+    assert suz.face_count + suz.duplicate_faces + suz.reversed_duplicate_faces == 968
+    assert suz.duplicate_faces + suz.reversed_duplicate_faces == 1
+    assert suz.non_manifold_edges >= 1 and suz.boundary_edges >= 42 and not suz.watertight
+    assert "boundary edges" in ", ".join(load_mesh(DATA / "cube_no_bottom.obj").defects.problems())
+
+
+def _face_set(m: Mesh):
+    """Faces as sets of position triples, cyclically normalized (orientation kept)."""
+    out = set()
+    for tri in m.vertices[m.faces]:
+        rows = [tuple(r) for r in tri]
+        k = rows.index(min(rows))
+        out.add(tuple(rows[k:] + rows[:k]))
+    return out
+
+
+def test_spot_defects_cleans_to_spot():
+    spot = load_mesh(DATA / "spot.obj")
+    bad = load_mesh(DATA / "spot_defects.obj")
+    d = bad.defects
+    # the defect list in the file's header
+    assert d.duplicate_faces == 20
+    assert d.reversed_duplicate_faces == 20
+    assert d.repeated_index_faces == 20
+    assert d.zero_area_faces == 20
+    assert d.welded_vertices == 30
+    assert d.watertight
+    assert _face_set(bad) == _face_set(spot)
+    assert np.array_equal(np.unique(bad.vertices, axis=0), np.unique(spot.vertices, axis=0))
+
+
+def test_unreferenced_vertices_are_dropped_and_counted():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [5, 5, 5]], float)
+    f = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    m = Mesh.from_arrays(v, f)
+    assert len(m.vertices) == 4 and m.defects.unreferenced_vertices == 1
+    assert m.defects.watertight and m.defects.volume == pytest.approx(1 / 6)
+
+
+def test_quads_are_fan_split_and_welded():
+    # a unit cube as 6 quads with each face's corners repeated (24 vertices)
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
+    v = np.concatenate([corners[q] for q in quads])
+    f = np.arange(24).reshape(6, 4)
+    m = Mesh.from_arrays(v, f)
+    assert len(m.faces) == 12 and len(m.vertices) == 8 and m.defects.welded_vertices == 16
+    assert m.defects.watertight and m.defects.volume == 1.0
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".stl", ".off", ".glb", ".vtk", ".vtu"])
+def test_formats_round_trip(tmp_path, suffix):
+    ref = load_mesh(DATA / "torus.obj")
+    path = tmp_path / f"torus{suffix}"
+    if suffix in (".vtk", ".vtu", ".vtp"):
+        meshio = pytest.importorskip("meshio")
+        meshio.write(path, meshio.Mesh(ref.vertices, [("triangle", ref.faces)]))
+    else:
+        trimesh = pytest.importorskip("trimesh")
+        trimesh.Trimesh(ref.vertices, ref.faces, process=False).export(path)
+    m = load_mesh(path)
+    assert (len(m.vertices), len(m.faces)) == (len(ref.vertices), len(ref.faces))
+    assert m.defects.watertight
+    tol = 1e-6 if suffix in (".stl", ".ply", ".glb") else 1e-12  # these store float32
+    assert m.defects.volume == pytest.approx(ref.defects.volume, rel=tol)
+
+
+def test_meshio_quads(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4],
+                      [1, 5, 7, 3]])
+    path = tmp_path / "box.vtu"
+    meshio.write(path, meshio.Mesh(corners, [("quad", quads)]))
+    m = load_mesh(path)
+    assert len(m.faces) == 12 and m.defects.watertight and m.defects.volume == 1.0
+
+
+BAD_FILES = {
+    "missing.obj": (None, "file not found"),
+    "empty.obj": (b"", "empty"),
+    "garbage.ply": (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1 2\n",
+                    "could not parse"),
+    "nan.obj": (b"v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "non-finite"),
+    "inf.obj": (b"v inf 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "non-finite"),
+    "nofaces.obj": (b"v 0 0 0\nv 1 0 0\nv 0 1 0\n", "no faces"),
+    "text.stl": (b"solid x\nthis is not an stl\n", "no faces"),
+    "flat.obj": (b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n", "no faces with non-zero area"),
+    "points.xyz": (b"0 0 0\n", "unsupported file type"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BAD_FILES))
+def test_bad_files_give_one_clear_error(tmp_path, name):
+    content, problem = BAD_FILES[name]
+    path = tmp_path / name
+    if content is not None:
+        path.write_bytes(content)
+    with pytest.raises(MeshError) as info:
+        load_mesh(path)
+    msg = str(info.value)
+    assert str(path) in msg and problem in msg
+    assert isinstance(info.value, JellysimError) and isinstance(info.value, ValueError)
+
+
+def test_import_does_not_load_trimesh_or_meshio():
+    code = ("import sys, jellysim.geometry; "
+            "bad = [m for m in ('trimesh', 'meshio') if m in sys.modules]; "
+            "assert not bad, bad")
+    src = str(Path(__file__).resolve().parents[1] / "src")
+    r = subprocess.run([sys.executable, "-c", code], env={"PYTHONPATH": src},
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+
+
+def test_stanford_scan_loads_with_holes():
+    p = SHARED / "stanford_bunny_scan_holes.obj"
+    if not p.exists():
+        pytest.skip(f"Stanford model not redistributed; read from {SHARED}, absent here")
+    d = load_mesh(p).defects
+    assert d.boundary_edges == 223 and not d.watertight and d.face_count == 69451
+    assert d.unreferenced_vertices == 1113 and d.vertex_count == 34834  # README: unused by faces
+
+
+@pytest.mark.parametrize("compression", [None, "zlib"])
+def test_vtp_polydata(tmp_path, compression):
+    """VTP (XML PolyData): meshio writes the same XML encoding for VTU; turn its VTU into VTP."""
+    meshio = pytest.importorskip("meshio")
+    ref = load_mesh(DATA / "torus.obj")
+    vtu = tmp_path / "torus.vtu"
+    meshio.write(vtu, meshio.Mesh(ref.vertices, [("triangle", ref.faces)]), binary=True,
+                 compression=compression)
+    text = vtu.read_text()
+    text = (text.replace("UnstructuredGrid", "PolyData").replace("NumberOfCells", "NumberOfPolys")
+            .replace("<Cells>", "<Polys>").replace("</Cells>", "</Polys>"))
+    vtp = tmp_path / "torus.vtp"
+    vtp.write_text(text)
+    m = load_mesh(vtp)
+    assert np.array_equal(m.vertices, ref.vertices) and np.array_equal(m.faces, ref.faces)
+    bad = tmp_path / "bad.vtp"
+    bad.write_text("<VTKFile type='PolyData'><PolyData><Piece>")
+    with pytest.raises(MeshError, match="could not parse"):
+        load_mesh(bad)
