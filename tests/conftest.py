@@ -31,3 +31,21 @@ def spring_energy(model, x):
 
 def kinetic_energy(model, v):
     return 0.5 * np.sum(model.particle_mass[:, None] * v * v)
+
+
+from pathlib import Path  # noqa: E402
+
+DATA = Path(__file__).resolve().parent / "data"
+SHARED_MESHES = Path(__file__).resolve().parents[1].parent / "shared" / "meshes"
+STANFORD = {"bunny.obj", "stanford_bunny_scan_holes.obj"}
+
+
+def mesh_path(name: str) -> Path:
+    """A test mesh: from tests/data, or (Stanford models only) from ../shared/meshes."""
+    if name in STANFORD:
+        p = SHARED_MESHES / name
+        if not p.exists():
+            pytest.skip(f"{name} is a Stanford model, not redistributed with the repository; "
+                        f"it is read from {SHARED_MESHES}, which does not exist here")
+        return p
+    return DATA / name

@@ -12,9 +12,14 @@ connects them with one of four spring builders:
 ``tetgen``     TetGen's constrained tetrahedralization of the surface itself (closed meshes)
 =============  ==============================================================================
 
-Mass: total = density x enclosed volume.  Tet bodies lump each tet's mass on its corners (their
-volume is the tets' volume); radius bodies split density x (the mesh's enclosed volume) evenly
-over the points.
+Mass: total = density x the volume the surface encloses, for every builder.  Tet bodies lump
+each tet's mass on its corners and, where the tets do not fill the surface exactly (marching
+grid: only whole cubes inside; Delaunay: carved hull), scale the lumped masses so the total is
+density x enclosed volume (the tets' own volume stays in ``meta["tet_volume"]``).  Radius bodies
+split density x enclosed volume evenly over the points.  The enclosed volume is the surface's
+signed volume for closed meshes (exact) and a Monte-Carlo estimate with the inside test for open
+ones (:data:`VOLUME_SAMPLES` points, relative error about 1/sqrt(samples x fraction inside);
+a warning says so).
 """
 from __future__ import annotations
 
@@ -29,7 +34,9 @@ from .errors import BuildError
 from .geometry.sampling import Sampling
 from .params import REPORT_DENSITY
 
-__all__ = ["Connect", "build_body", "body_stats"]
+__all__ = ["Connect", "build_body", "body_stats", "enclosed_volume"]
+
+VOLUME_SAMPLES = 400_000
 
 
 class Connect(str, Enum):
@@ -49,6 +56,36 @@ def _mesh_of(mesh):
     if isinstance(mesh, Mesh):
         return mesh
     return Mesh.from_arrays(mesh.vertices, mesh.faces)
+
+
+def enclosed_volume(mesh, query=None, *, seed: int = 0) -> tuple[float, bool]:
+    """(volume [m^3], exact?) enclosed by ``mesh``: the signed volume when it is closed,
+    else a seeded Monte-Carlo estimate over its bounding box with the inside test."""
+    if mesh.defects.watertight:
+        return abs(float(mesh.defects.volume)), True
+    from .geometry.inside import InsideQuery
+
+    query = InsideQuery(mesh) if query is None else query
+    lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+    u = np.random.default_rng(seed).random((VOLUME_SAMPLES, 3))
+    frac = float(np.mean(query.query(lo + u * (hi - lo))))
+    return frac * float(np.prod(hi - lo)), False
+
+
+def _warn_defects(m, name: str) -> None:
+    fixed = m.defects.repairs()
+    if fixed:
+        warnings.warn(f"{name}: removed on load: {', '.join(fixed)}", UserWarning, stacklevel=3)
+
+
+def _rescale_masses(body: Body, density: float, volume: float) -> Body:
+    """Scale tet-lumped masses so they total density x ``volume``."""
+    tet_volume = float(body.volume)
+    if body.masses is not None and tet_volume > 0:
+        body.masses = body.masses * (volume / tet_volume)
+    body.meta["tet_volume"] = tet_volume
+    body.volume = volume
+    return body
 
 
 def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RADIUS,
@@ -86,8 +123,11 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     sampling = Sampling(sampling)
     if points < 4:
         raise BuildError(f"points must be >= 4, got {points}")
+    if not (np.isfinite(density) and density > 0):
+        raise BuildError(f"density must be a positive number of kg/m^3, got {density}")
     m = _mesh_of(mesh)
     name = str(m.path) if getattr(m, "path", None) else "mesh"
+    _warn_defects(m, name)
     if connect is Connect.TETGEN:
         from .geometry.tetra import tetgen_body
 
@@ -100,15 +140,21 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
         return body
     query = InsideQuery(m, rule=rule)
     lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)
-    volume = abs(float(m.defects.volume))
+    volume, exact = enclosed_volume(m, query, seed=seed)
+    if not exact:
+        warnings.warn(f"{name}: the surface is open, so its enclosed volume {volume:.6g} is a "
+                      f"Monte-Carlo estimate ({VOLUME_SAMPLES} samples) with the "
+                      f"{query.rule} rule", UserWarning, stacklevel=2)
+    if volume <= 0:
+        raise BuildError(f"{name}: the surface encloses no volume (no inside points found)")
     if connect is Connect.MARCHING:
         from .geometry.tetra import marching_grid
 
         if h is None:
             h = (volume / points) ** (1.0 / 3.0)
         body = marching_grid(m.vertices, m.faces, query.query, h=h, density=density)
-        body.meta.update(source=name, connect="marching")
-        return body
+        body.meta.update(source=name, connect="marching", h=float(h))
+        return _rescale_masses(body, density, volume)
     try:
         pts = sample_inside(query.query, lo, hi, points, method=sampling, seed=seed,
                             volume=volume)
@@ -124,7 +170,7 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
         body = delaunay_body(pts, m.vertices, m.faces, query.query, epsilon=epsilon, seed=seed,
                              density=density, **kw)
         body.meta.update(source=name, connect="delaunay", sampling=sampling.value)
-        return body
+        return _rescale_masses(body, density, volume)
     pts = pts[morton_order(pts)]
     chosen = radius is None
     if chosen:

@@ -94,6 +94,17 @@ class MeshDefects:
             out.append(f"{self.inconsistent_edges} inconsistently oriented edges")
         return out
 
+    def repairs(self) -> list[str]:
+        """Short phrases naming the faces :func:`load_mesh` had to remove."""
+        out = []
+        for count, what in ((self.duplicate_faces, "duplicate faces"),
+                            (self.reversed_duplicate_faces, "reversed duplicate faces"),
+                            (self.repeated_index_faces, "faces repeating a vertex"),
+                            (self.zero_area_faces, "zero-area faces")):
+            if count:
+                out.append(f"{count} {what}")
+        return out
+
     def describe(self) -> str:
         """A human-readable multi-line report (what ``jellysim inspect`` prints)."""
         lines = [

@@ -1,0 +1,143 @@
+"""From a surface mesh to a body: sampling, builders, mass, defective meshes, CLI."""
+import warnings
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from conftest import mesh_path
+from jellysim.build import build_body
+from jellysim.cli import cli
+from jellysim.errors import BuildError
+from jellysim.geometry import load_mesh
+from jellysim.geometry.jellyfile import read_body
+
+igl = pytest.importorskip("igl")
+
+CLOSED = ["cube.obj", "sphere.obj", "torus.obj", "hollow_sphere.obj", "spot.obj",
+          "featuretype.stl", "bunny.obj"]
+
+
+def oracle_inside(mesh, pts):
+    return igl.winding_number(mesh.vertices, mesh.faces, pts) > 0.5
+
+
+@pytest.mark.parametrize("name", CLOSED)
+@pytest.mark.parametrize("sampling", ["uniform", "edge", "grid", "poisson"])
+def test_samples_inside_exact_count(name, sampling):
+    mesh = load_mesh(mesh_path(name))
+    count = 300 if sampling == "poisson" else 700
+    body = build_body(mesh, points=count, sampling=sampling, connect="radius", seed=3)
+    assert body.point_count == count
+    assert np.all(oracle_inside(mesh, body.points))
+    if name == "hollow_sphere.obj":
+        # the cavity (inner shell: vertices at r = 0.5, faces a little closer) stays empty
+        assert np.linalg.norm(body.points, axis=1).min() > 0.49
+    if name == "torus.obj":
+        # the hole: the torus' axis region near its centre holds no points
+        lo, hi = mesh.vertices.min(0), mesh.vertices.max(0)
+        axis = int(np.argmin(hi - lo))
+        others = [a for a in range(3) if a != axis]
+        centre = 0.5 * (lo + hi)
+        r_in = np.linalg.norm((body.points - centre)[:, others], axis=1)
+        assert r_in.min() > 0.2 * (hi - lo)[others[0]] / 2
+
+
+def test_same_seed_same_body_and_radius_is_reported():
+    a = build_body(mesh_path("spot.obj"), points=500, seed=4, neighbours=20)
+    b = build_body(mesh_path("spot.obj"), points=500, seed=4, neighbours=20)
+    assert np.array_equal(a.points, b.points) and np.array_equal(a.springs, b.springs)
+    assert a.meta["radius_chosen_for_neighbours"] == 20
+    assert a.meta["mean_neighbours"] == pytest.approx(20, rel=0.02)
+
+
+@pytest.mark.parametrize("connect", ["radius", "marching", "delaunay", "tetgen"])
+@pytest.mark.parametrize("name", ["sphere.obj", "torus.obj"])
+def test_mass_is_density_times_enclosed_volume(connect, name):
+    from jellysim.model import finalize
+
+    mesh = load_mesh(mesh_path(name))
+    true_volume = abs(mesh.defects.volume)
+    body = build_body(mesh, points=600, connect=connect, density=1141.0, seed=1)
+    assert body.volume == pytest.approx(true_volume, rel=1e-12)
+    model = finalize(body, stiffness=1.0, density=1141.0)
+    assert model.total_mass == pytest.approx(1141.0 * true_volume, rel=1e-9)
+    assert np.all(model.particle_mass > 0)
+
+
+@pytest.mark.parametrize("connect", ["delaunay", "marching"])
+def test_tet_builders_keep_only_inside_tets(connect):
+    mesh = load_mesh(mesh_path("hollow_sphere.obj"))
+    body = build_body(mesh, points=1500, connect=connect, seed=2)
+    cent = body.points[body.tets].mean(axis=1)
+    assert np.all(oracle_inside(mesh, cent))
+    edges = np.unique(np.sort(np.concatenate(
+        [body.tets[:, [a, b]] for a in range(4) for b in range(a + 1, 4)]), axis=1), axis=0)
+    assert np.array_equal(edges, body.springs)
+
+
+# Defective meshes: which build with a warning naming the defect, which refuse (and how).
+DEFECTIVE = [
+    ("block.obj", "radius", "4 faces repeating a vertex", None),
+    ("block.obj", "tetgen", None, "intersects itself"),
+    ("spot_defects.obj", "delaunay", "20 duplicate faces", None),
+    ("spot_defects.obj", "tetgen", "20 duplicate faces", None),
+    ("suzanne.obj", "radius", "boundary edges", None),
+    ("suzanne.obj", "tetgen", None, "boundary edges"),
+    ("teapot.obj", "delaunay", "160 boundary edges", None),
+    ("teapot.obj", "tetgen", None, "160 boundary edges"),
+    ("cube_no_bottom.obj", "marching", "8 boundary edges", None),
+    ("cube_no_bottom.obj", "tetgen", None, "8 boundary edges"),
+]
+
+
+@pytest.mark.parametrize("name,connect,warns,refuses", DEFECTIVE)
+def test_defective_meshes(name, connect, warns, refuses):
+    path = mesh_path(name)
+    if refuses:
+        with pytest.raises(BuildError) as info, warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            build_body(path, points=400, connect=connect)
+        msg = str(info.value)
+        assert refuses in msg and "delaunay" in msg  # names the defect, suggests a fix
+        return
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        body = build_body(path, points=400, connect=connect, seed=1)
+    assert any(warns in str(w.message) and name in str(w.message) for w in caught), \
+        [str(w.message) for w in caught]
+    # sensible: sample points (or tet centroids) inside the (repaired / winding-number) solid
+    mesh = load_mesh(path)
+    probe = body.points if body.tets is None else body.points[body.tets].mean(axis=1)
+    w = igl.winding_number(mesh.vertices, mesh.faces, probe)
+    assert np.all(w > 0.5)
+    assert body.spring_count > body.point_count
+
+
+def test_spot_defects_builds_the_same_body_as_spot():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        a = build_body(mesh_path("spot.obj"), points=400, seed=5)
+        b = build_body(mesh_path("spot_defects.obj"), points=400, seed=5)
+    assert np.array_equal(a.points, b.points) and np.array_equal(a.springs, b.springs)
+
+
+def test_cli_build_and_inspect(tmp_path):
+    out = tmp_path / "sphere.jello"
+    runner = CliRunner()
+    res = runner.invoke(cli, ["build", str(mesh_path("sphere.obj")), "--points", "300",
+                              "--connect", "delaunay", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    body = read_body(out)
+    assert body.tets is not None and len(body.tets) > 0
+    vol = abs(load_mesh(mesh_path("sphere.obj")).defects.volume)
+    assert body.volume == pytest.approx(vol, rel=1e-12)
+    res = runner.invoke(cli, ["inspect", str(out)])
+    assert res.exit_code == 0
+    assert f"{body.point_count}" in res.output and "springs per point" in res.output
+    assert f"{1141.0 * vol:.6g}" in res.output  # mass
+    res = runner.invoke(cli, ["inspect", str(mesh_path("teapot.obj"))])
+    assert res.exit_code == 0 and "boundary edges:          160" in res.output
+    res = runner.invoke(cli, ["build", str(tmp_path / "missing.obj"), "-o", str(out)])
+    assert res.exit_code == 2 and "missing.obj" in res.output and "Traceback" not in res.output
+    assert read_body(out).point_count == body.point_count  # the old file is intact
