@@ -1,128 +1,80 @@
-"""Benchmark: a 100k-point Delaunay body inside the bunny; prints one JSON object.
+"""Build benchmark: a 100k-point Delaunay body from bunny.obj, radius springs for 1M points.
 
-    PYTHONPATH=src python benchmarks/bench_build.py [--points 100000] [--repeat 3]
+    python -m benchmarks.bench_build [--points 100000] [--radius-points 1000000] [--repeat 3]
 
-Needs ``../shared/meshes/bunny.obj`` (the Stanford bunny is not redistributed with jellysim),
-trimesh and libigl.  The inside test is libigl's generalized winding number (> 0.5) until
-``jellysim.geometry.inside`` exists; its time is part of ``delaunay_body`` (tet-centroid carving)
-and is also reported on its own.
+The Delaunay body is built by the real pipeline, ``jellysim.build.build_body(bunny.obj,
+points=N, connect="delaunay")``: the exact slicing inside test (``InsideQuery``), the report's
+sampling (uniform field, keep the inside points until exactly N), the surface vertices added,
+then ``delaunay_body`` (near duplicates, Qhull, slivers, carving).  The mesh load is not timed.
+Radius springs: the report's scene recipe at 1M edge-favouring points, r = 0.3 (600 / N)^(1/3),
+with the parallel cell grid (``method="grid"``) and, with ``--kdtree``, cKDTree.query_pairs.
+Needs ``../shared/meshes/bunny.obj`` (Stanford terms: not redistributed with jellysim).
 """
 from __future__ import annotations
 
 import argparse
 import json
 import os
-import platform
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "src"))
-
-from jellysim.geometry.tetra import delaunay_body, tetgen_body  # noqa: E402
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
+def main(argv=None) -> None:
+    import warnings
+
+    from jellysim.build import build_body
+    from jellysim.geometry import load_mesh
+    from jellysim.geometry.connect import radius_springs
+    from jellysim.geometry.sampling import box_field
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", type=int, default=100_000)
+    ap.add_argument("--radius-points", type=int, default=1_000_000)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--kdtree", action="store_true", help="also time cKDTree.query_pairs")
     ap.add_argument("--mesh", default=str(ROOT.parent / "shared" / "meshes" / "bunny.obj"))
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
 
-    import igl
-    import trimesh
-
-    m = trimesh.load(args.mesh, force="mesh", process=True)
-    m = trimesh.Trimesh(np.asarray(m.vertices), np.asarray(m.faces), process=True)
-    v = np.asarray(m.vertices, dtype=np.float64)
-    f = np.asarray(m.faces, dtype=np.int64)
-
-    calls = {"n": 0, "points": 0, "seconds": 0.0}
-    wn = {"exact": igl.winding_number, "fast": igl.fast_winding_number}
-
-    def make_inside(kind):
-        def inside(p):
-            t = time.perf_counter()
-            r = wn[kind](v, f, np.ascontiguousarray(p, dtype=np.float64)) > 0.5
-            calls["n"] += 1
-            calls["points"] += len(p)
-            calls["seconds"] += time.perf_counter() - t
-            return r
-        return inside
-
-    inside = make_inside("exact")
-
-    # the point cloud: the surface vertices + uniform samples inside (seeded)
-    t0 = time.perf_counter()
-    rng = np.random.default_rng(0)
-    need = args.points - len(v)
-    lo, hi = v.min(axis=0), v.max(axis=0)
-    chunks, have = [], 0
-    while have < need:
-        c = rng.uniform(lo, hi, size=(max(need - have, 1000) * 4, 3))
-        c = c[inside(c)]
-        chunks.append(c)
-        have += len(c)
-    pts = np.vstack([v, np.vstack(chunks)[:need]])
-    t_sample = time.perf_counter() - t0
-
-    runs = {}
-    for kind in ("exact", "fast"):
-        times, cpu_times, inside_times = [], [], []
-        for _ in range(args.repeat):
-            calls.update(n=0, points=0, seconds=0.0)
-            t, c = time.perf_counter(), time.process_time()
-            body = delaunay_body(pts, v, f, make_inside(kind))
-            times.append(time.perf_counter() - t)
-            cpu_times.append(time.process_time() - c)
-            inside_times.append(calls["seconds"])
-        runs[kind] = {
-            "inside_test": f"igl.{wn[kind].__name__} > 0.5",
-            "seconds": [round(x, 3) for x in times],
-            "seconds_best": round(min(times), 3),
-            "cpu_seconds": [round(x, 3) for x in cpu_times],
-            "inside_test_seconds": [round(x, 3) for x in inside_times],
-            "inside_test_points": calls["points"],
-            "seconds_without_inside_test_best": round(
-                min(a - b for a, b in zip(times, inside_times)), 3),
-            "body_tets": int(len(body.tets)),
-        }
-
-    t = time.perf_counter()
-    tg = tetgen_body(v, f)
-    t_tetgen = time.perf_counter() - t
-
-    out = {
-        "benchmark": "build_delaunay_bunny",
-        "mesh": Path(args.mesh).name,
-        "mesh_vertices": int(len(v)),
-        "mesh_faces": int(len(f)),
-        "input_points": int(len(pts)),
-        "inside_test_note": "libigl winding number > 0.5 as a stand-in for "
-                            "jellysim.geometry.inside (exact: igl.winding_number; fast: "
-                            "igl.fast_winding_number); sampling always uses the exact one",
-        "sampling_seconds": round(t_sample, 3),
-        "delaunay_body": runs,
-        "target_seconds": 10.0,
-        "body_points": body.point_count,
-        "body_springs": body.spring_count,
-        "body_volume": body.volume,
-        "mesh_volume": float(m.volume),
-        "volume_rel_error": body.volume / float(m.volume) - 1.0,
-        "near_duplicates_removed": body.meta["near_duplicates_removed"],
-        "slivers_removed": body.meta["slivers_removed"],
-        "outside_removed": body.meta["outside_removed"],
-        "tetgen_body_seconds": round(t_tetgen, 3),
-        "tetgen_body_points": tg.point_count,
-        "tetgen_volume_rel_error": tg.volume / float(m.volume) - 1.0,
-        "cpu_count": os.cpu_count(),
-        "load_average_1_5_15_min_at_end": [round(x, 2) for x in os.getloadavg()],
-        "python": platform.python_version(),
-        "numpy": np.__version__,
+    out = {"cpu_count": os.cpu_count()}
+    mesh = load_mesh(args.mesh)
+    build_body(mesh, points=2000, connect="delaunay")  # compile / load numba caches
+    times = []
+    for _ in range(args.repeat):
+        t = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            body = build_body(mesh, points=args.points, connect="delaunay", seed=0)
+        times.append(time.perf_counter() - t)
+    out["delaunay_bunny"] = {
+        "mesh": Path(args.mesh).name, "requested_points": args.points,
+        "seconds": times, "seconds_median": float(np.median(times)), "target_seconds": 10.0,
+        "body_points": body.point_count, "body_tets": int(len(body.tets)),
+        "body_springs": body.spring_count, "tet_volume": body.meta["tet_volume"],
+        "mesh_volume": body.volume,
+        "tet_volume_rel_error": body.meta["tet_volume"] / body.volume - 1.0,
     }
+    print(json.dumps(out["delaunay_bunny"]), flush=True, file=__import__("sys").stderr)
+
+    n = args.radius_points
+    r = 0.3 * (600 / n) ** (1 / 3)
+    pts = box_field(n, [0, 0, 0], [1, 1, 1], distribution="edge", seed=1)
+    radius_springs(pts[:2000], r, method="grid")  # compile / load cache
+    methods = ["grid"] + (["kdtree"] if args.kdtree else [])
+    out["radius_1M"] = {"points": n, "radius_m": r, "target_seconds": 10.0}
+    for method in methods:
+        times = []
+        for _ in range(args.repeat if method == "grid" else 1):
+            t = time.perf_counter()
+            springs = radius_springs(pts, r, method=method)
+            times.append(time.perf_counter() - t)
+        out["radius_1M"][method] = {"seconds": times, "seconds_median": float(np.median(times)),
+                                    "springs": int(len(springs))}
+        del springs
+    out["load_average_at_end"] = list(os.getloadavg())
     print(json.dumps(out, indent=2))
 
 
