@@ -33,16 +33,17 @@ class RunResult:
 
 
 def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
-              steps: int | None = None, skin="auto") -> RunResult:
+              steps: int | None = None, skin="auto", body=None) -> RunResult:
     """Simulate ``scene`` (a :class:`~jellysim.scene.Scene`) and write its outputs.
 
     ``skin``: a :class:`~jellysim.skin.Skin` to carry, ``None`` for none, or ``"auto"``
-    (:func:`jellysim.skin.default_skin`: the box surface for box scenes)."""
+    (:func:`jellysim.skin.default_skin`: the box surface for box scenes).
+    ``body``: a :class:`~jellysim.body.Body` to simulate instead of the scene's own."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        model = scene.build_model()
+        model = scene.build_model(body)
         sim = scene.simulator(model)
     messages = [str(w.message) for w in caught]
     if isinstance(skin, str) and skin == "auto":

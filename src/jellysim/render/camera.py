@@ -13,7 +13,7 @@ import numpy as np
 
 __all__ = ["Camera", "frame_motion"]
 
-DEFAULT_DIRECTION = (0.9, 0.55, 1.6)
+DEFAULT_DIRECTION = (1.6, 0.7, 1.0)
 """From the focal point towards the camera (x, y up, z)."""
 
 
@@ -39,7 +39,7 @@ class Camera:
 
 
 def frame_motion(positions: np.ndarray, size: tuple[int, int], *, view_angle: float = 30.0,
-                 direction=DEFAULT_DIRECTION, margin: float = 1.08,
+                 direction=DEFAULT_DIRECTION, margin: float = 0.85,
                  extra_points: np.ndarray | None = None) -> Camera:
     """A camera that keeps all of ``positions`` in view.
 
