@@ -35,7 +35,7 @@ def export_glb(traj, path, *, max_frames: int | None = None) -> Path:
     idx = np.arange(len(frames))
     if max_frames is not None and len(idx) > max_frames:
         idx = np.unique(np.linspace(0, len(frames) - 1, int(max_frames)).round().astype(int))
-    frames = np.asarray(frames[idx], dtype=np.float32)
+    frames = np.stack([np.asarray(frames[int(i)], dtype=np.float32) for i in idx])
     times = (times[idx] - times[idx[0]]).astype(np.float32)
     n_frames, m = frames.shape[0], frames.shape[1]
     if n_frames == 0 or m == 0:

@@ -16,14 +16,34 @@ from .atomic import atomic_path
 __all__ = ["export_usd", "surface_of"]
 
 
-def surface_of(traj) -> tuple[np.ndarray, np.ndarray]:
-    """The surface to export: ``(vertices per frame [m] (F, m, 3), faces (f, 3))``.
+class _Frames:
+    """Lazy sequence of surface vertex arrays [m], each (m, 3): one per trajectory frame."""
+
+    def __init__(self, traj, skin: bool):
+        self.traj, self.skin = traj, skin
+
+    def __len__(self) -> int:
+        return self.traj.frame_count
+
+    def __getitem__(self, k):
+        if isinstance(k, (slice, np.ndarray, list)):
+            idx = np.arange(len(self))[k]
+            return np.stack([self[int(i)] for i in idx]) if len(idx) else np.zeros((0, 0, 3))
+        return (self.traj.skin_positions(k) if self.skin else self.traj.positions[k])
+
+    def __iter__(self):
+        return (self[k] for k in range(len(self)))
+
+
+def surface_of(traj):
+    """The surface to export: ``(frames, faces (f, 3))`` where ``frames[k]`` are frame k's
+    vertices [m] (m, 3), computed on demand (a long run is never expanded all at once).
 
     The skin when the trajectory has one, else the body's surface triangles."""
     if traj.skin is not None:
-        return traj.skin_positions(), traj.skin.faces
+        return _Frames(traj, True), traj.skin.faces
     if len(traj.triangles):
-        return traj.positions, np.asarray(traj.triangles, dtype=np.int64)
+        return _Frames(traj, False), np.asarray(traj.triangles, dtype=np.int64)
     raise JellysimError("this trajectory has no skin and no surface triangles to export; "
                         "export it as ParaView (.pvd) instead")
 

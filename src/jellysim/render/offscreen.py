@@ -66,6 +66,24 @@ def _faces(tri: np.ndarray) -> np.ndarray:
     return np.hstack([np.full((len(tri), 1), 3, dtype=np.int64), tri]).ravel()
 
 
+def _motion_bounds(traj, surface_frames, chunk: int = 32) -> np.ndarray:
+    """Lower and upper corners [m] of the bounding box of points and surface in each chunk of
+    frames, stacked: shape (2 c, 3).  Never expands every frame's surface at once."""
+    corners = []
+    for start in range(0, traj.frame_count, chunk):
+        sl = slice(start, min(start + chunk, traj.frame_count))
+        blocks = [traj.positions[sl].reshape(-1, 3)]
+        if surface_frames is not None:
+            blocks.append(np.asarray(surface_frames(sl)).reshape(-1, 3))
+        a = np.concatenate(blocks)
+        a = a[np.all(np.isfinite(a), axis=1)]
+        if len(a):
+            corners += [a.min(axis=0), a.max(axis=0)]
+    if not corners:
+        raise JellysimError("the trajectory has no finite positions to draw")
+    return np.array(corners)
+
+
 class Renderer:
     """Draws frames of a :class:`~jellysim.io.trajectory.Trajectory`.
 
@@ -99,13 +117,8 @@ class Renderer:
         p = self.plotter
         p.set_background(o.background)
 
-        every = [traj.positions]
-        if self._surface_frames is not None:
-            allsurf = self._surface_frames(slice(None))
-            every.append(allsurf)
-        motion = np.concatenate([a.reshape(-1, 3) for a in every])
-        finite = motion[np.all(np.isfinite(motion), axis=1)]
-        lo, hi = finite.min(axis=0), finite.max(axis=0)
+        motion = _motion_bounds(traj, self._surface_frames)     # (2 F', 3) box corners
+        lo, hi = motion.min(axis=0), motion.max(axis=0)
         gh = ground_height(traj)
         extra = None
         if o.floor:
