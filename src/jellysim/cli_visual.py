@@ -152,8 +152,8 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
 @click.command()
 @click.argument("trajectory", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(),
-              help="run.usdc / .usda, run.glb, run.pvd (ParaView series), or a folder ending "
-                   "in /obj or /ply... see --sequence.")
+              help="run.usdc / .usda (USD), run.glb (glTF), run.pvd (ParaView series), or a "
+                   "folder with --sequence.")
 @click.option("--sequence", type=click.Choice(["obj", "ply"]), default=None,
               help="Write the skin as one OBJ/PLY file per frame into the folder OUTPUT.")
 @click.option("--fps", type=click.FloatRange(min=0.1), default=None,
