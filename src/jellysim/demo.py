@@ -64,7 +64,7 @@ def build_demo_body():
     from .body import Body
     from .geometry.connect import radius_springs
     from .geometry.sampling import morton_order
-    from .skin import bind_skin, body_tets
+    from .skin import bind_body_skin
 
     verts, faces = demo_mesh()
     mesh = trimesh.Trimesh(verts, faces, process=False)
@@ -96,7 +96,7 @@ def build_demo_body():
     springs = radius_springs(points, DEMO_SHAPE["radius_factor"] * h)
     body = Body(points=points, springs=springs, volume=float(mesh.volume),
                 meta={"builder": "demo-spot", **DEMO_SHAPE})
-    skin = bind_skin(points, body_tets(points, springs), verts, faces)
+    skin = bind_body_skin(body, verts, faces)
     return body, skin
 
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from .errors import BuildError
 
-__all__ = ["Skin", "bind_skin", "body_tets", "box_skin", "box_surface", "default_skin",
+__all__ = ["Skin", "bind_body_skin", "bind_skin", "body_tets", "box_skin", "box_surface", "default_skin",
            "identity_skin"]
 
 CANDIDATES = 16
@@ -207,6 +207,13 @@ def bind_skin(points: np.ndarray, tets: np.ndarray, vertices: np.ndarray,
                 weights=np.ascontiguousarray(weights))
 
 
+def bind_body_skin(body, vertices: np.ndarray, faces: np.ndarray) -> Skin:
+    """Bind a surface (vertices [m] (m, 3), faces (f, 3)) to a :class:`~jellysim.body.Body`:
+    its tets when it has some, else the spring-spanned Delaunay cells of its points."""
+    tets = body_tets(body.points, body.springs, body.tets)
+    return bind_skin(body.points, tets, vertices, faces)
+
+
 def identity_skin(points: np.ndarray, triangles: np.ndarray) -> Skin:
     """A skin whose vertices are the body points themselves (weight 1 on one point)."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
@@ -259,8 +266,7 @@ def box_surface(lower, upper, divisions: int = 8) -> tuple[np.ndarray, np.ndarra
 def box_skin(body, lower, upper, divisions: int = 8) -> Skin:
     """The box's surface bound to a (random field) body inside it."""
     verts, faces = box_surface(lower, upper, divisions)
-    tets = body_tets(body.points, body.springs, body.tets)
-    return bind_skin(body.points, tets, verts, faces)
+    return bind_body_skin(body, verts, faces)
 
 
 def default_skin(scene, body) -> Skin | None:
