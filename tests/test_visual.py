@@ -123,6 +123,9 @@ def test_usd_has_one_time_sample_per_frame_equal_to_the_skin(traj, tmp_path):
     from jellysim.io.usd import export_usd
 
     path = export_usd(traj, tmp_path / "run.usdc")
+    umask = os.umask(0)
+    os.umask(umask)
+    assert path.stat().st_mode & 0o777 == 0o666 & ~umask     # shareable, not mkstemp's 0600
     stage = Usd.Stage.Open(str(path))
     assert UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y
     meshes = [UsdGeom.Mesh(p) for p in stage.Traverse() if p.IsA(UsdGeom.Mesh)]
