@@ -96,3 +96,18 @@ def test_skin_is_stored_in_the_trajectory_and_old_files_load(tmp_path):
     assert traj.skin_positions().shape == (2, skin.vertex_count, 3)
     old = load_trajectory(Recorder(model).save(tmp_path / "old.npz"))
     assert old.skin is None and old.skin_positions(0) is None
+
+
+def test_vertex_outside_every_tet_is_extrapolated_from_the_nearest_tet():
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1.0],
+                       [5, 0, 0], [6, 0, 0], [5, 1, 0], [5, 0, 1]])
+    tets = np.array([[0, 1, 2, 3], [5, 6, 7, 8]])
+    outside = np.array([[0.2, 0.2, -0.05], [5.2, 0.2, -0.05]])   # just below each tet
+    skin = bind_skin(points, tets, outside, np.zeros((0, 3), dtype=int))
+    assert skin.point_index[0].tolist() == tets[0].tolist()
+    assert skin.point_index[1].tolist() == tets[1].tolist()
+    assert np.all(skin.weights.min(axis=1) < 0)                  # extrapolated, not dropped
+    np.testing.assert_allclose(skin.weights.sum(axis=1), 1.0, atol=1e-12)
+    np.testing.assert_allclose(skin.deform(points), outside, atol=1e-12)
+    # a uniform scaling of the body scales the extrapolated vertices with it (affine)
+    np.testing.assert_allclose(skin.deform(2.0 * points), 2.0 * outside, atol=1e-12)
