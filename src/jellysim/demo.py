@@ -15,7 +15,7 @@ __all__ = ["DEMO_SCENE", "DEMO_SHAPE", "build_demo_body", "demo_mesh", "run_demo
 
 DEMO_SHAPE = {
     "length": 0.40,        # [m] longest side of the cow
-    "drop_height": 0.07,   # [m] gap between the hooves and the table at t = 0
+    "drop_height": 0.03,   # [m] gap between the hooves and the table at t = 0
     "spacing": 0.024,      # [m] grid spacing of the interior points
     "radius_factor": 1.75,  # spring radius = factor x spacing
     "seed": 7,
@@ -56,8 +56,8 @@ def build_demo_body():
     """The demo's jello body and its skin: ``(Body, Skin)``.
 
     Interim builder (until the mesh-to-body builders are merged): points on a jittered grid
-    inside Spot (trimesh's exact ``contains``) plus evenly spread points on its surface,
-    radius springs, mass from density x mesh volume; the skin is Spot bound to the Delaunay
+    inside Spot (trimesh's ``contains``) plus evenly spread points on its surface, mirrored
+    left-right, radius springs, mass from density x mesh volume; the skin is Spot bound to the Delaunay
     cells of the points (:func:`jellysim.skin.body_tets`)."""
     import trimesh
 
@@ -71,16 +71,21 @@ def build_demo_body():
     h = DEMO_SHAPE["spacing"]
     rng = np.random.default_rng(DEMO_SHAPE["seed"])
     lo, hi = mesh.bounds
-    axes = [np.arange(lo[i] + 0.5 * h, hi[i], h) for i in range(3)]
-    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    grid += rng.uniform(-0.15 * h, 0.15 * h, grid.shape)
-    inside = grid[mesh.contains(grid)]
-    # keep interior points at least h/2 from the surface, then add surface points
+    # Spot is left-right symmetric about x = 0 (demo_mesh centres it): build the left half and
+    # mirror it, so the body has no built-in lean that would tip the cow over on landing.
+    xs = -np.arange(0.5 * h, max(-lo[0], hi[0]), h)
+    axes = [xs, np.arange(lo[1] + 0.5 * h, hi[1], h), np.arange(lo[2] + 0.5 * h, hi[2], h)]
+    half = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    half += rng.uniform(-0.15 * h, 0.15 * h, half.shape)
+    half[:, 0] = np.minimum(half[:, 0], -0.3 * h)
+    mirror = half * [-1.0, 1.0, 1.0]
     from scipy.spatial import cKDTree
 
     dense, _ = trimesh.sample.sample_surface(mesh, 30000, seed=DEMO_SHAPE["seed"])
-    dist, _ = cKDTree(np.asarray(dense)).query(inside)
-    inside = inside[dist > 0.45 * h]
+    tree = cKDTree(np.asarray(dense))
+    keep = mesh.contains(half) & mesh.contains(mirror)
+    keep &= np.minimum(tree.query(half)[0], tree.query(mirror)[0]) > 0.45 * h
+    inside = np.concatenate([half[keep], mirror[keep]])
     import logging
 
     quiet = logging.getLogger("trimesh")
@@ -91,7 +96,10 @@ def build_demo_body():
                                                         seed=DEMO_SHAPE["seed"])
     finally:
         quiet.setLevel(level)
-    points = np.concatenate([inside, np.asarray(surface)])
+    surface = np.asarray(surface)
+    surface = surface[surface[:, 0] < -0.3 * h]
+    surface = np.concatenate([surface, surface * [-1.0, 1.0, 1.0]])
+    points = np.concatenate([inside, surface])
     points = points[morton_order(points)]
     springs = radius_springs(points, DEMO_SHAPE["radius_factor"] * h)
     body = Body(points=points, springs=springs, volume=float(mesh.volume),
