@@ -151,7 +151,30 @@ def test_glb_morph_targets_reproduce_each_frame(traj, tmp_path):
     for k in range(traj.frame_count):
         np.testing.assert_allclose(glb_frame_positions(path, k), traj.skin_positions(k),
                                    atol=1e-5)
-    # an independent reader sees the base mesh (frame 0)
+    # independent readers: pygltflib (morph targets, animation) and trimesh (base mesh)
+    import pygltflib
+
+    g = pygltflib.GLTF2().load_binary(str(path))
+    blob = g.binary_blob()
+
+    def acc(i):
+        a = g.accessors[i]
+        v = g.bufferViews[a.bufferView]
+        width = {"SCALAR": 1, "VEC3": 3}[a.type]
+        dtype = {pygltflib.FLOAT: np.float32, pygltflib.UNSIGNED_INT: np.uint32}[
+            a.componentType]
+        start = (v.byteOffset or 0) + (a.byteOffset or 0)
+        return np.frombuffer(blob, dtype, a.count * width, start).reshape(a.count, width)
+
+    p = g.meshes[0].primitives[0]
+    base = acc(p.attributes.POSITION).astype(float)
+    sampler = g.animations[0].samplers[0]
+    times = acc(sampler.input).ravel()
+    weights = acc(sampler.output).reshape(len(times), -1)
+    np.testing.assert_allclose(times, traj.times - traj.times[0], atol=1e-6)
+    for k in (1, traj.frame_count - 1):
+        pos = base + sum(w * acc(t["POSITION"]) for w, t in zip(weights[k], p.targets))
+        np.testing.assert_allclose(pos, traj.skin_positions(k), atol=1e-5)
     mesh = trimesh.load(path, force="mesh", process=False)
     assert len(mesh.faces) == len(traj.skin.faces)
     np.testing.assert_allclose(np.asarray(mesh.vertices), traj.skin_positions(0), atol=1e-5)
