@@ -247,6 +247,11 @@ def test_cli_render_and_export_errors_are_clear(run_dir, tmp_path):
     assert r.exit_code == 2 and "not found" in r.output
     r = CliRunner().invoke(cli, ["export", t, "-o", str(tmp_path / "x.fbx")])
     assert r.exit_code == 2 and "unknown export type" in r.output
+    r = CliRunner().invoke(cli, ["export", t, "-o", str(tmp_path / "x.glb"), "--max-frames", "3"])
+    assert r.exit_code == 0, r.output
+    from jellysim.io.gltf import read_glb
+
+    assert len(read_glb(tmp_path / "x.glb")[0]["meshes"][0]["primitives"][0]["targets"]) == 3
 
 
 def test_cli_render_one_picture(run_dir, tmp_path):

@@ -158,7 +158,10 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
               help="Write the skin as one OBJ/PLY file per frame into the folder OUTPUT.")
 @click.option("--fps", type=click.FloatRange(min=0.1), default=None,
               help="Frames per second of the USD stage (default: real time).")
-def export(trajectory, output, sequence, fps):
+@click.option("--max-frames", type=click.IntRange(min=2), default=None,
+              help="glb: keep at most this many frames (evenly spaced), one morph target "
+                   "each.")
+def export(trajectory, output, sequence, fps, max_frames):
     """Export TRAJECTORY for other tools: USD, glTF (.glb), ParaView (.pvd), OBJ/PLY."""
     out = Path(output)
     try:
@@ -177,7 +180,7 @@ def export(trajectory, output, sequence, fps):
         elif suffix == ".glb":
             from .io.gltf import export_glb
 
-            written = [export_glb(traj, out)]
+            written = [export_glb(traj, out, max_frames=max_frames)]
         elif suffix == ".pvd":
             from .io.vtk import export_pvd
 
