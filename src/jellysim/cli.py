@@ -27,7 +27,13 @@ def cli() -> None:
               help="Override the scene's step count (e.g. a quick test run).")
 @click.option("--no-vtu", is_flag=True, help="Skip the ParaView .pvd/.vtu series.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def run(scene_file, out_dir, steps, no_vtu, quiet) -> None:
+@click.option("--video", type=click.Path(dir_okay=False), default=None,
+              help="Also render the run to this .mp4/.gif (see 'jellysim render').")
+@click.option("--usd", type=click.Path(dir_okay=False), default=None,
+              help="Also export the skin to this .usdc (see 'jellysim export').")
+@click.option("--glb", type=click.Path(dir_okay=False), default=None,
+              help="Also export the skin to this glTF .glb.")
+def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None) -> None:
     """Simulate SCENE_FILE (TOML) and write trajectory.npz and body.pvd."""
     from pathlib import Path
 
@@ -49,6 +55,14 @@ def run(scene_file, out_dir, steps, no_vtu, quiet) -> None:
     click.echo(f"wrote {result.trajectory}")
     if result.pvd:
         click.echo(f"wrote {result.pvd} (+ {result.frames} .vtu frames)")
+    from .cli_visual import write_run_outputs
+
+    try:
+        for p in write_run_outputs(result.trajectory, video=video, usd=usd, glb=glb,
+                                   progress=not quiet):
+            click.echo(f"wrote {p}")
+    except JellysimError as exc:
+        _fail(str(exc))
 
 
 @cli.command()
@@ -142,6 +156,9 @@ def scene_help() -> None:
     from .scene import schema_markdown
 
     click.echo(schema_markdown())
+
+
+from .cli_visual import register; register(cli)  # noqa: E402,E702 (demo render export view plot)
 
 
 def main() -> None:

@@ -1,9 +1,10 @@
 """Run a scene: build, simulate frame by frame, record, write outputs.
 
 Outputs in ``out_dir``: ``trajectory.npz`` (see :mod:`jellysim.io.trajectory`) and, unless
-disabled, the ParaView series ``body.pvd`` + ``body_NNNNN.vtu``.  If the run goes unstable,
-the frames written so far are kept (the trajectory is saved with ``status = "failed: ..."``)
-and the :class:`~jellysim.errors.SimulationError` is re-raised.
+disabled, the ParaView series ``body.pvd`` + ``body_NNNNN.vtu`` (and ``skin.pvd`` +
+``skin_NNNNN.vtu`` when the body carries a skin, see :mod:`jellysim.skin`).  If the run goes
+unstable, the frames written so far are kept (the trajectory is saved with
+``status = "failed: ..."``) and the :class:`~jellysim.errors.SimulationError` is re-raised.
 """
 from __future__ import annotations
 
@@ -32,20 +33,34 @@ class RunResult:
 
 
 def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
-              steps: int | None = None) -> RunResult:
-    """Simulate ``scene`` (a :class:`~jellysim.scene.Scene`) and write its outputs."""
+              steps: int | None = None, skin="auto", body=None) -> RunResult:
+    """Simulate ``scene`` (a :class:`~jellysim.scene.Scene`) and write its outputs.
+
+    ``skin``: a :class:`~jellysim.skin.Skin` to carry, ``None`` for none, or ``"auto"``
+    (:func:`jellysim.skin.default_skin`: the box surface for box scenes).
+    ``body``: a :class:`~jellysim.body.Body` to simulate instead of the scene's own."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        model = scene.build_model()
+        model = scene.build_model(body)
         sim = scene.simulator(model)
     messages = [str(w.message) for w in caught]
+    if isinstance(skin, str) and skin == "auto":
+        from .errors import BuildError
+        from .skin import default_skin
+
+        try:
+            skin = default_skin(scene, model.body)
+        except BuildError as exc:
+            messages.append(f"no skin: {exc}")
+            skin = None
     total = scene.steps if steps is None else int(steps)
     every = scene.frame_every
-    recorder = Recorder(model, scene_text=scene.text, params=scene.params)
+    recorder = Recorder(model, scene_text=scene.text, params=scene.params, skin=skin)
     write_vtu = scene.params["output"]["vtu"] if vtu is None else vtu
     series = PVDSeries(out_dir) if write_vtu else None
+    skin_series = PVDSeries(out_dir, "skin") if write_vtu and skin is not None else None
     body = model.body
 
     def emit():
@@ -53,6 +68,8 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
         if series is not None:
             series.add(sim.state.t, sim.state.x, model.spring_ij, velocities=sim.state.v,
                        triangles=body.triangles)
+        if skin_series is not None:
+            skin_series.add_surface(sim.state.t, skin.deform(sim.state.x), skin.faces)
 
     emit()
     stepped = 0.0

@@ -19,6 +19,15 @@ Arrays stored (SI units):
 ``params_json``    str             every resolved parameter, as JSON
 ``status``         str             ``"complete"`` or ``"failed: <message>"``
 =================  ==============  =============================================
+
+Optional skin (:mod:`jellysim.skin`; absent in older files, which load with ``skin = None``):
+
+======================  ==========  ===========================================
+``skin_rest_vertices``  (m, 3) f8   skin vertices at rest [m]
+``skin_faces``          (f, 3) i8   skin triangles
+``skin_point_index``    (m, 4) i8   the four points each skin vertex follows
+``skin_weights``        (m, 4) f8   their weights (rows sum to 1)
+======================  ==========  ===========================================
 """
 from __future__ import annotations
 
@@ -36,8 +45,10 @@ __all__ = ["Recorder", "Trajectory", "load_trajectory"]
 class Recorder:
     """Collects frames of one run in memory and writes them as one ``.npz``."""
 
-    def __init__(self, model, *, scene_text: str = "", params: dict | None = None):
+    def __init__(self, model, *, scene_text: str = "", params: dict | None = None,
+                 skin=None):
         self.model = model
+        self.skin = skin
         self.scene_text = scene_text
         self.params = params or {}
         self.positions: list[np.ndarray] = []
@@ -57,6 +68,7 @@ class Recorder:
         empty3 = np.zeros((0, 3), dtype=np.int64)
         empty4 = np.zeros((0, 4), dtype=np.int64)
         n = m.particle_count
+        extra = self.skin.arrays() if self.skin is not None else {}
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as fh:
                 np.savez_compressed(
@@ -72,7 +84,7 @@ class Recorder:
                     tets=body.tets if body.tets is not None else empty4,
                     scene_toml=np.array(self.scene_text),
                     params_json=np.array(json.dumps(self.params, sort_keys=True)),
-                    status=np.array(status))
+                    status=np.array(status), **extra)
         return Path(path)
 
 
@@ -95,10 +107,24 @@ class Trajectory:
     scene_toml: str
     params: dict
     status: str
+    skin: object = None
+    """The :class:`~jellysim.skin.Skin` carried by the run, or ``None``."""
 
     @property
     def frame_count(self) -> int:
         return int(self.positions.shape[0])
+
+    @property
+    def point_count(self) -> int:
+        return int(self.positions.shape[1])
+
+    def skin_positions(self, frame: int | None = None) -> np.ndarray | None:
+        """Skin vertex positions [m]: shape (m, 3) for one ``frame``, (F, m, 3) for all
+        frames (``frame=None``); ``None`` when the trajectory has no skin."""
+        if self.skin is None:
+            return None
+        x = self.positions if frame is None else self.positions[frame]
+        return self.skin.deform(x)
 
 
 def load_trajectory(path) -> Trajectory:
@@ -122,4 +148,10 @@ def load_trajectory(path) -> Trajectory:
         springs=d["springs"], rest_length=d["rest_length"], stiffness=d["stiffness"],
         gravity=d["gravity"], triangles=d["triangles"], tets=d["tets"],
         scene_toml=str(d["scene_toml"]), params=json.loads(str(d["params_json"])),
-        status=str(d["status"]))
+        status=str(d["status"]), skin=_skin(d))
+
+
+def _skin(d):
+    from ..skin import Skin
+
+    return Skin.from_arrays(d)

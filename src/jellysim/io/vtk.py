@@ -1,5 +1,8 @@
 """ParaView output: one ``.vtu`` per frame (points + springs as lines) and a ``.pvd`` index.
 
+A skin (:mod:`jellysim.skin`) is written as its own series (``skin.pvd``) because its vertices
+are not the body's points.  :func:`export_pvd` writes both series from a saved trajectory.
+
 The ``.pvd`` file is rewritten (atomically) after every frame, so a run that stops early still
 leaves a valid series of the frames written so far.
 """
@@ -12,7 +15,7 @@ import numpy as np
 
 from .atomic import atomic_path
 
-__all__ = ["PVDSeries", "write_vtu"]
+__all__ = ["PVDSeries", "export_pvd", "write_vtu"]
 
 
 def write_vtu(path, points: np.ndarray, springs: np.ndarray, *, point_data=None,
@@ -51,6 +54,20 @@ class PVDSeries:
         self._write_index()
         return self.directory / fname
 
+    def add_surface(self, t: float, vertices, faces) -> Path:
+        """One frame of a triangle surface: vertices [m] (m, 3), faces (f, 3)."""
+        import meshio
+
+        index = len(self.entries)
+        fname = f"{self.name}_{index:05d}.vtu"
+        mesh = meshio.Mesh(np.asarray(vertices, dtype=np.float64),
+                           [("triangle", np.asarray(faces, dtype=np.int64))])
+        with atomic_path(self.directory / fname) as tmp:
+            meshio.write(tmp, mesh, file_format="vtu")
+        self.entries.append((float(t), fname))
+        self._write_index()
+        return self.directory / fname
+
     def _write_index(self) -> None:
         rows = "\n".join(
             f'    <DataSet timestep="{t!r}" group="" part="0" file={quoteattr(f)}/>'
@@ -60,3 +77,21 @@ class PVDSeries:
                "\n  </Collection>\n</VTKFile>\n")
         with atomic_path(self.pvd_path) as tmp:
             tmp.write_text(xml, encoding="utf-8")
+
+
+def export_pvd(traj, directory, name: str = "body") -> list[Path]:
+    """Write a loaded :class:`~jellysim.io.trajectory.Trajectory` as ParaView series:
+    ``<name>.pvd`` (points, springs as lines, surface triangles) and, when it has a skin,
+    ``<name>_skin.pvd``.  Returns the ``.pvd`` paths."""
+    body = PVDSeries(directory, name)
+    tri = traj.triangles if len(traj.triangles) else None
+    for f in range(traj.frame_count):
+        body.add(traj.times[f], traj.positions[f], traj.springs,
+                 velocities=traj.velocities[f], triangles=tri)
+    out = [body.pvd_path]
+    if traj.skin is not None:
+        skin = PVDSeries(directory, f"{name}_skin")
+        for f in range(traj.frame_count):
+            skin.add_surface(traj.times[f], traj.skin_positions(f), traj.skin.faces)
+        out.append(skin.pvd_path)
+    return out

@@ -1,0 +1,241 @@
+"""Command line, visual side: ``demo``, ``render``, ``export``, ``view``, ``plot``.
+
+Registered on the main group by :func:`register` (one line in :mod:`jellysim.cli`).  Every
+command reads saved trajectories only; none of them changes a simulation.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from .errors import JellysimError
+
+__all__ = ["register", "write_run_outputs"]
+
+
+def _fail(message: str) -> None:
+    click.secho(f"error: {message}", fg="red", err=True)
+    sys.exit(2)
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise click.BadParameter(f"'{text}' is not WIDTHxHEIGHT, e.g. 960x540") from None
+    if w < 16 or h < 16:
+        raise click.BadParameter("width and height must be at least 16 pixels")
+    return w, h
+
+
+def _options(size, color, opacity, show, no_floor):
+    from .render.offscreen import RenderOptions
+
+    show = {s.lower() for s in show}
+    return RenderOptions(size=_size(size), color=color, opacity=opacity,
+                         show_points="points" in show, show_springs="springs" in show,
+                         show_skin="skin" in show or not show or "all" in show,
+                         floor=not no_floor)
+
+
+def _load(path):
+    from .io.trajectory import load_trajectory
+
+    return load_trajectory(path)
+
+
+def write_run_outputs(trajectory, *, video=None, usd=None, glb=None, progress=True):
+    """After ``jellysim run``: render ``video`` and export ``usd`` / ``glb`` from the saved
+    trajectory.  Returns the paths written."""
+    out = []
+    if not (video or usd or glb):
+        return out
+    traj = _load(trajectory)
+    if video:
+        from .render.video import render_trajectory
+
+        out.append(render_trajectory(traj, video, progress=progress))
+    if usd:
+        from .io.usd import export_usd
+
+        out.append(export_usd(traj, usd))
+    if glb:
+        from .io.gltf import export_glb
+
+        out.append(export_glb(traj, glb))
+    return out
+
+
+_show = click.option("--show", multiple=True,
+                     type=click.Choice(["skin", "points", "springs", "all"],
+                                       case_sensitive=False),
+                     help="What to draw (repeatable; default: the skin). 'all' = everything.")
+_size_opt = click.option("--size", default="960x540", show_default=True,
+                         help="Image size WIDTHxHEIGHT in pixels.")
+_color = click.option("--color", default="#d81e3c", show_default=True,
+                      help="Skin colour (name or #rrggbb).")
+_opacity = click.option("--opacity", type=click.FloatRange(0.05, 1.0), default=0.7,
+                        show_default=True, help="Skin opacity.")
+_floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
+
+
+@click.command()
+@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="out",
+              show_default=True, help="Output directory (writes demo.mp4, demo.usdc, demo/).")
+@click.option("--frames", type=click.IntRange(min=2), default=None,
+              help="Save only this many frames (a quick run, e.g. for CI).")
+@_size_opt
+@click.option("--no-usd", is_flag=True, help="Skip demo.usdc.")
+@click.option("--quiet", is_flag=True, help="No progress bars.")
+def demo(out_dir, frames, size, no_usd, quiet):
+    """A jello cow dropped on a table: writes OUT/demo.mp4 and OUT/demo.usdc."""
+    from .demo import run_demo
+
+    try:
+        r = run_demo(out_dir, frames=frames, size=_size(size), usd=not no_usd,
+                     progress=not quiet)
+    except JellysimError as exc:
+        _fail(str(exc))
+    s = r["seconds"]
+    click.echo(f"{r['points']} points, {r['springs']} springs, {r['frames']} frames: "
+               f"simulated in {s['simulate']:.1f} s, rendered in {s['render']:.1f} s, "
+               f"total {s['total']:.1f} s")
+    for key in ("video", "usd", "trajectory"):
+        if key in r:
+            click.echo(f"wrote {r[key]}")
+
+
+@click.command()
+@click.argument("trajectory", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(),
+              help="video.mp4, anim.gif, picture.png (last frame, or --frame) or a folder "
+                   "(PNG frames).")
+@_show
+@_size_opt
+@click.option("--fps", type=click.FloatRange(min=0.1), default=None,
+              help="Frames per second (default: real time).")
+@_color
+@_opacity
+@_floor
+@click.option("--frame", "frame", type=int, default=None,
+              help="Render only this frame (e.g. -1 for the last).")
+@click.option("--every", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Use every N-th saved frame.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame, every,
+           quiet):
+    """Render TRAJECTORY (trajectory.npz) to a video or pictures, off screen."""
+    import numpy as np
+
+    from .render.video import render_trajectory
+
+    try:
+        traj = _load(trajectory)
+        frames = np.arange(0, traj.frame_count, every)
+        if frame is not None:
+            if not -traj.frame_count <= frame < traj.frame_count:
+                raise JellysimError(f"--frame {frame} is outside [0, {traj.frame_count - 1}]")
+            frames = np.array([frame % traj.frame_count])
+        if fps is None and every > 1:
+            from .render.video import default_fps
+
+            fps = default_fps(traj.times[frames])
+        path = render_trajectory(traj, output, _options(size, color, opacity, show, no_floor),
+                                 fps=fps, frames=frames, progress=not quiet)
+    except JellysimError as exc:
+        _fail(str(exc))
+    click.echo(f"wrote {path}")
+
+
+@click.command()
+@click.argument("trajectory", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(),
+              help="run.usdc / .usda (USD), run.glb (glTF), run.pvd (ParaView series), or a "
+                   "folder with --sequence.")
+@click.option("--sequence", type=click.Choice(["obj", "ply"]), default=None,
+              help="Write the skin as one OBJ/PLY file per frame into the folder OUTPUT.")
+@click.option("--fps", type=click.FloatRange(min=0.1), default=None,
+              help="Frames per second of the USD stage (default: real time).")
+@click.option("--max-frames", type=click.IntRange(min=2), default=None,
+              help="glb: keep at most this many frames (evenly spaced), one morph target "
+                   "each.")
+def export(trajectory, output, sequence, fps, max_frames):
+    """Export TRAJECTORY for other tools: USD, glTF (.glb), ParaView (.pvd), OBJ/PLY."""
+    out = Path(output)
+    try:
+        traj = _load(trajectory)
+        if sequence:
+            from .io.meshseq import export_mesh_sequence
+
+            paths = export_mesh_sequence(traj, out, fmt=sequence)
+            click.echo(f"wrote {len(paths)} {sequence.upper()} files in {out}")
+            return
+        suffix = out.suffix.lower()
+        if suffix in (".usdc", ".usda", ".usd"):
+            from .io.usd import export_usd
+
+            written = [export_usd(traj, out, fps=fps)]
+        elif suffix == ".glb":
+            from .io.gltf import export_glb
+
+            written = [export_glb(traj, out, max_frames=max_frames)]
+        elif suffix == ".pvd":
+            from .io.vtk import export_pvd
+
+            written = export_pvd(traj, out.parent, out.stem)
+        else:
+            raise JellysimError(f"{out}: unknown export type '{suffix}'; use .usdc, .usda, "
+                                ".glb, .pvd, or --sequence obj|ply with a folder")
+    except JellysimError as exc:
+        _fail(str(exc))
+    for p in written:
+        click.echo(f"wrote {p}")
+
+
+@click.command()
+@click.argument("trajectory", type=click.Path(dir_okay=False))
+@_show
+@_size_opt
+@_color
+@_opacity
+@_floor
+@click.option("--fps", type=click.FloatRange(min=0.1), default=None,
+              help="Playback speed in frames per second (default: real time).")
+@click.option("--screenshot", type=click.Path(dir_okay=False), default=None,
+              help="Draw the window, save it to this PNG and close (no interaction).")
+def view(trajectory, show, size, color, opacity, no_floor, fps, screenshot):
+    """Interactive window over TRAJECTORY: play/pause (check box or space), scrub (slider),
+    orbit (mouse)."""
+    from .viewer import view_trajectory
+
+    try:
+        traj = _load(trajectory)
+        view_trajectory(traj, _options(size, color, opacity, show, no_floor), fps=fps,
+                        screenshot=screenshot)
+    except JellysimError as exc:
+        _fail(str(exc))
+    if screenshot:
+        click.echo(f"wrote {screenshot}")
+
+
+@click.command()
+@click.argument("trajectory", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+              help="energy.png or .svg / .pdf")
+def plot(trajectory, output):
+    """Plot energies, centre-of-mass height and largest spring strain of TRAJECTORY."""
+    from .plot import plot_trajectory
+
+    try:
+        path = plot_trajectory(_load(trajectory), output, title=Path(trajectory).parent.name)
+    except JellysimError as exc:
+        _fail(str(exc))
+    click.echo(f"wrote {path}")
+
+
+def register(group) -> None:
+    """Add the visual commands to the ``jellysim`` click group."""
+    for cmd in (demo, render, export, view, plot):
+        group.add_command(cmd)

@@ -1,0 +1,143 @@
+"""glTF 2.0 binary (``.glb``) export: the skin as one mesh with morph-target animation.
+
+Layout: the base mesh holds frame 0's vertex positions; morph target ``k`` holds frame ``k``
+minus frame 0 (target 0 is all zeros), so weights one-hot at ``k`` give frame ``k`` exactly
+(in float32).  One animation drives the node's morph weights with ``STEP`` interpolation at the
+frames' times (shifted so the first frame is at 0 s).  Written with the standard library only.
+"""
+from __future__ import annotations
+
+import json
+import struct
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import JellysimError
+from .atomic import atomic_path
+
+__all__ = ["export_glb", "read_glb", "glb_frame_positions"]
+
+_FLOAT, _UINT = 5126, 5125
+_ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
+
+
+def export_glb(traj, path, *, max_frames: int | None = None) -> Path:
+    """Write the skin of a loaded trajectory as an animated ``.glb``.
+
+    ``max_frames``: keep at most this many frames (evenly spaced) to bound the file size;
+    default all."""
+    from .usd import surface_of
+
+    path = Path(path)
+    frames, faces = surface_of(traj)
+    times = np.asarray(traj.times, dtype=np.float64)
+    idx = np.arange(len(frames))
+    if max_frames is not None and len(idx) > max_frames:
+        idx = np.unique(np.linspace(0, len(frames) - 1, int(max_frames)).round().astype(int))
+    frames = np.stack([np.asarray(frames[int(i)], dtype=np.float32) for i in idx])
+    times = (times[idx] - times[idx[0]]).astype(np.float32)
+    n_frames, m = frames.shape[0], frames.shape[1]
+    if n_frames == 0 or m == 0:
+        raise JellysimError("nothing to export: no frames or an empty surface")
+
+    blobs: list[bytes] = []
+    views, accessors = [], []
+
+    def add(data: np.ndarray, *, kind: str, ctype: int, target: int | None, minmax=False):
+        raw = np.ascontiguousarray(data).tobytes()
+        offset = sum(len(b) for b in blobs)
+        blobs.append(raw + b"\0" * (-len(raw) % 4))
+        view = {"buffer": 0, "byteOffset": offset, "byteLength": len(raw)}
+        if target is not None:
+            view["target"] = target
+        views.append(view)
+        acc = {"bufferView": len(views) - 1, "componentType": ctype,
+               "count": int(data.shape[0]), "type": kind}
+        if minmax:
+            flat = data.reshape(data.shape[0], -1)
+            acc["min"] = flat.min(axis=0).astype(float).tolist()
+            acc["max"] = flat.max(axis=0).astype(float).tolist()
+        accessors.append(acc)
+        return len(accessors) - 1
+
+    base = frames[0]
+    pos = add(base, kind="VEC3", ctype=_FLOAT, target=_ARRAY_BUFFER, minmax=True)
+    ind = add(np.asarray(faces, dtype=np.uint32).reshape(-1), kind="SCALAR", ctype=_UINT,
+              target=_ELEMENT_ARRAY_BUFFER)
+    targets = [{"POSITION": add(f - base, kind="VEC3", ctype=_FLOAT, target=_ARRAY_BUFFER,
+                                minmax=True)} for f in frames]
+    t_acc = add(times.reshape(-1), kind="SCALAR", ctype=_FLOAT, target=None, minmax=True)
+    w_acc = add(np.eye(n_frames, dtype=np.float32).reshape(-1), kind="SCALAR", ctype=_FLOAT,
+                target=None)
+    doc = {
+        "asset": {"version": "2.0", "generator": "jellysim"},
+        "scene": 0, "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0, "name": "jello"}],
+        "materials": [{"name": "jello", "alphaMode": "BLEND", "doubleSided": True,
+                       "pbrMetallicRoughness": {"baseColorFactor": [0.85, 0.12, 0.24, 0.7],
+                                                "metallicFactor": 0.0,
+                                                "roughnessFactor": 0.25}}],
+        "meshes": [{"name": "skin", "weights": [1.0] + [0.0] * (n_frames - 1),
+                    "primitives": [{"attributes": {"POSITION": pos}, "indices": ind,
+                                    "material": 0, "mode": 4, "targets": targets}],
+                    "extras": {"targetNames": [f"frame_{k}" for k in idx.tolist()]}}],
+        "animations": [{"name": "simulation",
+                        "samplers": [{"input": t_acc, "output": w_acc,
+                                      "interpolation": "STEP"}],
+                        "channels": [{"sampler": 0,
+                                      "target": {"node": 0, "path": "weights"}}]}],
+        "accessors": accessors, "bufferViews": views,
+        "buffers": [{"byteLength": sum(len(b) for b in blobs)}],
+    }
+    js = json.dumps(doc, separators=(",", ":")).encode()
+    js += b" " * (-len(js) % 4)
+    binary = b"".join(blobs)
+    total = 12 + 8 + len(js) + 8 + len(binary)
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            fh.write(struct.pack("<4sII", b"glTF", 2, total))
+            fh.write(struct.pack("<I4s", len(js), b"JSON") + js)
+            fh.write(struct.pack("<I4s", len(binary), b"BIN\0") + binary)
+    return path
+
+
+def read_glb(path) -> tuple[dict, bytes]:
+    """The JSON document and binary chunk of a ``.glb`` file."""
+    data = Path(path).read_bytes()
+    magic, version, length = struct.unpack_from("<4sII", data, 0)
+    if magic != b"glTF" or version != 2 or length != len(data):
+        raise JellysimError(f"{path}: not a glTF 2.0 binary file")
+    jlen, jtype = struct.unpack_from("<I4s", data, 12)
+    doc = json.loads(data[20:20 + jlen])
+    off = 20 + jlen
+    blen, btype = struct.unpack_from("<I4s", data, off)
+    if jtype != b"JSON" or btype != b"BIN\0":
+        raise JellysimError(f"{path}: malformed glb chunks")
+    return doc, data[off + 8:off + 8 + blen]
+
+
+def _accessor(doc, binary, i) -> np.ndarray:
+    acc = doc["accessors"][i]
+    view = doc["bufferViews"][acc["bufferView"]]
+    dtype = {_FLOAT: np.float32, _UINT: np.uint32}[acc["componentType"]]
+    width = {"SCALAR": 1, "VEC3": 3}[acc["type"]]
+    start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
+    a = np.frombuffer(binary, dtype=dtype, count=acc["count"] * width, offset=start)
+    return a.reshape(acc["count"], width) if width > 1 else a
+
+
+def glb_frame_positions(path, k: int) -> np.ndarray:
+    """Vertex positions of animation key ``k`` of a ``.glb`` written by :func:`export_glb`:
+    base positions plus the morph targets weighted by the animation's weights at key ``k``
+    (the glTF morphing rule), float32 (m, 3)."""
+    doc, binary = read_glb(path)
+    prim = doc["meshes"][0]["primitives"][0]
+    base = _accessor(doc, binary, prim["attributes"]["POSITION"]).astype(np.float64)
+    sampler = doc["animations"][0]["samplers"][0]
+    weights = _accessor(doc, binary, sampler["output"]).reshape(-1, len(prim["targets"]))[k]
+    out = base.copy()
+    for w, tgt in zip(weights, prim["targets"]):
+        if w:
+            out += w * _accessor(doc, binary, tgt["POSITION"])
+    return out

@@ -1,0 +1,86 @@
+"""Diagnostics of a saved trajectory against time, and ``jellysim plot`` (matplotlib).
+
+Quantities per frame (SI units):
+
+* kinetic energy ``sum 1/2 m |v|^2`` [J]
+* spring energy ``sum 1/2 k (|x_j - x_i| - L0)^2`` [J]
+* gravitational energy ``-sum m g . x`` [J], zero on the ground plane (``y = height``)
+* centre-of-mass height [m] (its coordinate along ``-g``)
+* largest spring strain ``max |(|x_j - x_i| - L0) / L0|`` [-]
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .errors import JellysimError
+
+__all__ = ["diagnostics", "plot_trajectory"]
+
+
+def diagnostics(traj) -> dict[str, np.ndarray]:
+    """Per-frame diagnostics, each shape (F,): ``time`` [s], ``kinetic`` [J], ``spring`` [J],
+    ``gravity`` [J], ``total`` [J], ``com_height`` [m], ``max_strain`` [-]."""
+    x = np.asarray(traj.positions, dtype=np.float64)
+    v = np.asarray(traj.velocities, dtype=np.float64)
+    m = np.asarray(traj.masses, dtype=np.float64)
+    g = np.asarray(traj.gravity, dtype=np.float64)
+    gnorm = float(np.linalg.norm(g))
+    up = -g / gnorm if gnorm > 0 else np.array([0.0, 1.0, 0.0])
+    ground = traj.params.get("ground", {}).get("height", 0.0) if traj.params else 0.0
+    kinetic = 0.5 * np.einsum("n,fnd,fnd->f", m, v, v)
+    height = x @ up - float(ground)                       # (F, n)
+    grav = gnorm * height @ m
+    s = np.asarray(traj.springs, dtype=np.int64)
+    if len(s):
+        length = np.linalg.norm(x[:, s[:, 1]] - x[:, s[:, 0]], axis=2)
+        stretch = length - traj.rest_length
+        spring = 0.5 * (stretch**2) @ traj.stiffness
+        strain = np.abs(stretch / traj.rest_length).max(axis=1)
+    else:
+        spring = strain = np.zeros(len(x))
+    com = (height @ m) / m.sum() + float(ground)
+    return {"time": np.asarray(traj.times, dtype=np.float64), "kinetic": kinetic,
+            "spring": spring, "gravity": grav, "total": kinetic + spring + grav,
+            "com_height": com, "max_strain": strain}
+
+
+def plot_trajectory(traj, path, *, title: str | None = None) -> Path:
+    """Draw energies, centre-of-mass height and largest strain against time to ``path``
+    (``.png``, ``.svg`` or ``.pdf``)."""
+    path = Path(path)
+    if path.suffix.lower() not in (".png", ".svg", ".pdf"):
+        raise JellysimError(f"{path}: plot file must end in .png, .svg or .pdf")
+    if traj.frame_count == 0:
+        raise JellysimError("the trajectory has no frames to plot")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .io.atomic import atomic_path
+
+    d = diagnostics(traj)
+    t = d["time"]
+    fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True, constrained_layout=True)
+    ax = axes[0]
+    ax.plot(t, d["kinetic"], label="kinetic")
+    ax.plot(t, d["spring"], label="spring")
+    ax.plot(t, d["gravity"], label="gravitational")
+    ax.plot(t, d["total"], "k--", lw=1, label="total")
+    ax.set_ylabel("energy [J]")
+    ax.legend(loc="best")
+    axes[1].plot(t, d["com_height"], color="C3")
+    axes[1].set_ylabel("centre-of-mass height [m]")
+    axes[2].plot(t, 100 * d["max_strain"], color="C4")
+    axes[2].set_ylabel("largest spring strain [%]")
+    axes[2].set_xlabel("time [s]")
+    for a in axes:
+        a.grid(alpha=0.3)
+    status = "" if traj.status == "complete" else f" ({traj.status[:60]})"
+    fig.suptitle((title or "jellysim trajectory") + status)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format=path.suffix.lower().lstrip("."))
+    plt.close(fig)
+    return path

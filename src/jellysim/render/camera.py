@@ -1,0 +1,73 @@
+"""Automatic camera framing: one fixed camera that sees every frame of the motion.
+
+Y is up (gravity is -y in jellysim scenes).  The camera looks at the centre of the bounding box
+of all frames from a fixed elevated three-quarter direction, far enough that the bounding
+sphere fits the narrower of the horizontal and vertical fields of view.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Camera", "frame_motion"]
+
+DEFAULT_DIRECTION = (1.6, 0.7, 1.0)
+"""From the focal point towards the camera (x, y up, z)."""
+
+
+@dataclass(frozen=True)
+class Camera:
+    position: tuple[float, float, float]
+    """Camera position [m], shape (3,)."""
+    focal_point: tuple[float, float, float]
+    """Point looked at [m], shape (3,)."""
+    up: tuple[float, float, float]
+    """View-up direction [-], shape (3,)."""
+    view_angle: float
+    """Vertical field of view [degrees]."""
+
+    def apply(self, plotter) -> None:
+        """Set this camera on a pyvista plotter."""
+        cam = plotter.camera
+        cam.position = self.position
+        cam.focal_point = self.focal_point
+        cam.up = self.up
+        cam.view_angle = self.view_angle
+        plotter.reset_camera_clipping_range()
+
+
+def frame_motion(positions: np.ndarray, size: tuple[int, int], *, view_angle: float = 30.0,
+                 direction=DEFAULT_DIRECTION, margin: float = 0.85,
+                 extra_points: np.ndarray | None = None) -> Camera:
+    """A camera that keeps all of ``positions`` in view.
+
+    Parameters
+    ----------
+    positions: [m], shape (..., 3): every position of every frame to keep in view.
+    size: image (width, height) in pixels.
+    view_angle: vertical field of view [degrees].
+    direction: from the focal point towards the camera (normalised here).
+    margin: extra room around the bounding sphere (1 = touching the image border).
+    extra_points: more positions [m] (..., 3) to include (e.g. a floor patch).
+    """
+    pts = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    if extra_points is not None:
+        pts = np.concatenate([pts, np.asarray(extra_points, dtype=np.float64).reshape(-1, 3)])
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    if len(pts) == 0:
+        pts = np.zeros((1, 3))
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    center = 0.5 * (lo + hi)
+    radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-3)
+    width, height = size
+    vfov = math.radians(view_angle)
+    hfov = 2.0 * math.atan(math.tan(vfov / 2.0) * width / height)
+    fov = min(vfov, hfov)
+    distance = margin * radius / math.sin(fov / 2.0)
+    d = np.asarray(direction, dtype=np.float64)
+    d = d / np.linalg.norm(d)
+    pos = center + distance * d
+    return Camera(tuple(pos.tolist()), tuple(center.tolist()), (0.0, 1.0, 0.0),
+                  float(view_angle))

@@ -1,0 +1,179 @@
+"""Off-screen rendering of a saved trajectory with pyvista (EGL: no display needed)."""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import JellysimError
+
+__all__ = ["RenderOptions", "Renderer", "ground_height"]
+
+JELLO_RED = "#d81e3c"
+
+
+@dataclass(frozen=True)
+class RenderOptions:
+    """How a trajectory is drawn."""
+
+    size: tuple[int, int] = (960, 540)
+    """Image (width, height) [pixels]; rounded up to even numbers (H.264 needs them)."""
+    color: str = JELLO_RED
+    """Skin colour (any matplotlib/pyvista colour: name or ``#rrggbb``)."""
+    opacity: float = 0.7
+    """Skin opacity in (0, 1]."""
+    show_points: bool = False
+    """Draw the mass points as small spheres."""
+    show_springs: bool = False
+    """Draw the springs as lines."""
+    show_skin: bool = True
+    """Draw the skin (or the body's surface triangles when it has no skin)."""
+    floor: bool = True
+    """Draw the floor at the ground height."""
+    background: str = "#f4f1ec"
+    """Background colour."""
+
+    def even_size(self) -> tuple[int, int]:
+        w, h = (int(s) for s in self.size)
+        if w < 16 or h < 16:
+            raise JellysimError(f"image size must be at least 16 x 16 pixels, got {w} x {h}")
+        return w + (w % 2), h + (h % 2)
+
+
+def ground_height(traj) -> float | None:
+    """The ground plane's height [m] from the run's parameters, ``None`` if disabled."""
+    g = traj.params.get("ground", {}) if isinstance(traj.params, dict) else {}
+    if g and not g.get("enabled", True):
+        return None
+    return float(g.get("height", 0.0))
+
+
+def _import_pyvista(offscreen: bool = True):
+    if offscreen:
+        # EGL renders without an X server; it also silences VTK's "no display" warning
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    try:
+        import pyvista as pv
+    except ImportError as exc:
+        raise JellysimError("rendering needs pyvista: pip install 'jellysim[render]' "
+                            f"({exc})") from None
+    return pv
+
+
+def _faces(tri: np.ndarray) -> np.ndarray:
+    tri = np.asarray(tri, dtype=np.int64).reshape(-1, 3)
+    return np.hstack([np.full((len(tri), 1), 3, dtype=np.int64), tri]).ravel()
+
+
+def _motion_bounds(traj, surface_frames, chunk: int = 32) -> np.ndarray:
+    """Lower and upper corners [m] of the bounding box of points and surface in each chunk of
+    frames, stacked: shape (2 c, 3).  Never expands every frame's surface at once."""
+    corners = []
+    for start in range(0, traj.frame_count, chunk):
+        sl = slice(start, min(start + chunk, traj.frame_count))
+        blocks = [traj.positions[sl].reshape(-1, 3)]
+        if surface_frames is not None:
+            blocks.append(np.asarray(surface_frames(sl)).reshape(-1, 3))
+        a = np.concatenate(blocks)
+        a = a[np.all(np.isfinite(a), axis=1)]
+        if len(a):
+            corners += [a.min(axis=0), a.max(axis=0)]
+    if not corners:
+        raise JellysimError("the trajectory has no finite positions to draw")
+    return np.array(corners)
+
+
+class Renderer:
+    """Draws frames of a :class:`~jellysim.io.trajectory.Trajectory`.
+
+    The scene (floor, lights, meshes, camera) is built once; :meth:`render` moves the
+    vertices of frame ``f`` into place and returns the image, shape (height, width, 3), uint8.
+    The trajectory is only read.
+    """
+
+    def __init__(self, traj, options: RenderOptions = RenderOptions(), *, offscreen=True,
+                 plotter=None):
+        from .camera import frame_motion
+
+        pv = _import_pyvista(offscreen)
+        self.pv = pv
+        self.traj = traj
+        self.options = options
+        o = options
+        self.size = o.even_size()
+        self.skin = traj.skin
+        if o.show_skin and self.skin is not None:
+            self._surface_frames = lambda f: traj.skin_positions(f)
+            faces = self.skin.faces
+        elif o.show_skin and len(traj.triangles):
+            self._surface_frames = lambda f: traj.positions[f]
+            faces = traj.triangles
+        else:
+            self._surface_frames, faces = None, None
+        show_points = o.show_points or (self._surface_frames is None and not o.show_springs)
+        self.plotter = plotter if plotter is not None else pv.Plotter(
+            off_screen=offscreen, window_size=self.size, lighting="light kit")
+        p = self.plotter
+        p.set_background(o.background)
+
+        motion = _motion_bounds(traj, self._surface_frames)     # (2 F', 3) box corners
+        lo, hi = motion.min(axis=0), motion.max(axis=0)
+        gh = ground_height(traj)
+        extra = None
+        if o.floor:
+            floor_y = gh if gh is not None else float(lo[1])
+            ext = float(np.max(hi - lo))
+            c = 0.5 * (lo + hi)
+            size = 20.0 * max(ext, 1e-3)
+            floor = pv.Plane(center=(c[0], floor_y, c[2]), direction=(0, 1, 0),
+                             i_size=size, j_size=size, i_resolution=1, j_resolution=1)
+            p.add_mesh(floor, color="#cfc8bd", ambient=0.35, diffuse=0.7, specular=0.0,
+                       name="floor")
+            extra = np.array([[lo[0], floor_y, lo[2]], [hi[0], floor_y, hi[2]]])
+        self.camera = frame_motion(motion, self.size, extra_points=extra)
+
+        self.surface = self.points = self.springs = None
+        if self._surface_frames is not None:
+            self.surface = pv.PolyData(np.array(self._surface_frames(0)), _faces(faces))
+            p.add_mesh(self.surface, color=o.color, opacity=o.opacity, smooth_shading=True,
+                       specular=0.6, specular_power=30, ambient=0.25, diffuse=0.8,
+                       name="skin")
+        if show_points:
+            self.points = pv.PolyData(np.array(traj.positions[0]))
+            p.add_mesh(self.points, color="#7a0f1f", point_size=max(2.0, 0.004 * self.size[1]),
+                       render_points_as_spheres=True, name="points")
+        if o.show_springs and len(traj.springs):
+            lines = np.hstack([np.full((len(traj.springs), 1), 2, dtype=np.int64),
+                               traj.springs.astype(np.int64)]).ravel()
+            self.springs = pv.PolyData(np.array(traj.positions[0]), lines=lines)
+            p.add_mesh(self.springs, color="#5a1020", opacity=0.35, line_width=1.0,
+                       name="springs")
+        self.camera.apply(p)
+
+    def set_frame(self, f: int) -> None:
+        """Move every drawn mesh to frame ``f``."""
+        x = self.traj.positions[f]
+        if self.surface is not None:
+            self.surface.points = np.asarray(self._surface_frames(f))
+            self.surface.compute_normals(inplace=True, cell_normals=False, split_vertices=False)
+        if self.points is not None:
+            self.points.points = x
+        if self.springs is not None:
+            self.springs.points = x
+
+    def render(self, f: int) -> np.ndarray:
+        """Image of frame ``f``, shape (height, width, 3), uint8."""
+        self.set_frame(f)
+        self.plotter.render()
+        img = self.plotter.screenshot(return_img=True)
+        return np.ascontiguousarray(img[..., :3])
+
+    def close(self) -> None:
+        self.plotter.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

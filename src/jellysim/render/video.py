@@ -1,0 +1,121 @@
+"""Write rendered frames as MP4 (H.264), GIF or a folder of PNG pictures."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import JellysimError
+from ..io.atomic import atomic_path
+from .offscreen import RenderOptions, Renderer
+
+__all__ = ["default_fps", "render_trajectory", "output_kind"]
+
+
+def default_fps(times: np.ndarray) -> float:
+    """Frames per second that play the run in real time, clamped to [5, 60] (30 if unknown)."""
+    if len(times) < 2:
+        return 30.0
+    dt = float(np.median(np.diff(times)))
+    if not dt > 0:
+        return 30.0
+    return float(min(60.0, max(5.0, 1.0 / dt)))
+
+
+def output_kind(path) -> str:
+    """``"mp4"``, ``"gif"``, ``"png"`` (one picture) or ``"pngdir"`` (a folder of frames)."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix in (".mp4", ".m4v", ".mov"):
+        return "mp4"
+    if suffix == ".gif":
+        return "gif"
+    if suffix == ".png":
+        return "png"
+    if suffix == "":
+        return "pngdir"
+    raise JellysimError(f"{path}: unknown picture/video type '{suffix}'; use .mp4, .gif, "
+                        ".png (one frame) or a folder name (PNG frames)")
+
+
+def _frames_with_progress(renderer, frames, progress: bool, label: str):
+    bar = None
+    if progress:
+        from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
+                                   TimeRemainingColumn)
+
+        bar = Progress(TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(),
+                       TextColumn("frames"), TimeRemainingColumn())
+        bar.start()
+        task = bar.add_task(label, total=len(frames))
+    try:
+        for f in frames:
+            yield renderer.render(int(f))
+            if bar is not None:
+                bar.advance(task)
+    finally:
+        if bar is not None:
+            bar.stop()
+
+
+def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
+                      fps: float | None = None, frames=None, progress: bool = False) -> Path:
+    """Render a loaded trajectory to ``path``.
+
+    Parameters
+    ----------
+    traj: a :class:`~jellysim.io.trajectory.Trajectory` (only read).
+    path: ``.mp4`` (H.264, yuv420p), ``.gif``, ``.png`` (one picture: the last of ``frames``)
+        or a folder (``frame_00000.png``, ...).
+    options: :class:`RenderOptions`.
+    fps: frames per second (default: real time, :func:`default_fps`).
+    frames: trajectory frame indices to draw (default: all).
+    progress: show a progress bar.
+    """
+    path = Path(path)
+    kind = output_kind(path)
+    if traj.frame_count == 0:
+        raise JellysimError("the trajectory has no frames to render")
+    frames = np.arange(traj.frame_count) if frames is None else np.asarray(frames, dtype=int)
+    if len(frames) == 0 or frames.min() < -traj.frame_count or (
+            frames.max() >= traj.frame_count):
+        raise JellysimError(f"frames must lie in [0, {traj.frame_count - 1}]")
+    fps = default_fps(traj.times) if fps is None else float(fps)
+    if not fps > 0:
+        raise JellysimError(f"fps must be > 0, got {fps}")
+    if kind == "png":
+        frames = frames[-1:]
+    with Renderer(traj, options) as r:
+        images = _frames_with_progress(r, frames, progress, f"rendering {path.name}")
+        if kind == "mp4":
+            import imageio.v2 as iio
+
+            with atomic_path(path) as tmp:
+                writer = iio.get_writer(tmp, format="FFMPEG", mode="I", fps=fps,
+                                        codec="libx264", pixelformat="yuv420p",
+                                        macro_block_size=1, quality=8,
+                                        ffmpeg_log_level="error")
+                try:
+                    for img in images:
+                        writer.append_data(img)
+                finally:
+                    writer.close()
+        elif kind == "gif":
+            import imageio.v3 as iio
+
+            stack = np.stack(list(images))
+            with atomic_path(path) as tmp:
+                iio.imwrite(tmp, stack, extension=".gif", duration=1000.0 / fps, loop=0)
+        elif kind == "png":
+            import imageio.v3 as iio
+
+            with atomic_path(path) as tmp:
+                iio.imwrite(tmp, next(iter(images)), extension=".png")
+        else:
+            import imageio.v3 as iio
+
+            path.mkdir(parents=True, exist_ok=True)
+            for i, img in enumerate(images):
+                with atomic_path(path / f"frame_{i:05d}.png") as tmp:
+                    iio.imwrite(tmp, img, extension=".png")
+    return path

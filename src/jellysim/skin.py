@@ -1,0 +1,280 @@
+"""Skins: a surface mesh carried by the simulated points (report section 6.2, future work).
+
+A skin is a triangle mesh whose vertices are *bound once*, at build time, to the body and then
+*deformed every frame* from the point positions:
+
+    skin_vertex[j] = sum_c weights[j, c] * x[point_index[j, c]]      (c = 0..3)
+
+Binding (:func:`bind_skin`):
+
+* **Tet bodies** (``body.tets`` given): each skin vertex gets the barycentric coordinates of
+  the tetrahedron that contains it.
+* **Radius bodies** (no tets): the sample points are tetrahedralised (scipy's Delaunay), and
+  only tetrahedra whose six edges are all springs of the body are kept (the cells that the
+  springs actually hold together; a Delaunay cell spanning a gap between, say, two legs of a
+  cow has an edge longer than the spring radius and is dropped).  If that leaves no cell, every
+  non-degenerate Delaunay cell is used.  Then as for tet bodies.
+* **Vertices outside every tet** (e.g. just outside the sampled cloud) are never dropped: they
+  are bound to a nearby tet by *extrapolation* (barycentric coordinates outside [0, 1], still
+  summing to 1).  Among the tets nearest to the vertex, the one with the smallest largest
+  |weight| is chosen: that is a tet close to the vertex and not a sliver (a sliver would
+  amplify the points' motion onto the vertex).
+
+Because the four weights of every vertex sum to one, the deformed skin follows any affine
+motion of the points exactly (to rounding): rigid translations and rotations in particular.
+
+Box scenes get the box's surface as their skin (:func:`box_skin`); a body given as points with
+surface ``triangles`` gets those triangles (each vertex bound to its own point, weight 1).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import BuildError
+
+__all__ = ["Skin", "bind_body_skin", "bind_skin", "body_tets", "box_skin", "box_surface", "default_skin",
+           "identity_skin"]
+
+CANDIDATES = 16
+"""How many tets (nearest by centroid) are examined per skin vertex."""
+INSIDE_TOL = 1e-10
+"""A vertex whose smallest barycentric coordinate is >= -INSIDE_TOL counts as inside a tet."""
+
+
+@dataclass(frozen=True, eq=False)
+class Skin:
+    """A triangle mesh bound to the points of a body.
+
+    Attributes
+    ----------
+    rest_vertices:
+        Skin vertex positions at rest [m], shape (m, 3), float64.
+    faces:
+        Triangles (indices into the skin vertices), shape (f, 3), int64.
+    point_index:
+        The four body points each skin vertex follows, shape (m, 4), int64.
+    weights:
+        Their weights [-], shape (m, 4), float64; each row sums to 1.  Barycentric coordinates
+        of the vertex in the tet ``point_index[j]`` (negative entries: extrapolated vertex).
+    """
+
+    rest_vertices: np.ndarray
+    faces: np.ndarray
+    point_index: np.ndarray
+    weights: np.ndarray
+
+    @property
+    def vertex_count(self) -> int:
+        return int(self.rest_vertices.shape[0])
+
+    def deform(self, positions: np.ndarray) -> np.ndarray:
+        """Skin vertex positions [m] from point positions [m].
+
+        ``positions`` of shape (n, 3) gives (m, 3); shape (F, n, 3) gives (F, m, 3).
+        """
+        positions = np.asarray(positions, dtype=np.float64)
+        gathered = positions[..., self.point_index, :]          # (..., m, 4, 3)
+        return np.einsum("...mcd,mc->...md", gathered, self.weights)
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The skin as named arrays (as stored in a trajectory ``.npz``)."""
+        return {"skin_rest_vertices": self.rest_vertices, "skin_faces": self.faces,
+                "skin_point_index": self.point_index, "skin_weights": self.weights}
+
+    @classmethod
+    def from_arrays(cls, d) -> "Skin | None":
+        """Inverse of :meth:`arrays`; ``None`` when the arrays are absent or empty."""
+        if "skin_rest_vertices" not in d or len(d["skin_rest_vertices"]) == 0:
+            return None
+        return cls(rest_vertices=np.asarray(d["skin_rest_vertices"], dtype=np.float64),
+                   faces=np.asarray(d["skin_faces"], dtype=np.int64).reshape(-1, 3),
+                   point_index=np.asarray(d["skin_point_index"], dtype=np.int64),
+                   weights=np.asarray(d["skin_weights"], dtype=np.float64))
+
+
+def _barycentric(points: np.ndarray, tets: np.ndarray, query: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates of ``query`` (q, 3) in tets ``tets`` (q, 4) -> (q, 4).
+
+    Degenerate tets give NaN rows."""
+    a = points[tets[:, 0]]
+    m = np.stack([points[tets[:, 1]] - a, points[tets[:, 2]] - a, points[tets[:, 3]] - a],
+                 axis=2)                                           # (q, 3, 3) columns = edges
+    rhs = (query - a)[..., None]
+    out = np.full((len(tets), 4), np.nan)
+    det = np.linalg.det(m)
+    scale = np.einsum("qij,qij->q", m, m) ** 1.5
+    ok = np.abs(det) > 1e-12 * np.maximum(scale, np.finfo(float).tiny)
+    if np.any(ok):
+        lam = np.linalg.solve(m[ok], rhs[ok])[..., 0]
+        out[ok, 1:] = lam
+        out[ok, 0] = 1.0 - lam.sum(axis=1)
+    return out
+
+
+def body_tets(points: np.ndarray, springs: np.ndarray | None = None,
+              tets: np.ndarray | None = None) -> np.ndarray:
+    """The tetrahedra a skin is bound to, shape (t, 4), int64.
+
+    ``tets`` when given and non-empty; otherwise the Delaunay cells of ``points`` whose six
+    edges are all in ``springs`` (all non-degenerate cells if none qualifies or no springs).
+    """
+    if tets is not None and len(tets):
+        return np.asarray(tets, dtype=np.int64).reshape(-1, 4)
+    from scipy.spatial import Delaunay, QhullError
+
+    points = np.asarray(points, dtype=np.float64)
+    if len(points) < 4:
+        raise BuildError(f"a skin needs at least 4 body points to bind to, got {len(points)}")
+    try:
+        cells = Delaunay(points).simplices.astype(np.int64)
+    except QhullError as exc:
+        raise BuildError(f"cannot tetrahedralise the body's points for the skin "
+                         f"(are they coplanar?): {str(exc).splitlines()[0]}") from None
+    a = points[cells[:, 0]]
+    vol = np.abs(np.einsum("ij,ij->i", points[cells[:, 1]] - a,
+                           np.cross(points[cells[:, 2]] - a, points[cells[:, 3]] - a)))
+    cells = cells[vol > 1e-14 * max(np.ptp(points, axis=0).max(), 1e-300) ** 3]
+    if springs is None or len(springs) == 0 or len(cells) == 0:
+        return cells
+    n = len(points)
+    s = np.sort(np.asarray(springs, dtype=np.int64), axis=1)
+    keys = np.sort(s[:, 0] * n + s[:, 1])
+    keep = np.ones(len(cells), dtype=bool)
+    for i, j in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)):
+        lo = np.minimum(cells[:, i], cells[:, j])
+        hi = np.maximum(cells[:, i], cells[:, j])
+        k = lo * n + hi
+        pos = np.clip(np.searchsorted(keys, k), 0, len(keys) - 1)
+        keep &= keys[pos] == k
+    return cells[keep] if np.any(keep) else cells
+
+
+def bind_skin(points: np.ndarray, tets: np.ndarray, vertices: np.ndarray,
+              faces: np.ndarray) -> Skin:
+    """Bind a surface mesh to a body's tetrahedra (see the module docstring).
+
+    Parameters
+    ----------
+    points: body rest positions [m], shape (n, 3).
+    tets: tetrahedra (indices into ``points``), shape (t, 4), t >= 1 (see :func:`body_tets`).
+    vertices: skin vertices at rest [m], shape (m, 3).
+    faces: skin triangles, shape (f, 3), indices into ``vertices``.
+
+    Returns
+    -------
+    The :class:`Skin`; every vertex is bound.
+    """
+    from scipy.spatial import cKDTree
+
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    tets = np.asarray(tets, dtype=np.int64).reshape(-1, 4)
+    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    if len(tets) == 0:
+        raise BuildError("cannot bind a skin: the body has no tetrahedra")
+    if len(faces) and (faces.min() < 0 or faces.max() >= len(vertices)):
+        raise BuildError("skin faces refer to vertices that do not exist")
+    centroids = points[tets].mean(axis=1)
+    k = min(CANDIDATES, len(tets))
+    _, cand = cKDTree(centroids).query(vertices, k=k)
+    cand = np.asarray(cand, dtype=np.int64).reshape(len(vertices), k)
+    m = len(vertices)
+    bary = _barycentric(points, tets[cand.ravel()], np.repeat(vertices, k, axis=0))
+    bary = bary.reshape(m, k, 4)
+    valid = ~np.isnan(bary[..., 0])
+    min_w = np.where(valid, np.nan_to_num(bary).min(axis=2), -np.inf)
+    max_abs = np.where(valid, np.abs(np.nan_to_num(bary)).max(axis=2), np.inf)
+    inside = min_w >= -INSIDE_TOL
+    # inside: the first (nearest-centroid) containing tet; outside: least amplification
+    score = np.where(inside, -1.0 + np.arange(k)[None, :] * 1e-6, max_abs)
+    best = np.argmin(score, axis=1)
+    rows = np.arange(m)
+    if np.any(~np.isfinite(score[rows, best])):
+        # no usable tet among the nearest candidates: search every tet for those vertices
+        for j in np.flatnonzero(~np.isfinite(score[rows, best])):
+            all_b = _barycentric(points, tets, np.repeat(vertices[j:j + 1], len(tets), axis=0))
+            ok = ~np.isnan(all_b[:, 0])
+            if not np.any(ok):
+                raise BuildError("cannot bind a skin: every tetrahedron is degenerate")
+            amp = np.where(ok, np.abs(np.nan_to_num(all_b)).max(axis=1), np.inf)
+            t = int(np.argmin(amp))
+            cand[j, 0], bary[j, 0], best[j] = t, all_b[t], 0
+    chosen = cand[rows, best]
+    weights = bary[rows, best]
+    return Skin(rest_vertices=vertices, faces=faces, point_index=tets[chosen],
+                weights=np.ascontiguousarray(weights))
+
+
+def bind_body_skin(body, vertices: np.ndarray, faces: np.ndarray) -> Skin:
+    """Bind a surface (vertices [m] (m, 3), faces (f, 3)) to a :class:`~jellysim.body.Body`:
+    its tets when it has some, else the spring-spanned Delaunay cells of its points."""
+    tets = body_tets(body.points, body.springs, body.tets)
+    return bind_skin(body.points, tets, vertices, faces)
+
+
+def identity_skin(points: np.ndarray, triangles: np.ndarray) -> Skin:
+    """A skin whose vertices are the body points themselves (weight 1 on one point)."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    used = np.unique(np.asarray(triangles, dtype=np.int64).ravel())
+    remap = np.full(len(points), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    w = np.zeros((len(used), 4))
+    w[:, 0] = 1.0
+    return Skin(rest_vertices=points[used].copy(), faces=remap[triangles],
+                point_index=np.repeat(used[:, None], 4, axis=1), weights=w)
+
+
+def box_surface(lower, upper, divisions: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """Triangulated surface of the box [lower, upper] [m], each face a ``divisions`` grid.
+
+    Returns vertices [m] (m, 3) and outward-facing triangles (f, 3) (counter-clockwise seen
+    from outside).  Vertices on shared edges are merged, so the surface is closed.
+    """
+    lower = np.asarray(lower, dtype=np.float64).reshape(3)
+    upper = np.asarray(upper, dtype=np.float64).reshape(3)
+    d = int(divisions)
+    verts, faces = [], []
+    u = np.linspace(0.0, 1.0, d + 1)
+    for axis in range(3):
+        a1, a2 = (axis + 1) % 3, (axis + 2) % 3
+        for side in (0, 1):
+            g1, g2 = np.meshgrid(u, u, indexing="ij")
+            p = np.empty((d + 1, d + 1, 3))
+            p[..., axis] = side
+            p[..., a1] = g1
+            p[..., a2] = g2
+            base = sum(len(v) for v in verts)
+            verts.append(p.reshape(-1, 3))
+            idx = base + np.arange((d + 1) ** 2).reshape(d + 1, d + 1)
+            q0, q1, q2, q3 = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
+            # (a1, a2, axis) is right-handed, so q0 q1 q2 faces +axis
+            t = np.concatenate([np.stack([q0, q1, q2], -1).reshape(-1, 3),
+                                np.stack([q0, q2, q3], -1).reshape(-1, 3)])
+            if side == 0:
+                t = t[:, ::-1]
+            faces.append(t)
+    unit = np.concatenate(verts)
+    faces = np.concatenate(faces)
+    key = np.round(unit * d).astype(np.int64)
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    vertices = lower + unit[first] * (upper - lower)
+    return vertices, inverse.reshape(-1)[faces]
+
+
+def box_skin(body, lower, upper, divisions: int = 8) -> Skin:
+    """The box's surface bound to a (random field) body inside it."""
+    verts, faces = box_surface(lower, upper, divisions)
+    return bind_body_skin(body, verts, faces)
+
+
+def default_skin(scene, body) -> Skin | None:
+    """The skin a scene's body gets when none is given: the box surface for box scenes; the
+    body's own ``triangles`` when it has some; otherwise ``None``."""
+    b = scene.params.get("body", {}) if scene is not None else {}
+    if b.get("type") == "box" and "lower" in b:
+        return box_skin(body, b["lower"], b["upper"])
+    if body.triangles is not None and len(body.triangles):
+        return identity_skin(body.points, body.triangles)
+    return None

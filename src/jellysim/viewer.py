@@ -1,0 +1,84 @@
+"""``jellysim view``: an interactive pyvista window over a saved trajectory.
+
+Controls: the check box (bottom left) plays / pauses, the slider scrubs frames, the mouse
+orbits (left drag), pans (shift + drag) and zooms (wheel); ``space`` also toggles play.
+Needs a display (X11 / Wayland on Linux); without one it fails with a clear message.
+"""
+from __future__ import annotations
+
+import os
+import sys
+
+from .errors import JellysimError
+
+__all__ = ["has_display", "view_trajectory"]
+
+
+def has_display() -> bool:
+    """Whether an interactive window can be opened here."""
+    if sys.platform.startswith("linux"):
+        return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    return True
+
+
+def view_trajectory(traj, options=None, *, fps: float | None = None,
+                    screenshot=None, autoplay: bool = False) -> None:
+    """Open the viewer.  With ``screenshot`` (a ``.png`` path) the window is drawn at the
+    first frame (or played once through with ``autoplay``), saved, and closed: for tests and
+    thumbnails."""
+    if not has_display():
+        raise JellysimError("jellysim view needs a display (no DISPLAY or WAYLAND_DISPLAY is "
+                            "set). Use 'jellysim render TRAJECTORY -o video.mp4' to make a "
+                            "video off screen, or run under xvfb-run.")
+    if os.environ.get("VTK_DEFAULT_OPENGL_WINDOW") == "vtkEGLRenderWindow":
+        del os.environ["VTK_DEFAULT_OPENGL_WINDOW"]   # EGL windows cannot be interactive
+    from .render.offscreen import RenderOptions, Renderer
+    from .render.video import default_fps
+
+    options = options or RenderOptions(size=(1024, 640))
+    r = Renderer(traj, options, offscreen=False)
+    p = r.plotter
+    last = traj.frame_count - 1
+    fps = default_fps(traj.times) if fps is None else float(fps)
+    state = {"frame": 0, "playing": bool(autoplay)}
+    text = p.add_text("", position="upper_left", font_size=10, name="time")
+
+    def show(f: int) -> None:
+        f = int(max(0, min(last, round(f))))
+        state["frame"] = f
+        r.set_frame(f)
+        text.SetText(2, f"t = {traj.times[f]:.3f} s   frame {f} / {last}")
+
+    slider = None
+    if last > 0:
+        slider = p.add_slider_widget(lambda v: show(v), [0, last], value=0, title="frame",
+                                     pointa=(0.25, 0.06), pointb=(0.95, 0.06), fmt="%.0f",
+                                     style="modern")
+
+    def toggle(flag=None) -> None:
+        state["playing"] = (not state["playing"]) if flag is None else bool(flag)
+
+    p.add_checkbox_button_widget(toggle, value=state["playing"], position=(10, 10), size=30,
+                                 color_on="#d81e3c", color_off="#999999")
+    p.add_text("play", position=(48, 14), font_size=9)
+    p.add_key_event("space", lambda: toggle())
+
+    def tick(_step=None) -> None:
+        if state["playing"] and last > 0:
+            f = (state["frame"] + 1) % (last + 1)
+            show(f)
+            if slider is not None:
+                slider.GetRepresentation().SetValue(f)
+            p.render()
+
+    show(0)
+    if screenshot is not None:
+        if autoplay:
+            for _ in range(last):
+                tick()
+        p.show(auto_close=False, interactive=False)
+        p.screenshot(str(screenshot))
+        p.close()
+        return
+    p.add_timer_event(max_steps=10**9, duration=max(1, int(1000 / fps)), callback=tick)
+    p.show(title="jellysim view")

@@ -1,0 +1,113 @@
+"""Skins: binding a surface to the body and deforming it with the points."""
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from jellysim.body import Body
+from jellysim.geometry.connect import radius_springs
+from jellysim.geometry.sampling import box_field
+from jellysim.io.trajectory import Recorder, load_trajectory
+from jellysim.model import finalize
+from jellysim.skin import Skin, bind_skin, body_tets, box_skin, box_surface
+
+
+def _box_body(n=150, seed=1):
+    pts = box_field(n, (0, 0, 0), (1, 1, 1), distribution="edge", seed=seed)
+    return Body(points=pts, springs=radius_springs(pts, 0.35), volume=1.0)
+
+
+def test_box_surface_is_closed_and_outward():
+    v, f = box_surface((0, 0, 0), (2, 1, 1), divisions=3)
+    # closed: every edge shared by exactly two faces
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(e, axis=0, return_counts=True)
+    assert np.all(counts == 2)
+    # outward: enclosed volume (divergence theorem) is positive and equals 2 m^3
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    vol = np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6
+    assert vol == pytest.approx(2.0, rel=1e-12)
+
+
+def test_every_skin_vertex_is_bound_with_weights_summing_to_one():
+    body = _box_body()
+    skin = box_skin(body, (0, 0, 0), (1, 1, 1), divisions=4)
+    verts, _ = box_surface((0, 0, 0), (1, 1, 1), 4)
+    assert skin.vertex_count == len(verts)
+    assert skin.point_index.shape == (len(verts), 4)
+    assert np.all((skin.point_index >= 0) & (skin.point_index < body.point_count))
+    assert np.all(np.isfinite(skin.weights))
+    np.testing.assert_allclose(skin.weights.sum(axis=1), 1.0, atol=1e-12)
+    # corners lie outside the random cloud's hull: bound by extrapolation, not dropped
+    assert np.any(skin.weights.min(axis=1) < -1e-6)
+    # and the rest pose reproduces every vertex, inside or extrapolated
+    np.testing.assert_allclose(skin.deform(body.points), verts, atol=1e-12)
+
+
+def test_vertex_inside_a_tet_reproduces_its_rest_position_with_barycentric_weights():
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1.0]])
+    tets = np.array([[0, 1, 2, 3], [1, 2, 3, 4]])
+    rng = np.random.default_rng(0)
+    w = rng.dirichlet(np.ones(4), size=20)
+    inside = w @ points[:4]
+    skin = bind_skin(points, tets, inside, np.zeros((0, 3), dtype=int))
+    assert np.all(skin.point_index == tets[0])
+    np.testing.assert_allclose(skin.weights, w, atol=1e-12)
+    assert np.all(skin.weights >= -1e-12)
+    np.testing.assert_allclose(skin.deform(points), inside, atol=1e-12, rtol=0)
+
+
+def test_skin_follows_rigid_translation_and_rotation_exactly():
+    body = _box_body()
+    skin = box_skin(body, (0, 0, 0), (1, 1, 1), divisions=4)
+    rot = Rotation.from_euler("xyz", [0.7, -1.1, 2.3]).as_matrix()
+    shift = np.array([3.0, -2.0, 0.5])
+    moved = body.points @ rot.T + shift
+    expected = skin.rest_vertices @ rot.T + shift
+    np.testing.assert_allclose(skin.deform(moved), expected, atol=1e-12, rtol=0)
+    # several frames at once
+    frames = np.stack([body.points, moved])
+    np.testing.assert_allclose(skin.deform(frames)[1], expected, atol=1e-12, rtol=0)
+
+
+def test_radius_body_tets_only_span_springs():
+    body = _box_body()
+    tets = body_tets(body.points, body.springs)
+    springs = {tuple(s) for s in body.springs.tolist()}
+    for t in tets[:200]:
+        for i in range(4):
+            for j in range(i + 1, 4):
+                assert tuple(sorted((int(t[i]), int(t[j])))) in springs
+
+
+def test_skin_is_stored_in_the_trajectory_and_old_files_load(tmp_path):
+    body = _box_body(60)
+    model = finalize(body, stiffness=10.0, point_mass=0.01)
+    skin = box_skin(body, (0, 0, 0), (1, 1, 1), divisions=2)
+    state = model.state()
+    rec = Recorder(model, skin=skin)
+    rec.record(state)
+    state.x[:] += [0.0, 1.0, 0.0]
+    rec.record(state)
+    traj = load_trajectory(rec.save(tmp_path / "t.npz"))
+    assert isinstance(traj.skin, Skin)
+    np.testing.assert_array_equal(traj.skin.faces, skin.faces)
+    np.testing.assert_allclose(traj.skin_positions(1), skin.rest_vertices + [0, 1, 0],
+                               atol=1e-12)
+    assert traj.skin_positions().shape == (2, skin.vertex_count, 3)
+    old = load_trajectory(Recorder(model).save(tmp_path / "old.npz"))
+    assert old.skin is None and old.skin_positions(0) is None
+
+
+def test_vertex_outside_every_tet_is_extrapolated_from_the_nearest_tet():
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1.0],
+                       [5, 0, 0], [6, 0, 0], [5, 1, 0], [5, 0, 1]])
+    tets = np.array([[0, 1, 2, 3], [5, 6, 7, 8]])
+    outside = np.array([[0.2, 0.2, -0.05], [5.2, 0.2, -0.05]])   # just below each tet
+    skin = bind_skin(points, tets, outside, np.zeros((0, 3), dtype=int))
+    assert skin.point_index[0].tolist() == tets[0].tolist()
+    assert skin.point_index[1].tolist() == tets[1].tolist()
+    assert np.all(skin.weights.min(axis=1) < 0)                  # extrapolated, not dropped
+    np.testing.assert_allclose(skin.weights.sum(axis=1), 1.0, atol=1e-12)
+    np.testing.assert_allclose(skin.deform(points), outside, atol=1e-12)
+    # a uniform scaling of the body scales the extrapolated vertices with it (affine)
+    np.testing.assert_allclose(skin.deform(2.0 * points), 2.0 * outside, atol=1e-12)

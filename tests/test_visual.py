@@ -1,0 +1,325 @@
+"""Pictures, videos, exports, viewer, plots: read-only consumers of saved trajectories."""
+import os
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from jellysim.cli import cli
+from jellysim.io.trajectory import load_trajectory
+from jellysim.runner import run_scene
+from jellysim.scene import Scene
+
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+SCENE = """
+[body]
+points = 120
+lower = [0.0, 0.25, 0.0]
+upper = [0.4, 0.55, 0.4]
+seed = 2
+[springs]
+radius = 0.14
+stiffness = 300.0
+[mass]
+point_mass = 0.002
+[physics]
+damping = 0.001
+[integrator]
+dt = 0.001
+steps = 280
+[output]
+every = 40
+vtu = true
+"""
+SIZE = (96, 64)
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run")
+    (out / "scene.toml").write_text(SCENE)
+    run_scene(Scene.from_text(SCENE, name="scene.toml"), out, progress=False)
+    return out
+
+
+@pytest.fixture(scope="module")
+def traj(run_dir):
+    return load_trajectory(run_dir / "trajectory.npz")
+
+
+def _read_video(path):
+    import imageio.v3 as iio
+
+    return np.asarray(iio.imread(path))
+
+
+def test_box_run_carries_its_surface_as_skin(traj):
+    assert traj.skin is not None
+    lo, hi = traj.skin.rest_vertices.min(0), traj.skin.rest_vertices.max(0)
+    np.testing.assert_allclose(lo, [0.0, 0.25, 0.0], atol=1e-12)
+    np.testing.assert_allclose(hi, [0.4, 0.55, 0.4], atol=1e-12)
+    # the body falls: so does the skin, by the points' motion
+    assert traj.skin_positions(traj.frame_count - 1)[:, 1].mean() < (
+        traj.skin_positions(0)[:, 1].mean() - 0.05)
+
+
+def test_mp4_decodes_with_expected_frames_size_not_blank_and_moving(traj, tmp_path):
+    from jellysim.render import RenderOptions, render_trajectory
+
+    before = traj.positions.copy()
+    path = render_trajectory(traj, tmp_path / "run.mp4",
+                             RenderOptions(size=SIZE, show_points=True, show_springs=True))
+    np.testing.assert_array_equal(traj.positions, before)      # read-only consumer
+    video = _read_video(path)
+    assert video.shape == (traj.frame_count, SIZE[1], SIZE[0], 3)
+    per_frame_std = video.reshape(len(video), -1).std(axis=1)
+    assert per_frame_std.min() > 10.0                           # not blank
+    change = np.abs(video[-1].astype(float) - video[0].astype(float)).mean()
+    assert change > 2.0                                         # the body moved on screen
+
+
+def test_gif_and_png_frames(traj, tmp_path):
+    from jellysim.render import RenderOptions, render_trajectory
+
+    opts = RenderOptions(size=SIZE)
+    gif = _read_video(render_trajectory(traj, tmp_path / "a.gif", opts, frames=[0, 3, 6]))
+    assert gif.shape[:3] == (3, SIZE[1], SIZE[0])
+    folder = render_trajectory(traj, tmp_path / "frames", opts, frames=[0, 6])
+    pngs = sorted(folder.glob("frame_*.png"))
+    assert len(pngs) == 2
+    import imageio.v3 as iio
+
+    a, b = (iio.imread(p)[..., :3].astype(float) for p in pngs)
+    assert a.std() > 10.0 and np.abs(a - b).mean() > 2.0
+
+
+def test_camera_keeps_every_frame_in_view():
+    from jellysim.render.camera import frame_motion
+
+    rng = np.random.default_rng(0)
+    pts = rng.normal(size=(50, 3)) * [3.0, 0.5, 1.0] + [10, 2, -4]
+    cam = frame_motion(pts, (160, 90))
+    pos, focal = np.array(cam.position), np.array(cam.focal_point)
+    forward = (focal - pos) / np.linalg.norm(focal - pos)
+    up = np.array(cam.up) - forward * (np.array(cam.up) @ forward)
+    up /= np.linalg.norm(up)
+    right = np.cross(forward, up)
+    rel = pts - pos
+    depth = rel @ forward
+    assert np.all(depth > 0)
+    tan_v = np.tan(np.radians(cam.view_angle) / 2)
+    assert np.all(np.abs(rel @ up) / depth <= tan_v)
+    assert np.all(np.abs(rel @ right) / depth <= tan_v * 160 / 90)
+
+
+def test_usd_has_one_time_sample_per_frame_equal_to_the_skin(traj, tmp_path):
+    from pxr import Usd, UsdGeom
+
+    from jellysim.io.usd import export_usd
+
+    path = export_usd(traj, tmp_path / "run.usdc")
+    umask = os.umask(0)
+    os.umask(umask)
+    assert path.stat().st_mode & 0o777 == 0o666 & ~umask     # shareable, not mkstemp's 0600
+    stage = Usd.Stage.Open(str(path))
+    assert UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y
+    meshes = [UsdGeom.Mesh(p) for p in stage.Traverse() if p.IsA(UsdGeom.Mesh)]
+    assert len(meshes) == 1
+    attr = meshes[0].GetPointsAttr()
+    assert list(attr.GetTimeSamples()) == list(range(traj.frame_count))
+    for k in range(traj.frame_count):
+        np.testing.assert_allclose(np.array(attr.Get(k)), traj.skin_positions(k), atol=1e-6)
+    idx = np.array(meshes[0].GetFaceVertexIndicesAttr().Get()).reshape(-1, 3)
+    np.testing.assert_array_equal(idx, traj.skin.faces)
+
+
+def test_glb_morph_targets_reproduce_each_frame(traj, tmp_path):
+    import trimesh
+
+    from jellysim.io.gltf import export_glb, glb_frame_positions, read_glb
+
+    path = export_glb(traj, tmp_path / "run.glb")
+    doc, _ = read_glb(path)
+    assert doc["asset"]["version"] == "2.0"
+    prim = doc["meshes"][0]["primitives"][0]
+    assert len(prim["targets"]) == traj.frame_count
+    for k in range(traj.frame_count):
+        np.testing.assert_allclose(glb_frame_positions(path, k), traj.skin_positions(k),
+                                   atol=1e-5)
+    # independent readers: pygltflib (morph targets, animation) and trimesh (base mesh)
+    import pygltflib
+
+    g = pygltflib.GLTF2().load_binary(str(path))
+    blob = g.binary_blob()
+
+    def acc(i):
+        a = g.accessors[i]
+        v = g.bufferViews[a.bufferView]
+        width = {"SCALAR": 1, "VEC3": 3}[a.type]
+        dtype = {pygltflib.FLOAT: np.float32, pygltflib.UNSIGNED_INT: np.uint32}[
+            a.componentType]
+        start = (v.byteOffset or 0) + (a.byteOffset or 0)
+        return np.frombuffer(blob, dtype, a.count * width, start).reshape(a.count, width)
+
+    p = g.meshes[0].primitives[0]
+    base = acc(p.attributes.POSITION).astype(float)
+    sampler = g.animations[0].samplers[0]
+    times = acc(sampler.input).ravel()
+    weights = acc(sampler.output).reshape(len(times), -1)
+    np.testing.assert_allclose(times, traj.times - traj.times[0], atol=1e-6)
+    for k in (1, traj.frame_count - 1):
+        pos = base + sum(w * acc(t["POSITION"]) for w, t in zip(weights[k], p.targets))
+        np.testing.assert_allclose(pos, traj.skin_positions(k), atol=1e-5)
+    mesh = trimesh.load(path, force="mesh", process=False)
+    assert len(mesh.faces) == len(traj.skin.faces)
+    np.testing.assert_allclose(np.asarray(mesh.vertices), traj.skin_positions(0), atol=1e-5)
+
+
+def test_pvd_series_every_frame_readable_by_meshio(run_dir, traj, tmp_path):
+    import meshio
+
+    from jellysim.io.vtk import export_pvd
+
+    written = export_pvd(traj, tmp_path, "exp")
+    for pvd in [run_dir / "body.pvd", run_dir / "skin.pvd", *written]:
+        files = [d.get("file") for d in ET.parse(pvd).getroot().iter("DataSet")]
+        assert len(files) == traj.frame_count
+        for k, f in enumerate(files):
+            mesh = meshio.read(pvd.parent / f)
+            expected = traj.skin_positions(k) if "skin" in pvd.name else traj.positions[k]
+            np.testing.assert_allclose(mesh.points, expected, atol=1e-12)
+            kinds = {c.type for c in mesh.cells}
+            assert kinds == ({"triangle"} if "skin" in pvd.name else {"line"})
+
+
+@pytest.mark.parametrize("fmt", ["obj", "ply"])
+def test_mesh_sequence_readable(traj, tmp_path, fmt):
+    import meshio
+
+    from jellysim.io.meshseq import export_mesh_sequence
+
+    paths = export_mesh_sequence(traj, tmp_path, fmt=fmt)
+    assert len(paths) == traj.frame_count
+    mesh = meshio.read(paths[-1])
+    np.testing.assert_allclose(mesh.points, traj.skin_positions(-1), atol=1e-5)
+    np.testing.assert_array_equal(mesh.cells_dict["triangle"], traj.skin.faces)
+
+
+def test_diagnostics_match_hand_computed_values(traj):
+    from jellysim.plot import diagnostics
+
+    d = diagnostics(traj)
+    k = 2
+    x, v, m = traj.positions[k], traj.velocities[k], traj.masses
+    assert d["kinetic"][k] == pytest.approx(0.5 * np.sum(m[:, None] * v * v), rel=1e-12)
+    assert d["gravity"][k] == pytest.approx(9.8 * np.sum(m * x[:, 1]), rel=1e-12)
+    assert d["com_height"][k] == pytest.approx(np.sum(m * x[:, 1]) / m.sum(), rel=1e-12)
+    s = traj.springs
+    L = np.linalg.norm(x[s[:, 1]] - x[s[:, 0]], axis=1)
+    assert d["spring"][k] == pytest.approx(
+        0.5 * np.sum(traj.stiffness * (L - traj.rest_length) ** 2), rel=1e-12)
+    assert d["max_strain"][0] == pytest.approx(0.0, abs=1e-12)   # at rest
+
+
+def test_cli_plot_png_and_svg(run_dir, tmp_path):
+    r = CliRunner().invoke(cli, ["plot", str(run_dir / "trajectory.npz"), "-o",
+                                 str(tmp_path / "e.png")])
+    assert r.exit_code == 0, r.output
+    import imageio.v3 as iio
+
+    img = iio.imread(tmp_path / "e.png")
+    assert img.shape[0] > 300 and img[..., :3].std() > 10
+    r = CliRunner().invoke(cli, ["plot", str(run_dir / "trajectory.npz"), "-o",
+                                 str(tmp_path / "e.svg")])
+    assert r.exit_code == 0 and (tmp_path / "e.svg").read_text().lstrip().startswith("<?xml")
+
+
+def test_cli_render_and_export_errors_are_clear(run_dir, tmp_path):
+    t = str(run_dir / "trajectory.npz")
+    r = CliRunner().invoke(cli, ["render", t, "-o", str(tmp_path / "x.avi")])
+    assert r.exit_code == 2 and "unknown picture/video type" in r.output
+    r = CliRunner().invoke(cli, ["render", str(tmp_path / "none.npz"), "-o", "x.mp4"])
+    assert r.exit_code == 2 and "not found" in r.output
+    r = CliRunner().invoke(cli, ["export", t, "-o", str(tmp_path / "x.fbx")])
+    assert r.exit_code == 2 and "unknown export type" in r.output
+    r = CliRunner().invoke(cli, ["export", t, "-o", str(tmp_path / "x.glb"), "--max-frames", "3"])
+    assert r.exit_code == 0, r.output
+    from jellysim.io.gltf import read_glb
+
+    assert len(read_glb(tmp_path / "x.glb")[0]["meshes"][0]["primitives"][0]["targets"]) == 3
+
+
+def test_cli_render_one_picture(run_dir, tmp_path):
+    r = CliRunner().invoke(cli, ["render", str(run_dir / "trajectory.npz"), "-o",
+                                 str(tmp_path / "last.png"), "--frame", "-1", "--size", "96x64",
+                                 "--show", "all", "--color", "#33aa55", "--quiet"])
+    assert r.exit_code == 0, r.output
+    import imageio.v3 as iio
+
+    img = iio.imread(tmp_path / "last.png")[..., :3].astype(int)
+    assert img.shape == (64, 96, 3)
+    greenish = (img[..., 1] > img[..., 0] + 20) & (img[..., 1] > img[..., 2])
+    assert greenish.sum() > 20                   # the configured skin colour is drawn
+
+
+def _env_without_display():
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    env.pop("DISPLAY", None)
+    env.pop("WAYLAND_DISPLAY", None)
+    return env
+
+
+def test_view_without_display_fails_clearly(run_dir):
+    out = subprocess.run([sys.executable, "-m", "jellysim.cli", "view",
+                          str(run_dir / "trajectory.npz")], capture_output=True, text=True,
+                         env=_env_without_display(), timeout=120)
+    assert out.returncode == 2
+    assert "needs a display" in out.stderr
+
+
+def test_viewer_screenshot_under_xvfb(run_dir, tmp_path):
+    if shutil.which("xvfb-run") is None:
+        pytest.skip("xvfb-run is not installed (apt-get install xvfb)")
+    env = _env_without_display()
+    env.pop("VTK_DEFAULT_OPENGL_WINDOW", None)
+    shot = tmp_path / "view.png"
+    out = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 800x600x24", sys.executable,
+                          "-m", "jellysim.cli", "view", str(run_dir / "trajectory.npz"),
+                          "--size", "320x240", "--screenshot", str(shot)],
+                         capture_output=True, text=True, env=env, timeout=180)
+    assert out.returncode == 0, out.stderr
+    import imageio.v3 as iio
+
+    img = iio.imread(shot)[..., :3]
+    assert img.shape[:2] == (240, 320) and img.std() > 10
+
+
+def test_cli_run_with_video_and_usd(tmp_path):
+    scene = tmp_path / "s.toml"
+    scene.write_text(SCENE.replace("steps = 280", "steps = 80"))
+    r = CliRunner().invoke(cli, ["run", str(scene), "--out", str(tmp_path / "o"), "--quiet",
+                                 "--no-vtu", "--video", str(tmp_path / "o.gif"),
+                                 "--usd", str(tmp_path / "o.usdc")])
+    assert r.exit_code == 0, r.output
+    assert _read_video(tmp_path / "o.gif").shape[0] == 3
+    from pxr import Usd
+
+    stage = Usd.Stage.Open(str(tmp_path / "o.usdc"))
+    assert stage.GetEndTimeCode() == 2
+
+
+def test_cli_demo_reduced_frames_makes_a_valid_video(tmp_path):
+    r = CliRunner().invoke(cli, ["demo", "--out", str(tmp_path), "--frames", "4",
+                                 "--size", "128x72", "--quiet"])
+    assert r.exit_code == 0, r.output
+    video = _read_video(tmp_path / "demo.mp4")
+    assert video.shape == (4, 72, 128, 3)
+    assert video.reshape(4, -1).std(axis=1).min() > 10
+    assert (tmp_path / "demo.usdc").stat().st_size > 0
+    traj = load_trajectory(tmp_path / "demo" / "trajectory.npz")
+    assert traj.skin is not None and traj.skin.vertex_count == 2930
