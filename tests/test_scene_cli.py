@@ -216,3 +216,82 @@ def test_package_import_is_light():
             "'pyvista', 'rich', 'click') if m in sys.modules]; print(heavy)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+MESH_SCENE = """
+[body]
+type = "mesh"
+path = "{path}"
+points = 300
+size = 0.1
+base = [0.0, 0.05, 0.0]
+seed = 1
+
+[springs]
+connect = "{connect}"
+stiffness = 50.0
+
+[integrator]
+name = "symplectic"
+dt = 0.0005
+steps = 4
+
+[provot]
+enabled = false
+
+[output]
+every = 2
+"""
+
+
+@pytest.mark.parametrize("connect", ["radius", "delaunay"])
+def test_mesh_scene_places_scales_builds_and_carries_the_mesh_as_skin(tmp_path, connect):
+    from conftest import mesh_path
+    from jellysim.geometry import load_mesh
+
+    src = mesh_path("sphere.obj")
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "ball.obj").write_bytes(src.read_bytes())
+    p = tmp_path / "ball.toml"
+    p.write_text(MESH_SCENE.format(path="sub/ball.obj", connect=connect))  # relative path
+    scene = Scene.load(p)
+    body = scene.build_body()
+    lo, hi = body.points.min(axis=0), body.points.max(axis=0)
+    # size: largest extent 0.1 m (a unit sphere of radius 1 scaled by 0.05); base: bottom centre
+    v, f = scene.surface
+    assert np.ptp(v, axis=0).max() == pytest.approx(0.1, rel=1e-12)
+    vlo, vhi = v.min(axis=0), v.max(axis=0)
+    assert np.allclose([0.5 * (vlo[0] + vhi[0]), vlo[1], 0.5 * (vlo[2] + vhi[2])], [0, 0.05, 0])
+    assert np.all(lo >= vlo - 1e-12) and np.all(hi <= vhi + 1e-12)
+    assert np.all(np.linalg.norm(body.points - [0, 0.1, 0], axis=1) <= 0.05 * (1 + 1e-9))
+    vol = abs(load_mesh(src).defects.volume) * 0.05**3
+    assert body.volume == pytest.approx(vol, rel=1e-9)
+    res = run_scene(scene, tmp_path / "out", progress=False)
+    traj = load_trajectory(res.trajectory)
+    assert traj.skin is not None and len(traj.skin.faces) == len(f)
+    # the skin at rest is the placed input mesh itself
+    assert np.allclose(traj.skin_positions(0), v, atol=1e-12)
+
+
+def test_file_scene_and_missing_paths(tmp_path):
+    from jellysim.body import Body
+    from jellysim.geometry.jellyfile import write_body
+
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    write_body(tmp_path / "tet.jello", Body(points=pts, springs=np.array(
+        [[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]]), volume=1 / 6))
+    text = MESH_SCENE.format(path="tet.jello", connect="radius").replace('"mesh"', '"file"')
+    text = text.replace("size = 0.1\n", "").replace("base = [0.0, 0.05, 0.0]", "base = [5, 2, 5]")
+    p = tmp_path / "tet.toml"
+    p.write_text(text)
+    body = Scene.load(p).build_body()
+    assert np.allclose(body.points - pts, [5 - 1 / 2, 2, 5 - 1 / 2])
+    p.write_text(text.replace("base = [5, 2, 5]", "size = 2.0"))
+    with pytest.raises(SceneError, match="size is not used for type = 'file'"):
+        Scene.load(p)
+    p.write_text(text.replace('path = "tet.jello"\n', ""))
+    with pytest.raises(SceneError, match=r"\[body\] missing value 'path'"):
+        Scene.load(p)
+    p.write_text(MESH_SCENE.format(path="nope.obj", connect="radius"))
+    with pytest.raises(SceneError, match="nope.obj"):
+        Scene.load(p).build_body()

@@ -44,9 +44,20 @@ def _nonneg(doc, default, unit=""):
 
 SCHEMA: dict[str, dict[str, Spec]] = {
     "body": {
-        "type": Spec("str", "box", "Where the points come from.", choices=("box",)),
-        "points": Spec("int", REQUIRED, "Number of points of the random field.", lambda v: v >= 2,
-                       "an integer >= 2"),
+        "type": Spec("str", "box", "Where the body comes from: 'box' (a random field), 'mesh' "
+                     "(points inside a surface mesh file) or 'file' (a .jello/.npz body).",
+                     choices=("box", "mesh", "file")),
+        "path": Spec("str", None, "Mesh or body file (type 'mesh' / 'file'), relative to the "
+                     "scene file.", allowed="a file name"),
+        "points": Spec("int", None, "Number of points: of the random field (type 'box', "
+                       "required) or sampled inside the mesh (type 'mesh', default 2000).",
+                       lambda v: v >= 2, "an integer >= 2"),
+        "sampling": Spec("str", "uniform", "Type 'mesh': how points are placed inside.",
+                         choices=("uniform", "edge", "grid", "poisson")),
+        "size": Spec("float", None, "Type 'mesh': scale the mesh so its largest extent is this "
+                     "[m].", lambda v: v > 0, "a number > 0 (m)"),
+        "base": Spec("vec3", None, "Types 'mesh'/'file': move the body so the bottom centre of "
+                     "its bounding box is here [m]."),
         "distribution": Spec("str", "edge", "Random field: 'uniform' or the report's "
                              "edge-favouring (1 + cos(2 pi u)) / 2.", choices=("uniform", "edge")),
         "lower": Spec("vec3", [0.0, 0.0, 0.0], "Lower box corner [m]."),
@@ -55,10 +66,16 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                      "an integer >= 0"),
     },
     "springs": {
-        "connect": Spec("str", "radius", "Spring builder: 'radius' (report: implicit).",
-                        choices=("radius",)),
-        "radius": _pos("Connection radius r [m]: every pair closer than r gets a spring.",
+        "connect": Spec("str", "radius", "Spring builder: 'radius' (report: implicit); for "
+                        "type 'mesh' also 'marching', 'delaunay', 'tetgen'.",
+                        choices=("radius", "marching", "delaunay", "tetgen")),
+        "radius": _pos("Connection radius r [m]: every pair closer than r gets a spring "
+                       "(required for type 'box'; type 'mesh': default from neighbours).", None,
                        unit=" (m)"),
+        "neighbours": _pos("Type 'mesh', radius not given: target mean springs per point.",
+                           24.0),
+        "h": _pos("Type 'mesh', connect 'marching': cube edge [m] (default from points).", None,
+                  unit=" (m)"),
         "stiffness": _pos("Spring stiffness k [N/m].", unit=" (N/m)"),
     },
     "mass": {
@@ -150,7 +167,8 @@ def _check(name: str, section: str, key: str, spec: Spec, value: Any) -> Any:
             raise fail("wrong type", "true or false")
     elif kind == "str":
         if not isinstance(value, str):
-            raise fail("wrong type", "one of " + ", ".join(repr(c) for c in spec.choices))
+            raise fail("wrong type", spec.allowed or
+                       "one of " + ", ".join(repr(c) for c in spec.choices))
         if spec.choices and value not in spec.choices:
             raise fail("unknown choice", "one of " + ", ".join(repr(c) for c in spec.choices))
     elif kind == "vec3":
@@ -231,19 +249,87 @@ class Scene:
                 else:
                     values[key] = spec.default
             out[section] = values
-        b = out["body"]
+        b, sp = out["body"], out["springs"]
+        kind = b["type"]
+        if kind == "box":
+            for key, sec in (("points", b), ("radius", sp)):
+                if sec[key] is None:
+                    section = "body" if sec is b else "springs"
+                    raise SceneError(f"{name}: [{section}] missing value '{key}' (needed for "
+                                     f"[body] type = 'box')")
+            if sp["connect"] != "radius":
+                raise SceneError(f"{name}: [springs] connect = {sp['connect']!r}: box bodies "
+                                 "use 'radius'; the tet builders need type = 'mesh'")
+        else:
+            if b["path"] is None:
+                raise SceneError(f"{name}: [body] missing value 'path' (needed for type = "
+                                 f"{kind!r}): the {'mesh' if kind == 'mesh' else 'body'} file")
+            if kind == "mesh" and b["points"] is None:
+                b["points"] = 2000
+            if kind == "file" and b["size"] is not None:
+                raise SceneError(f"{name}: [body] size is not used for type = 'file' (a body "
+                                 "file has its own units); use base to place it")
         if not all(u > lo for u, lo in zip(b["upper"], b["lower"])):
             raise SceneError(f"{name}: [body] upper = {b['upper']} must exceed lower = "
                              f"{b['lower']} in every coordinate")
         return out
 
     # -- building ---------------------------------------------------------------------------
+    def resolve(self, path: str) -> Path:
+        """A path from the scene, relative to the scene file's directory."""
+        p = Path(path)
+        if not p.is_absolute() and self.name not in ("<scene>", "demo"):
+            p = Path(self.name).resolve().parent / p
+        return p
+
+    @property
+    def surface(self):
+        """The placed surface mesh of a type 'mesh' scene (vertices [m] (m, 3), faces
+        (f, 3)) after :meth:`build_body`, else ``None``: the skin to carry."""
+        return getattr(self, "_surface", None)
+
+    def _place(self, points: np.ndarray) -> np.ndarray:
+        b = self.params["body"]
+        if b["base"] is None:
+            return points
+        lo, hi = points.min(axis=0), points.max(axis=0)
+        bottom = np.array([0.5 * (lo[0] + hi[0]), lo[1], 0.5 * (lo[2] + hi[2])])
+        return points + (np.asarray(b["base"]) - bottom)
+
     def build_body(self):
         from .body import Body
+        from .errors import JellysimError
         from .geometry.connect import radius_springs
         from .geometry.sampling import box_field
 
         b, s = self.params["body"], self.params["springs"]
+        if b["type"] == "file":
+            from dataclasses import replace
+
+            from .geometry.jellyfile import read_body
+
+            body = read_body(self.resolve(b["path"]))
+            return replace(body, points=self._place(body.points))
+        if b["type"] == "mesh":
+            from .build import build_body
+            from .geometry.mesh import Mesh, load_mesh
+
+            path = self.resolve(b["path"])
+            try:
+                mesh = load_mesh(path)
+            except JellysimError as exc:
+                raise SceneError(f"{self.name}: [body] path: {exc}") from None
+            v = np.asarray(mesh.vertices, dtype=np.float64)
+            if b["size"] is not None:
+                v = v * (b["size"] / float(np.ptp(v, axis=0).max()))
+            v = self._place(v)
+            placed = Mesh.from_arrays(v, mesh.faces, name=str(path))
+            self._surface = (v, np.asarray(mesh.faces))
+            density = self.params["mass"]["density"]
+            return build_body(placed, points=b["points"], connect=s["connect"],
+                              sampling=b["sampling"], radius=s["radius"],
+                              neighbours=s["neighbours"], h=s["h"], density=density,
+                              seed=b["seed"])
         points = box_field(b["points"], b["lower"], b["upper"], distribution=b["distribution"],
                            seed=b["seed"])
         springs = radius_springs(points, s["radius"])

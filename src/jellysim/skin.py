@@ -270,9 +270,12 @@ def box_skin(body, lower, upper, divisions: int = 8) -> Skin:
 
 
 def default_skin(scene, body) -> Skin | None:
-    """The skin a scene's body gets when none is given: the box surface for box scenes; the
-    body's own ``triangles`` when it has some; otherwise ``None``."""
+    """The skin a scene's body gets when none is given: the input mesh for mesh scenes; the
+    box surface for box scenes; the body's own ``triangles`` when it has some; else ``None``."""
     b = scene.params.get("body", {}) if scene is not None else {}
+    surface = getattr(scene, "surface", None)
+    if surface is not None:  # a mesh scene carries its (placed) input mesh
+        return bind_body_skin(body, surface[0], surface[1])
     if b.get("type") == "box" and "lower" in b:
         return box_skin(body, b["lower"], b["upper"])
     if body.triangles is not None and len(body.triangles):
