@@ -263,7 +263,9 @@ def test_mesh_scene_places_scales_builds_and_carries_the_mesh_as_skin(tmp_path, 
     vlo, vhi = v.min(axis=0), v.max(axis=0)
     assert np.allclose([0.5 * (vlo[0] + vhi[0]), vlo[1], 0.5 * (vlo[2] + vhi[2])], [0, 0.05, 0])
     assert np.all(lo >= vlo - 1e-12) and np.all(hi <= vhi + 1e-12)
-    assert np.all(np.linalg.norm(body.points - [0, 0.1, 0], axis=1) <= 0.05 * (1 + 1e-9))
+    centre = 0.5 * (vlo + vhi)
+    reach = np.linalg.norm(v - centre, axis=1).max()  # the icosphere's vertices bound it
+    assert np.all(np.linalg.norm(body.points - centre, axis=1) <= reach * (1 + 1e-12))
     vol = abs(load_mesh(src).defects.volume) * 0.05**3
     assert body.volume == pytest.approx(vol, rel=1e-9)
     res = run_scene(scene, tmp_path / "out", progress=False)
