@@ -133,10 +133,12 @@ class ImplicitParams:
     sets ``x += dt (v + theta dv), v += dv``.
     """
 
-    theta: float = 0.5
-    """Implicitness in [1/2, 1]: 1/2 = linearised implicit midpoint (no numerical damping of
-    a linear vibration, period lengthened by ``atan(omega dt / 2) / (omega dt / 2)``),
-    1 = backward Euler (strong numerical damping)."""
+    theta: float = 1.0
+    """Implicitness in [1/2, 1]: 1 = backward Euler (the default: robust through impacts at
+    a frame-rate dt, but it damps a vibration of angular frequency omega by
+    ``(1 + (omega dt)^2)^-1/2`` per step); 1/2 = linearised implicit midpoint (no damping of
+    a linear vibration, but the single linearised solve lets large, fast deformations gain
+    energy).  See docs/physics.md for the measured damping."""
     tolerance: float = 1e-4
     """Conjugate gradients stop when the residual is below this fraction of the right-hand
     side."""

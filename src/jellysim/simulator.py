@@ -53,8 +53,9 @@ class Simulator:
         run (default: 100 x the body's bounding-box diagonal, at least 100 m).
     check_stability: estimate the stable dt now and warn (:class:`StabilityWarning`) if
         ``dt`` exceeds it.
-    substeps: explicit integrators take this many steps of ``dt / substeps`` per step
-        (``advance(n)`` still advances ``n dt``); the guard checks ``dt / substeps``.
+    substeps: take this many steps of ``dt / substeps`` per step (``advance(n)`` still
+        advances ``n dt``); the guard checks ``dt / substeps``.  The explicit integrators need
+        it for stiff materials; the implicit one is stable without it but damps less with it.
     implicit: :class:`~jellysim.params.ImplicitParams` for ``integrator = "implicit"``.
     obstacles: static :class:`~jellysim.physics.contact.Plane` / ``Sphere`` / ``Box``
         obstacles with restitution and Coulomb friction (a ``GroundModel.CONTACT`` ground adds
@@ -82,9 +83,6 @@ class Simulator:
             raise SceneError(f"substeps must be an integer >= 1, got {substeps}")
         self.implicit = implicit
         if self.integrator is Integrator.IMPLICIT:
-            if self.substeps != 1:
-                raise SceneError("substeps apply to the explicit integrators only; the "
-                                 "implicit integrator is stable at the full dt")
             if provot.enabled:
                 raise SceneError("Provot strain limiting is a crutch of the explicit "
                                  "integrators and is not applied by integrator = 'implicit'; "
@@ -136,7 +134,10 @@ class Simulator:
         if self.integrator is Integrator.IMPLICIT:
             self._frame = np.zeros((k, 5))
             self._spring_vec = np.zeros((k, 3))
-            self._cg = [np.zeros((n, 3)) for _ in range(6)]  # dv, r, z, p, Ap, diag
+            self._cg = [np.zeros((n, 3)) for _ in range(7)]  # dv, r, z, p, Ap, diag, b
+            self._cg.append(np.zeros((n, 5)))  # contact normal, target speed, impact speed
+            self._cobs = np.full(n, -1, dtype=np.int64)
+            self._released = np.zeros(n, dtype=np.bool_)
         self.stability: StabilityEstimate | None = None
         if check_stability:
             self.check_stability()
@@ -188,18 +189,20 @@ class Simulator:
     def _advance_implicit(self, steps):
         m, g, s, im = self.model, self.ground, self.state, self.implicit
         paper = g.enabled and GroundModel(g.model) is GroundModel.PAPER
-        dv, r, z, p, ap, diag = self._cg
+        dv, r, z, p, ap, diag, b, cnrm = self._cg
+        sub = self.substeps
         done, status, iters, worst = self._k.implicit_steps(
-            steps, self.dt, float(im.theta), float(im.tolerance), int(im.max_iterations),
+            steps * sub, self.dt_step, float(im.theta), float(im.tolerance), int(im.max_iterations),
             s.x, s.v, s.a, m.particle_inv_mass, m.damping, m.gravity, m.spring_ij,
             m.spring_rest_length, m.spring_stiffness, m.point_first_ptr, m.point_second_ptr,
             m.point_second_spring, m.point_second_other, paper, float(g.height), float(g.mu),
             float(g.nu), self._obstacle_kind, self._obstacle_data, self.rest_speed,
             self.center, self.runaway_distance**2, self._scalar, self._frame,
-            self._spring_vec, dv, r, z, p, ap, diag, m.particle_mass)
+            self._spring_vec, dv, r, z, p, ap, diag, b, cnrm, m.particle_mass, self._cobs,
+            self._released)
         self.cg_iterations += int(iters)
         self.cg_worst_residual = max(self.cg_worst_residual, float(worst))
-        return done, status
+        return (done + sub - 1) // sub, status
 
     def _advance_explicit(self, steps):
         m, p, g, s = self.model, self.provot, self.ground, self.state

@@ -486,6 +486,91 @@ def _diag_gather(mass, shift, h2, spring_ij, frame, diag):
             diag[p, c] = mass[p] + shift[p] + h2 * diag[p, c]
 
 
+@njit(**_opts)
+def contact_normals(x, v, obstacle_kind, obstacle_data, margin, released, dt, rest_speed,
+                    first_ptr, second_ptr, cnrm, cobs):
+    for q in prange(x.shape[0]):
+        for c in range(5):
+            cnrm[q, c] = 0.0
+        cobs[q] = -1
+        if released[q]:
+            continue
+        for o in range(obstacle_kind.shape[0]):
+            phi, nx, ny, nz = _contact_point(obstacle_kind[o], obstacle_data[o], x[q, 0],
+                                             x[q, 1], x[q, 2])
+            vn = v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz
+            if vn <= 0.0 and phi + dt * vn <= margin:
+                cnrm[q, 0] = nx
+                cnrm[q, 1] = ny
+                cnrm[q, 2] = nz
+                impact = -vn if -vn > rest_speed else 0.0
+                free = (first_ptr[q + 1] - first_ptr[q] + second_ptr[q + 1]
+                        - second_ptr[q]) == 0
+                if impact > 0.0 and free:
+                    cnrm[q, 3] = obstacle_data[o, 6] * impact
+                else:
+                    cnrm[q, 3] = -max(phi, 0.0) / dt
+                cnrm[q, 4] = impact
+                cobs[q] = o
+                break
+
+
+@njit(**_opts)
+def filter_constrained(u, cnrm):
+    for q in prange(u.shape[0]):
+        d = u[q, 0] * cnrm[q, 0] + u[q, 1] * cnrm[q, 1] + u[q, 2] * cnrm[q, 2]
+        u[q, 0] -= d * cnrm[q, 0]
+        u[q, 1] -= d * cnrm[q, 1]
+        u[q, 2] -= d * cnrm[q, 2]
+
+
+@njit(**_opts)
+def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, released):
+    for q in prange(x.shape[0]):
+        released[q] = False
+        o = cobs[q]
+        if o < 0:
+            continue
+        nx = cnrm[q, 0]
+        ny = cnrm[q, 1]
+        nz = cnrm[q, 2]
+        jn = ((ap[q, 0] - b[q, 0]) * nx + (ap[q, 1] - b[q, 1]) * ny
+              + (ap[q, 2] - b[q, 2]) * nz)
+        if jn < 0.0:
+            released[q] = True
+        vn = v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz
+        budget = max(jn, 0.0) / mass[q]
+        tx = v[q, 0] - vn * nx
+        ty = v[q, 1] - vn * ny
+        tz = v[q, 2] - vn * nz
+        speed = np.sqrt(tx * tx + ty * ty + tz * tz)
+        if speed <= obstacle_data[o, 7] * budget:
+            scale = 0.0
+        else:
+            scale = max(1.0 - obstacle_data[o, 8] * budget / speed, 0.0)
+        x[q, 0] += (scale - 1.0) * tx * dt
+        x[q, 1] += (scale - 1.0) * ty * dt
+        x[q, 2] += (scale - 1.0) * tz * dt
+        v[q, 0] = scale * tx + vn * nx
+        v[q, 1] = scale * ty + vn * ny
+        v[q, 2] = scale * tz + vn * nz
+
+
+@njit(**_opts)
+def _constrain_start(dv, v, cnrm):
+    # dv := S dv + (target - v . n) n
+    for q in prange(dv.shape[0]):
+        nx = cnrm[q, 0]
+        ny = cnrm[q, 1]
+        nz = cnrm[q, 2]
+        d = dv[q, 0] * nx + dv[q, 1] * ny + dv[q, 2] * nz
+        vn = v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz
+        t = cnrm[q, 3] - vn - d
+        dv[q, 0] += t * nx
+        dv[q, 1] += t * ny
+        dv[q, 2] += t * nz
+
+
 @njit(cache=True)
 def _dot(a, b):
     s = 0.0
@@ -547,13 +632,12 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
                    spring_ij, rest, stiff, first_ptr, second_ptr, second_spring, second_other,
                    ground, height, mu, nu, obstacle_kind, obstacle_data, rest_speed,
                    center, bound2, spring_scalar, frame, spring_vec, dv, r, z, p, ap, diag,
-                   mass):
+                   b, cnrm, mass, cobs, released):
     h = theta * dt
     h2 = h * h
     n = mass.shape[0]
     shift = np.full(n, h * damping)
     zero = np.zeros(n)
-    b = np.empty_like(x)
     iters = 0
     worst = 0.0
     for step in range(nsteps):
@@ -564,11 +648,18 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
         system_matvec(v, mass, zero, 1.0, spring_ij, frame, first_ptr, second_ptr,
                       second_spring, second_other, spring_vec, ap)
         _implicit_rhs(b, ap, mass, a, v, dt, h)
-        bnorm = np.sqrt(_dot(b, b))
+        contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, released, dt, rest_speed,
+                        first_ptr, second_ptr, cnrm, cobs)
+        _constrain_start(dv, v, cnrm)
+        _copy(r, b)
+        filter_constrained(r, cnrm)
+        bnorm = np.sqrt(_dot(r, r))
         system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
                       second_spring, second_other, spring_vec, ap)
         _residual(r, b, ap)
+        filter_constrained(r, cnrm)
         _precondition(z, r, diag)
+        filter_constrained(z, cnrm)
         _copy(p, z)
         rz = _dot(r, z)
         res = np.sqrt(_dot(r, r))
@@ -576,9 +667,11 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
         while it < max_iter and res > tol * bnorm:
             system_matvec(p, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
                           second_spring, second_other, spring_vec, ap)
+            filter_constrained(ap, cnrm)
             alpha = rz / _dot(p, ap)
             _axpy_pair(dv, r, p, ap, alpha)
             _precondition(z, r, diag)
+            filter_constrained(z, cnrm)
             rz_new = _dot(r, z)
             _update_direction(p, z, rz_new / rz)
             rz = rz_new
@@ -589,6 +682,9 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
             worst = max(worst, res / bnorm)
         _implicit_update(x, v, a, dv, dt, theta)
         if obstacle_kind.shape[0] > 0:
+            system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
+                          second_spring, second_other, spring_vec, ap)
+            constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, released)
             contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
         status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)
         if status != STATUS_OK:

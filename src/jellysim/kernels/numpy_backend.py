@@ -272,6 +272,74 @@ def system_diagonal(mass, shift, h2, spring_ij, frame, diag):
                                               + _scatter(n, spring_ij[:, 1], kd))
 
 
+def contact_normals(x, v, obstacle_kind, obstacle_data, margin, released, dt, rest_speed,
+                    first_ptr, second_ptr, cnrm, cobs):
+    """Contact constraints for an implicit step (speculative contacts).
+
+    A point is constrained by the first obstacle it touches or would reach during the step at
+    its current speed (``phi + dt min(v_n, 0) <= margin``, ``phi`` [m]: signed distance),
+    unless ``released`` (its constraint pulled last step).  ``cnrm`` (n, 5) gets per point:
+    the obstacle normal (3; zero for free points), the target normal velocity [m/s] and the
+    impact speed ``-v_n`` [m/s] when it exceeds ``rest_speed`` (else 0: resting).  The target
+    is ``-max(phi, 0) / dt`` (close the gap, no more: the point stops on the surface and the
+    body's own elasticity makes it bounce), except for a point without springs (a free
+    particle), whose target is ``e x impact speed`` (its bounce, up to ``|v_n| dt`` early).
+    Prescribing a bounce to the surface points of a body at a frame-rate dt would drive the
+    layer above through them in one step, so the solve treats body points as inelastic.  ``cobs`` (n,): obstacle
+    index or -1.
+    """
+    cnrm[:] = 0.0
+    cobs[:] = -1
+    for o in range(obstacle_kind.shape[0]):
+        phi, nrm = _contact_geometry(obstacle_kind[o], obstacle_data[o], x)
+        vn = np.einsum("ij,ij->i", v, nrm)
+        hit = (cobs < 0) & (phi + dt * np.minimum(vn, 0.0) <= margin) & (vn <= 0.0) & ~released
+        cnrm[hit, 0:3] = nrm[hit]
+        impact = np.where(-vn[hit] > rest_speed, -vn[hit], 0.0)
+        free = (np.diff(first_ptr) + np.diff(second_ptr))[hit] == 0
+        cnrm[hit, 3] = np.where((impact > 0.0) & free, obstacle_data[o, 6] * impact,
+                                -np.maximum(phi[hit], 0.0) / dt)
+        cnrm[hit, 4] = impact
+        cobs[hit] = o
+
+
+def filter_constrained(u, cnrm):
+    """Remove the constrained (normal) component of u (n, 3) in place (Baraff & Witkin 1998);
+    ``cnrm`` (n, 5) as written by :func:`contact_normals`."""
+    nrm = cnrm[:, 0:3]
+    u -= np.einsum("ij,ij->i", u, nrm)[:, None] * nrm
+
+
+def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, released):
+    """Restitution and Coulomb friction on the constrained points after an implicit step, in
+    place on x, v.
+
+    An impacting free particle leaves with normal velocity ``e x impact speed`` (its target).  The constraint impulse is ``J = A dv - b`` [kg m/s]; its normal part ``J_n`` buys a
+    tangential velocity change of at most ``mu J_n / m``: the tangential velocity is removed
+    when ``|v_t| <= mu_s J_n / m``, else reduced by ``mu_k J_n / m``; the position follows
+    (``x += (v_t' - v_t) dt``).  A point with ``J_n < 0`` (the constraint pulled) is marked
+    ``released`` for the next step.
+    """
+    on = cobs >= 0
+    released[:] = False
+    if not np.any(on):
+        return
+    nrm = cnrm[on, 0:3]
+    jn = np.einsum("ij,ij->i", ap[on] - b[on], nrm)
+    released[np.nonzero(on)[0][jn < 0.0]] = True
+    data = obstacle_data[cobs[on]]
+    vv = v[on]
+    vn = np.einsum("ij,ij->i", vv, nrm)
+    budget = np.maximum(jn, 0.0) / mass[on]
+    vt = vv - vn[:, None] * nrm
+    speed = np.sqrt(np.einsum("ij,ij->i", vt, vt))
+    scale = np.where(speed <= data[:, 7] * budget, 0.0,
+                     np.maximum(1.0 - data[:, 8] * budget / np.where(speed > 0, speed, 1.0),
+                                0.0))
+    x[on] += ((scale - 1.0)[:, None] * vt) * dt
+    v[on] = scale[:, None] * vt + vn[:, None] * nrm
+
+
 def _dot(a, b):
     return float(np.sum(a * b))
 
@@ -280,7 +348,7 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
                    spring_ij, rest, stiff, first_ptr, second_ptr, second_spring, second_other,
                    ground, height, mu, nu, obstacle_kind, obstacle_data, rest_speed,
                    center, bound2, spring_scalar, frame, spring_vec, dv, r, z, p, ap, diag,
-                   mass):
+                   b, cnrm, mass, cobs, released):
     """Advance ``nsteps`` steps of the linearly implicit theta-method, in place on x, v, a.
 
     One step (Baraff & Witkin 1998 for theta = 1; theta = 1/2 is the linearised implicit
@@ -291,9 +359,14 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
 
     K: the tangent stiffness at x (:func:`spring_frames`), F: springs, damping and gravity.
     The system is solved by Jacobi-preconditioned conjugate gradients from the previous step's
-    ``dv`` (warm start) to a residual ``<= tol |rhs|`` or ``max_iter`` iterations.  Then
-    :func:`contact` and :func:`finish_step`.  ``mass`` (n,) [kg]; the other trailing arrays
-    are scratch ((k,), (k, 5), (k, 3), then (n, 3) each).  Returns ``(steps_done, status,
+    ``dv`` (warm start) to a residual ``<= tol |rhs|`` or ``max_iter`` iterations.  Points
+    resting on an obstacle (:func:`contact_normals`) are constrained inside the solve, as in
+    Baraff & Witkin's modified conjugate gradients: their normal velocity change is fixed so
+    that they end the step with zero normal velocity, the rest of the body feels it, and the
+    constraint impulse gives their Coulomb friction (:func:`constraint_friction`).  Then
+    :func:`contact` (new impacts: restitution) and :func:`finish_step`.  ``mass`` (n,) [kg];
+    ``cobs`` (n,) int64 and ``released`` (n,) bool carry the contact state; the other trailing
+    arrays are scratch ((k,), (k, 5), (k, 3), then (n, 3) each).  Returns ``(steps_done, status,
     total CG iterations, largest relative residual left)``.
     """
     h = theta * dt
@@ -310,12 +383,21 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
         system_matvec(v, mass, shift * 0.0, 1.0, spring_ij, frame, first_ptr, second_ptr,
                       second_spring, second_other, spring_vec, ap)
         ap -= mass[:, None] * v  # = K v
-        b = dt * (mass[:, None] * a - h * ap)
-        bnorm = np.sqrt(_dot(b, b))
+        b[:] = dt * (mass[:, None] * a - h * ap)
+        contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, released, dt, rest_speed,
+                        first_ptr, second_ptr, cnrm, cobs)
+        # constrained points: dv_n = target - v_n
+        filter_constrained(dv, cnrm)
+        dv += (cnrm[:, 3] - np.einsum("ij,ij->i", v, cnrm[:, 0:3]))[:, None] * cnrm[:, 0:3]
+        r[:] = b
+        filter_constrained(r, cnrm)
+        bnorm = np.sqrt(_dot(r, r))
         system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
                       second_spring, second_other, spring_vec, ap)
         r[:] = b - ap
+        filter_constrained(r, cnrm)
         z[:] = r / diag
+        filter_constrained(z, cnrm)
         p[:] = z
         rz = _dot(r, z)
         res = np.sqrt(_dot(r, r))
@@ -323,10 +405,12 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
         while it < max_iter and res > tol * bnorm:
             system_matvec(p, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
                           second_spring, second_other, spring_vec, ap)
+            filter_constrained(ap, cnrm)
             alpha = rz / _dot(p, ap)
             dv += alpha * p
             r -= alpha * ap
             z[:] = r / diag
+            filter_constrained(z, cnrm)
             rz_new = _dot(r, z)
             p[:] = z + (rz_new / rz) * p
             rz = rz_new
@@ -339,6 +423,9 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
         v += dv
         a[:] = dv / dt
         if obstacle_kind.shape[0] > 0:
+            system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
+                          second_spring, second_other, spring_vec, ap)
+            constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, released)
             contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
         status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)
         if status != STATUS_OK:
