@@ -321,11 +321,15 @@ class Scene:
 
                 from .physics.material import calibrate_springs, point_masses
 
-                masses = body.masses
+                masses, pv = body.masses, None
+                if body.meta.get("distribution") == "grid" and body.tets is None:
+                    from .geometry.lattice import grid_point_volumes
+
+                    pv = grid_point_volumes(body.points)
                 if masses is None and m["point_mass"] is None:
-                    masses = point_masses(body, density)
-                body = replace(body, stiffness=calibrate_springs(body, mat["youngs_modulus"]),
-                               masses=masses)
+                    masses = density * pv if pv is not None else point_masses(body, density)
+                body = replace(body, stiffness=calibrate_springs(
+                    body, mat["youngs_modulus"], point_volume=pv), masses=masses)
             return finalize(body, stiffness=self.params["springs"]["stiffness"],
                             density=density, point_mass=m["point_mass"],
                             damping=ph["damping"], gravity=ph["gravity"])

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["grid_points"]
+__all__ = ["grid_points", "grid_point_volumes"]
 
 
 def grid_points(count: int, lower, upper) -> np.ndarray:
@@ -28,3 +28,16 @@ def grid_points(count: int, lower, upper) -> np.ndarray:
     cells = np.maximum(1, np.round(size / h).astype(int))
     axes = [np.linspace(lo, hi, c + 1) for lo, hi, c in zip(lower, upper, cells)]
     return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+
+
+def grid_point_volumes(points: np.ndarray) -> np.ndarray:
+    """Volume [m^3], shape (n,), each point of a full box grid (:func:`grid_points`) owns: its
+    cell ``h_x h_y h_z``, halved for each axis on which it lies on a face."""
+    points = np.asarray(points, dtype=np.float64)
+    vol = np.ones(points.shape[0])
+    for c in range(3):
+        coords = np.unique(points[:, c])
+        h = float(np.diff(coords).mean()) if len(coords) > 1 else 1.0
+        on_face = np.isclose(points[:, c], coords[0]) | np.isclose(points[:, c], coords[-1])
+        vol *= np.where(on_face, 0.5 * h, h)
+    return vol

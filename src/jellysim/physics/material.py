@@ -81,8 +81,11 @@ def point_masses(body: Body, density: float) -> np.ndarray:
     return density * point_volumes(body)
 
 
-def spring_weights(body: Body) -> np.ndarray:
-    """Relative stiffness ``w_s`` [m], shape (k,), in the body's spring order (see module doc)."""
+def spring_weights(body: Body, *, point_volume=None) -> np.ndarray:
+    """Relative stiffness ``w_s`` [m], shape (k,), in the body's spring order (see module doc).
+
+    ``point_volume`` [m^3], shape (n,): the volume each point owns, for bodies without tets
+    (default: :func:`point_volumes`)."""
     pts = np.asarray(body.points, dtype=np.float64)
     springs = np.asarray(body.springs, dtype=np.int64).reshape(-1, 2)
     n, k = pts.shape[0], springs.shape[0]
@@ -106,7 +109,7 @@ def spring_weights(body: Body) -> np.ndarray:
         if np.any(w <= 0):
             raise ValueError("a spring belongs to no tet: cannot weight it by tet volume")
         return w / length**2
-    vp = point_volumes(body)
+    vp = point_volumes(body) if point_volume is None else np.asarray(point_volume, float)
     z = np.bincount(springs.ravel(), minlength=n).astype(np.float64)
     share = np.where(z > 0, vp / np.maximum(z, 1.0), 0.0)
     return (share[springs[:, 0]] + share[springs[:, 1]]) / length**2
@@ -225,7 +228,8 @@ def youngs_from_stiffness(C: np.ndarray) -> float:
     return float(np.mean(1.0 / np.diag(S)[:3]))
 
 
-def network_youngs_modulus(body: Body, stiffness, *, relax: bool = True) -> float:
+def network_youngs_modulus(body: Body, stiffness, *, relax: bool = True,
+                           volume: float | None = None) -> float:
     """Effective Young's modulus [Pa] of ``body``'s springs with per-spring ``stiffness`` [N/m].
 
     Virial (affine) stiffness minus, with ``relax``, the non-affine relaxation of the inner
@@ -233,7 +237,8 @@ def network_youngs_modulus(body: Body, stiffness, *, relax: bool = True) -> floa
     """
     pts = np.asarray(body.points, dtype=np.float64)
     springs = np.asarray(body.springs, dtype=np.int64).reshape(-1, 2)
-    volume = float(point_volumes(body).sum())
+    if volume is None:
+        volume = float(point_volumes(body).sum())
     C = virial_stiffness(pts, springs, np.asarray(stiffness, dtype=np.float64), volume)
     if relax:
         C = C - relaxation_stiffness(pts, springs, np.asarray(stiffness, dtype=np.float64),
@@ -241,13 +246,19 @@ def network_youngs_modulus(body: Body, stiffness, *, relax: bool = True) -> floa
     return youngs_from_stiffness(C)
 
 
-def calibrate_springs(body: Body, youngs_modulus: float, *, relax: bool = True) -> np.ndarray:
+def calibrate_springs(body: Body, youngs_modulus: float, *, relax: bool = True,
+                      point_volume=None) -> np.ndarray:
     """Per-spring stiffness [N/m], shape (k,), so that the network's Young's modulus is
-    ``youngs_modulus`` [Pa] (see the module docstring for the method and its limits)."""
+    ``youngs_modulus`` [Pa] (see the module docstring for the method and its limits).
+
+    ``point_volume`` [m^3], shape (n,): the volume each point owns when the body has no tets
+    (e.g. :func:`jellysim.geometry.lattice.grid_point_volumes`); default: the body volume
+    split evenly."""
     if not (np.isfinite(youngs_modulus) and youngs_modulus > 0):
         raise ValueError(f"Young's modulus must be a positive number of Pa, got {youngs_modulus}")
-    w = spring_weights(body)
-    e1 = network_youngs_modulus(body, w, relax=relax)
+    w = spring_weights(body, point_volume=point_volume)
+    e1 = network_youngs_modulus(body, w, relax=relax, volume=None if point_volume is None
+                                else float(np.sum(point_volume)))
     if not e1 > 0:
         raise ValueError("the spring network is not rigid (its effective modulus is 0): "
                          "connect more points (a larger radius) or use tets")
