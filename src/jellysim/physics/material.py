@@ -169,7 +169,16 @@ def surface_points(points, springs, tets=None) -> np.ndarray:
                        - np.bincount(springs[:, 1], nrm[:, c], n))
     z = np.bincount(springs.ravel(), minlength=n)
     lopsided = np.linalg.norm(total, axis=1) > 0.35 * np.maximum(z, 1)
-    return lopsided | (z == 0)
+    # springs that do not span 3D (a point on a thin sheet or strand) cannot hold the point in
+    # every direction: treat it as surface (held), or the relaxation solve would be singular
+    scatter = np.zeros((n, 3, 3))
+    for a in range(3):
+        for b in range(a, 3):
+            w = nrm[:, a] * nrm[:, b]
+            scatter[:, a, b] = scatter[:, b, a] = (np.bincount(springs[:, 0], w, n)
+                                                   + np.bincount(springs[:, 1], w, n))
+    flat = np.linalg.eigvalsh(scatter)[:, 0] < 0.05 * np.maximum(z, 1)
+    return lopsided | flat | (z < 4)
 
 
 def inner_points(points, surface, skin: float) -> np.ndarray:
@@ -217,7 +226,13 @@ def relaxation_stiffness(points, springs, stiffness, volume, *, skin: float | No
     dof = np.repeat(inner, 3)
     Kin = K[dof][:, dof].tocsc()
     rhs = xi[dof]
-    sol = splu(Kin).solve(rhs)
+    try:
+        sol = splu(Kin).solve(rhs)
+    except RuntimeError:  # a floppy inner cluster: regularise it (1e-9 of the mean diagonal)
+        from scipy.sparse import identity
+
+        eps = 1e-9 * float(Kin.diagonal().mean())
+        sol = splu((Kin + eps * identity(Kin.shape[0])).tocsc()).solve(rhs)
     v_in = volume * inner.sum() / n
     return rhs.T @ sol / v_in
 
