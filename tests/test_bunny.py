@@ -56,8 +56,7 @@ def test_gelatin_bunny_runs_5_s_at_frame_rate():
     x = sim.state.x
     assert x[:, 1].min() >= -1e-9
     assert np.abs(sim.state.v).max() < 0.05  # it settled
-    # it slumps under its own weight (rho g H / E = 0.19 at the base; the overhanging head
-    # and ears bend: the 914-point body settles at 62 % of its height, at 92 % with E = 20 kPa)
-    # but does not collapse
-    assert 0.5 * height0 < np.ptp(x[:, 1]) < 0.95 * height0
-    assert sim.cg_worst_residual <= 1e-4 * 1.01  # every solve converged
+    # it sags under its own weight (rho g H / E = 0.09 at the base; the overhanging head and
+    # ears bend: the 914-point body settles at 81 % of its height) but does not collapse
+    assert 0.7 * height0 < np.ptp(x[:, 1]) < 0.95 * height0
+    assert sim.cg_worst_residual <= 1.01 * sim.implicit.tolerance  # every solve converged

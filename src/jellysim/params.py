@@ -139,7 +139,7 @@ class ImplicitParams:
     ``(1 + (omega dt)^2)^-1/2`` per step); 1/2 = linearised implicit midpoint (no damping of
     a linear vibration, but the single linearised solve lets large, fast deformations gain
     energy).  See docs/physics.md for the measured damping."""
-    tolerance: float = 1e-4
+    tolerance: float = 1e-3
     """Conjugate gradients stop when the residual is below this fraction of the right-hand
     side."""
     max_iterations: int = 300

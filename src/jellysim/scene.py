@@ -100,7 +100,7 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "theta": Spec("float", 1.0, "Implicit: 1 = backward Euler (robust, damps), 0.5 = "
                       "midpoint (no damping of linear vibrations).", lambda v: 0.5 <= v <= 1,
                       "a number in [0.5, 1]"),
-        "cg_tolerance": _pos("Implicit: relative residual at which CG stops.", 1e-4),
+        "cg_tolerance": _pos("Implicit: relative residual at which CG stops.", 1e-3),
         "cg_max_iterations": Spec("int", 300, "Implicit: CG iterations per step at most.",
                                   lambda v: v >= 1, "an integer >= 1"),
     },
