@@ -150,9 +150,9 @@ def test_implicit_steps_agree():
         assert np.array_equal(ref._cobs, fast._cobs)
         landed |= bool((ref._cobs >= 0).any())
         for dst, src in zip([fast.state.x, fast.state.v, fast.state.a, *fast._cg,
-                             fast._cobs, fast._released],
+                             fast._cobs, fast._contact_state],
                             [ref.state.x, ref.state.v, ref.state.a, *ref._cg, ref._cobs,
-                             ref._released]):
+                             ref._contact_state]):
             dst[...] = src
     assert landed
 

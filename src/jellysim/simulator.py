@@ -135,9 +135,9 @@ class Simulator:
             self._frame = np.zeros((k, 5))
             self._spring_vec = np.zeros((k, 3))
             self._cg = [np.zeros((n, 3)) for _ in range(7)]  # dv, r, z, p, Ap, diag, b
-            self._cg.append(np.zeros((n, 5)))  # contact normal, target speed, impact speed
+            self._cg.append(np.zeros((n, 6)))  # normal, target speed, impact speed, stuck
             self._cobs = np.full(n, -1, dtype=np.int64)
-            self._released = np.zeros(n, dtype=np.bool_)
+            self._contact_state = np.zeros(n, dtype=np.int8)
         self.stability: StabilityEstimate | None = None
         if check_stability:
             self.check_stability()
@@ -199,7 +199,7 @@ class Simulator:
             float(g.nu), self._obstacle_kind, self._obstacle_data, self.rest_speed,
             self.center, self.runaway_distance**2, self._scalar, self._frame,
             self._spring_vec, dv, r, z, p, ap, diag, b, cnrm, m.particle_mass, self._cobs,
-            self._released)
+            self._contact_state)
         self.cg_iterations += int(iters)
         self.cg_worst_residual = max(self.cg_worst_residual, float(worst))
         return (done + sub - 1) // sub, status

@@ -486,20 +486,25 @@ def _diag_gather(mass, shift, h2, spring_ij, frame, diag):
             diag[p, c] = mass[p] + shift[p] + h2 * diag[p, c]
 
 
+_FREE = 0
+_RELEASED = 1
+_STUCK = 2
+
+
 @njit(**_opts)
-def contact_normals(x, v, obstacle_kind, obstacle_data, margin, released, dt, rest_speed,
+def contact_normals(x, v, obstacle_kind, obstacle_data, margin, contact_state, dt, rest_speed,
                     first_ptr, second_ptr, cnrm, cobs):
     for q in prange(x.shape[0]):
-        for c in range(5):
+        for c in range(6):
             cnrm[q, c] = 0.0
         cobs[q] = -1
-        if released[q]:
+        if contact_state[q] == _RELEASED:
             continue
         for o in range(obstacle_kind.shape[0]):
             phi, nx, ny, nz = _contact_point(obstacle_kind[o], obstacle_data[o], x[q, 0],
                                              x[q, 1], x[q, 2])
             vn = v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz
-            if vn <= 0.0 and phi + dt * vn <= margin:
+            if vn <= 0.0 and phi + dt * min(vn, 0.0) <= margin:
                 cnrm[q, 0] = nx
                 cnrm[q, 1] = ny
                 cnrm[q, 2] = nz
@@ -511,6 +516,7 @@ def contact_normals(x, v, obstacle_kind, obstacle_data, margin, released, dt, re
                 else:
                     cnrm[q, 3] = -max(phi, 0.0) / dt
                 cnrm[q, 4] = impact
+                cnrm[q, 5] = 1.0 if contact_state[q] == _STUCK else 0.0
                 cobs[q] = o
                 break
 
@@ -519,56 +525,74 @@ def contact_normals(x, v, obstacle_kind, obstacle_data, margin, released, dt, re
 def filter_constrained(u, cnrm):
     for q in prange(u.shape[0]):
         d = u[q, 0] * cnrm[q, 0] + u[q, 1] * cnrm[q, 1] + u[q, 2] * cnrm[q, 2]
-        u[q, 0] -= d * cnrm[q, 0]
-        u[q, 1] -= d * cnrm[q, 1]
-        u[q, 2] -= d * cnrm[q, 2]
+        keep = 1.0 - cnrm[q, 5]
+        u[q, 0] = (u[q, 0] - d * cnrm[q, 0]) * keep
+        u[q, 1] = (u[q, 1] - d * cnrm[q, 1]) * keep
+        u[q, 2] = (u[q, 2] - d * cnrm[q, 2]) * keep
 
 
 @njit(**_opts)
-def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, released):
+def constrain_start(dv, v, cnrm):
+    for q in prange(dv.shape[0]):
+        nx = cnrm[q, 0]
+        ny = cnrm[q, 1]
+        nz = cnrm[q, 2]
+        stick = cnrm[q, 5]
+        d = dv[q, 0] * nx + dv[q, 1] * ny + dv[q, 2] * nz
+        keep = 1.0 - stick
+        vn = v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz
+        t = cnrm[q, 3] - vn
+        dv[q, 0] = (dv[q, 0] - d * nx) * keep + t * nx - stick * (v[q, 0] - vn * nx)
+        dv[q, 1] = (dv[q, 1] - d * ny) * keep + t * ny - stick * (v[q, 1] - vn * ny)
+        dv[q, 2] = (dv[q, 2] - d * nz) * keep + t * nz - stick * (v[q, 2] - vn * nz)
+
+
+@njit(**_opts)
+def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contact_state):
     for q in prange(x.shape[0]):
-        released[q] = False
+        contact_state[q] = _FREE
         o = cobs[q]
         if o < 0:
             continue
         nx = cnrm[q, 0]
         ny = cnrm[q, 1]
         nz = cnrm[q, 2]
-        jn = ((ap[q, 0] - b[q, 0]) * nx + (ap[q, 1] - b[q, 1]) * ny
-              + (ap[q, 2] - b[q, 2]) * nz)
-        if jn < 0.0:
-            released[q] = True
-        vn = v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz
+        jx = ap[q, 0] - b[q, 0]
+        jy = ap[q, 1] - b[q, 1]
+        jz = ap[q, 2] - b[q, 2]
+        jn = jx * nx + jy * ny + jz * nz
+        was_stuck = cnrm[q, 5] > 0.0
+        jtx = jx - jn * nx
+        jty = jy - jn * ny
+        jtz = jz - jn * nz
+        jt_norm = np.sqrt(jtx * jtx + jty * jty + jtz * jtz)
         budget = max(jn, 0.0) / mass[q]
+        vn = v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz
         tx = v[q, 0] - vn * nx
         ty = v[q, 1] - vn * ny
         tz = v[q, 2] - vn * nz
         speed = np.sqrt(tx * tx + ty * ty + tz * tz)
-        if speed <= obstacle_data[o, 7] * budget:
+        stick = speed <= obstacle_data[o, 7] * budget
+        if stick or was_stuck:
             scale = 0.0
-        else:
+        elif speed > 0.0:
             scale = max(1.0 - obstacle_data[o, 8] * budget / speed, 0.0)
+        else:
+            scale = 1.0
         x[q, 0] += (scale - 1.0) * tx * dt
         x[q, 1] += (scale - 1.0) * ty * dt
         x[q, 2] += (scale - 1.0) * tz * dt
         v[q, 0] = scale * tx + vn * nx
         v[q, 1] = scale * ty + vn * ny
         v[q, 2] = scale * tz + vn * nz
-
-
-@njit(**_opts)
-def _constrain_start(dv, v, cnrm):
-    # dv := S dv + (target - v . n) n
-    for q in prange(dv.shape[0]):
-        nx = cnrm[q, 0]
-        ny = cnrm[q, 1]
-        nz = cnrm[q, 2]
-        d = dv[q, 0] * nx + dv[q, 1] * ny + dv[q, 2] * nz
-        vn = v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz
-        t = cnrm[q, 3] - vn - d
-        dv[q, 0] += t * nx
-        dv[q, 1] += t * ny
-        dv[q, 2] += t * nz
+        if was_stuck:
+            holds = jt_norm <= obstacle_data[o, 7] * max(jn, 0.0)
+        else:
+            holds = stick
+        if jn < 0.0:
+            contact_state[q] = _RELEASED
+        elif holds:
+            contact_state[q] = _STUCK
 
 
 @njit(cache=True)
@@ -632,7 +656,7 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
                    spring_ij, rest, stiff, first_ptr, second_ptr, second_spring, second_other,
                    ground, height, mu, nu, obstacle_kind, obstacle_data, rest_speed,
                    center, bound2, spring_scalar, frame, spring_vec, dv, r, z, p, ap, diag,
-                   b, cnrm, mass, cobs, released):
+                   b, cnrm, mass, cobs, contact_state):
     h = theta * dt
     h2 = h * h
     n = mass.shape[0]
@@ -648,9 +672,9 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
         system_matvec(v, mass, zero, 1.0, spring_ij, frame, first_ptr, second_ptr,
                       second_spring, second_other, spring_vec, ap)
         _implicit_rhs(b, ap, mass, a, v, dt, h)
-        contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, released, dt, rest_speed,
-                        first_ptr, second_ptr, cnrm, cobs)
-        _constrain_start(dv, v, cnrm)
+        contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state, dt,
+                        rest_speed, first_ptr, second_ptr, cnrm, cobs)
+        constrain_start(dv, v, cnrm)
         _copy(r, b)
         filter_constrained(r, cnrm)
         bnorm = np.sqrt(_dot(r, r))
@@ -684,7 +708,8 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
         if obstacle_kind.shape[0] > 0:
             system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
                           second_spring, second_other, spring_vec, ap)
-            constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, released)
+            constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt,
+                                contact_state)
             contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
         status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)
         if status != STATUS_OK:

@@ -272,72 +272,105 @@ def system_diagonal(mass, shift, h2, spring_ij, frame, diag):
                                               + _scatter(n, spring_ij[:, 1], kd))
 
 
-def contact_normals(x, v, obstacle_kind, obstacle_data, margin, released, dt, rest_speed,
+CONTACT_FREE = 0
+"""Contact state of a point: no special state (constrained along the normal if touching)."""
+CONTACT_RELEASED = 1
+"""Its constraint pulled last step: left free for one step."""
+CONTACT_STUCK = 2
+"""Static friction held it last step: constrained in all three directions."""
+
+
+def contact_normals(x, v, obstacle_kind, obstacle_data, margin, contact_state, dt, rest_speed,
                     first_ptr, second_ptr, cnrm, cobs):
     """Contact constraints for an implicit step (speculative contacts).
 
     A point is constrained by the first obstacle it touches or would reach during the step at
     its current speed (``phi + dt min(v_n, 0) <= margin``, ``phi`` [m]: signed distance),
-    unless ``released`` (its constraint pulled last step).  ``cnrm`` (n, 5) gets per point:
-    the obstacle normal (3; zero for free points), the target normal velocity [m/s] and the
-    impact speed ``-v_n`` [m/s] when it exceeds ``rest_speed`` (else 0: resting).  The target
-    is ``-max(phi, 0) / dt`` (close the gap, no more: the point stops on the surface and the
-    body's own elasticity makes it bounce), except for a point without springs (a free
-    particle), whose target is ``e x impact speed`` (its bounce, up to ``|v_n| dt`` early).
-    Prescribing a bounce to the surface points of a body at a frame-rate dt would drive the
-    layer above through them in one step, so the solve treats body points as inelastic.  ``cobs`` (n,): obstacle
-    index or -1.
+    unless its ``contact_state`` (n,) int8 is ``CONTACT_RELEASED``.  ``cnrm`` (n, 6) gets per
+    point: the obstacle normal (3; zero for free points), the target normal velocity [m/s],
+    the impact speed ``-v_n`` [m/s] when it exceeds ``rest_speed`` (else 0: resting) and 1.0
+    when the point sticks (``CONTACT_STUCK``: its tangential velocity is held at 0 too).  The
+    target is ``-max(phi, 0) / dt`` (close the gap, no more: the point stops on the surface
+    and the body's own elasticity makes it bounce), except for a point without springs (a
+    free particle), whose target is ``e x impact speed`` (its bounce, up to ``|v_n| dt``
+    early).  Prescribing a bounce to the surface points of a body at a frame-rate dt would
+    drive the layer above through them in one step, so the solve treats body points as
+    inelastic.  ``cobs`` (n,): obstacle index or -1.
     """
     cnrm[:] = 0.0
     cobs[:] = -1
     for o in range(obstacle_kind.shape[0]):
         phi, nrm = _contact_geometry(obstacle_kind[o], obstacle_data[o], x)
         vn = np.einsum("ij,ij->i", v, nrm)
-        hit = (cobs < 0) & (phi + dt * np.minimum(vn, 0.0) <= margin) & (vn <= 0.0) & ~released
+        hit = ((cobs < 0) & (phi + dt * np.minimum(vn, 0.0) <= margin) & (vn <= 0.0)
+               & (contact_state != CONTACT_RELEASED))
         cnrm[hit, 0:3] = nrm[hit]
         impact = np.where(-vn[hit] > rest_speed, -vn[hit], 0.0)
         free = (np.diff(first_ptr) + np.diff(second_ptr))[hit] == 0
         cnrm[hit, 3] = np.where((impact > 0.0) & free, obstacle_data[o, 6] * impact,
                                 -np.maximum(phi[hit], 0.0) / dt)
         cnrm[hit, 4] = impact
+        cnrm[hit, 5] = np.where(contact_state[hit] == CONTACT_STUCK, 1.0, 0.0)
         cobs[hit] = o
 
 
 def filter_constrained(u, cnrm):
-    """Remove the constrained (normal) component of u (n, 3) in place (Baraff & Witkin 1998);
-    ``cnrm`` (n, 5) as written by :func:`contact_normals`."""
+    """Remove the constrained components of u (n, 3) in place (Baraff & Witkin 1998): the
+    normal one, or all three for a sticking point; ``cnrm`` (n, 6) from
+    :func:`contact_normals`."""
     nrm = cnrm[:, 0:3]
     u -= np.einsum("ij,ij->i", u, nrm)[:, None] * nrm
+    u *= (1.0 - cnrm[:, 5])[:, None]
 
 
-def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, released):
-    """Restitution and Coulomb friction on the constrained points after an implicit step, in
-    place on x, v.
+def constrain_start(dv, v, cnrm):
+    """Initial guess of an implicit solve (n, 3), in place: the free components of ``dv`` (the
+    last step's, a warm start) and, along each constraint, what reaches the target velocity:
+    ``v + dv = target n`` on the normal (and tangentially 0 for a sticking point)."""
+    nrm = cnrm[:, 0:3]
+    filter_constrained(dv, cnrm)
+    dv += (cnrm[:, 3] - np.einsum("ij,ij->i", v, nrm))[:, None] * nrm
+    vt = v - np.einsum("ij,ij->i", v, nrm)[:, None] * nrm
+    dv -= cnrm[:, 5][:, None] * vt
 
-    An impacting free particle leaves with normal velocity ``e x impact speed`` (its target).  The constraint impulse is ``J = A dv - b`` [kg m/s]; its normal part ``J_n`` buys a
-    tangential velocity change of at most ``mu J_n / m``: the tangential velocity is removed
-    when ``|v_t| <= mu_s J_n / m``, else reduced by ``mu_k J_n / m``; the position follows
-    (``x += (v_t' - v_t) dt``).  A point with ``J_n < 0`` (the constraint pulled) is marked
-    ``released`` for the next step.
+
+def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contact_state):
+    """Coulomb friction on the constrained points after an implicit step, in place on x, v,
+    and their next ``contact_state``.
+
+    The constraint impulse is ``J = A dv - b`` [kg m/s].  ``J_n < 0`` (the constraint pulled):
+    the point is ``CONTACT_RELEASED`` next step.  A sticking point stays ``CONTACT_STUCK``
+    while ``|J_t| <= mu_s J_n`` (static friction held it, inside the solve), else it slides
+    from the next step.  A sliding point's tangential velocity is removed when
+    ``|v_t| <= mu_s J_n / m`` (it sticks from the next step on), else reduced by
+    ``mu_k J_n / m``; its position follows (``x += (v_t' - v_t) dt``).
     """
+    contact_state[:] = CONTACT_FREE
     on = cobs >= 0
-    released[:] = False
     if not np.any(on):
         return
+    idx = np.nonzero(on)[0]
     nrm = cnrm[on, 0:3]
-    jn = np.einsum("ij,ij->i", ap[on] - b[on], nrm)
-    released[np.nonzero(on)[0][jn < 0.0]] = True
+    j = ap[on] - b[on]
+    jn = np.einsum("ij,ij->i", j, nrm)
     data = obstacle_data[cobs[on]]
+    was_stuck = cnrm[on, 5] > 0.0
+    jt = j - jn[:, None] * nrm
+    jt_norm = np.sqrt(np.einsum("ij,ij->i", jt, jt))
+    budget = np.maximum(jn, 0.0) / mass[on]
     vv = v[on]
     vn = np.einsum("ij,ij->i", vv, nrm)
-    budget = np.maximum(jn, 0.0) / mass[on]
     vt = vv - vn[:, None] * nrm
     speed = np.sqrt(np.einsum("ij,ij->i", vt, vt))
-    scale = np.where(speed <= data[:, 7] * budget, 0.0,
+    stick = speed <= data[:, 7] * budget
+    scale = np.where(stick | was_stuck, 0.0,
                      np.maximum(1.0 - data[:, 8] * budget / np.where(speed > 0, speed, 1.0),
                                 0.0))
     x[on] += ((scale - 1.0)[:, None] * vt) * dt
     v[on] = scale[:, None] * vt + vn[:, None] * nrm
+    holds = np.where(was_stuck, jt_norm <= data[:, 7] * np.maximum(jn, 0.0), stick)
+    contact_state[idx[holds]] = CONTACT_STUCK
+    contact_state[idx[jn < 0.0]] = CONTACT_RELEASED
 
 
 def _dot(a, b):
@@ -348,7 +381,7 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
                    spring_ij, rest, stiff, first_ptr, second_ptr, second_spring, second_other,
                    ground, height, mu, nu, obstacle_kind, obstacle_data, rest_speed,
                    center, bound2, spring_scalar, frame, spring_vec, dv, r, z, p, ap, diag,
-                   b, cnrm, mass, cobs, released):
+                   b, cnrm, mass, cobs, contact_state):
     """Advance ``nsteps`` steps of the linearly implicit theta-method, in place on x, v, a.
 
     One step (Baraff & Witkin 1998 for theta = 1; theta = 1/2 is the linearised implicit
@@ -365,8 +398,8 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
     that they end the step with zero normal velocity, the rest of the body feels it, and the
     constraint impulse gives their Coulomb friction (:func:`constraint_friction`).  Then
     :func:`contact` (new impacts: restitution) and :func:`finish_step`.  ``mass`` (n,) [kg];
-    ``cobs`` (n,) int64 and ``released`` (n,) bool carry the contact state; the other trailing
-    arrays are scratch ((k,), (k, 5), (k, 3), then (n, 3) each).  Returns ``(steps_done, status,
+    ``cobs`` (n,) int64 and ``contact_state`` (n,) int8 carry the contact state; the other
+    trailing arrays are scratch ((k,), (k, 5), (k, 3), (n, 3) each, ``cnrm`` (n, 6)).  Returns ``(steps_done, status,
     total CG iterations, largest relative residual left)``.
     """
     h = theta * dt
@@ -384,11 +417,9 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
                       second_spring, second_other, spring_vec, ap)
         ap -= mass[:, None] * v  # = K v
         b[:] = dt * (mass[:, None] * a - h * ap)
-        contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, released, dt, rest_speed,
-                        first_ptr, second_ptr, cnrm, cobs)
-        # constrained points: dv_n = target - v_n
-        filter_constrained(dv, cnrm)
-        dv += (cnrm[:, 3] - np.einsum("ij,ij->i", v, cnrm[:, 0:3]))[:, None] * cnrm[:, 0:3]
+        contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state, dt,
+                        rest_speed, first_ptr, second_ptr, cnrm, cobs)
+        constrain_start(dv, v, cnrm)
         r[:] = b
         filter_constrained(r, cnrm)
         bnorm = np.sqrt(_dot(r, r))
@@ -425,7 +456,8 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
         if obstacle_kind.shape[0] > 0:
             system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
                           second_spring, second_other, spring_vec, ap)
-            constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, released)
+            constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt,
+                                contact_state)
             contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
         status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)
         if status != STATUS_OK:
