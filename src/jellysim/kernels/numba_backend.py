@@ -675,9 +675,7 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
         contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state, dt,
                         rest_speed, first_ptr, second_ptr, cnrm, cobs)
         constrain_start(dv, v, cnrm)
-        _copy(r, b)
-        filter_constrained(r, cnrm)
-        bnorm = np.sqrt(_dot(r, r))
+        bnorm = np.sqrt(_dot(b, b))
         system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
                       second_spring, second_other, spring_vec, ap)
         _residual(r, b, ap)

@@ -392,7 +392,8 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
 
     K: the tangent stiffness at x (:func:`spring_frames`), F: springs, damping and gravity.
     The system is solved by Jacobi-preconditioned conjugate gradients from the previous step's
-    ``dv`` (warm start) to a residual ``<= tol |rhs|`` or ``max_iter`` iterations.  Points
+    ``dv`` (warm start) to a residual ``<= tol |rhs|`` (the whole right-hand side, constraint
+    components included) or ``max_iter`` iterations.  Points
     resting on an obstacle (:func:`contact_normals`) are constrained inside the solve, as in
     Baraff & Witkin's modified conjugate gradients: their normal velocity change is fixed so
     that they end the step with zero normal velocity, the rest of the body feels it, and the
@@ -420,9 +421,9 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
         contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state, dt,
                         rest_speed, first_ptr, second_ptr, cnrm, cobs)
         constrain_start(dv, v, cnrm)
-        r[:] = b
-        filter_constrained(r, cnrm)
-        bnorm = np.sqrt(_dot(r, r))
+        # the scale of the stopping test: the whole right-hand side, constraint components
+        # included (at rest the free part of b vanishes, the weight on the supports does not)
+        bnorm = np.sqrt(_dot(b, b))
         system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
                       second_spring, second_other, spring_vec, ap)
         r[:] = b - ap
