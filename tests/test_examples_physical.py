@@ -43,10 +43,12 @@ def test_wobble_example_frequency_and_measured_damping(capsys):
     assert ref["integrator"] == "symplectic"
     assert 1.0 < ref["frequency_hz"] < 10.0  # "a believable few hertz"
     assert ref["energy_kept_per_period"] > 0.9  # the reference barely damps
-    kept = [r["energy_kept_per_period"] for r in runs[1:]]  # theta = 1, 0.75, 0.5
-    for r in runs[1:]:
+    be, theta75, _, be_sub4 = runs[1:]  # theta = 1, 0.75, (0.5: not asserted), 1 x 4 substeps
+    for r in (be, theta75, be_sub4):
         assert r["frequency_hz"] == pytest.approx(ref["frequency_hz"], rel=0.10)
-    assert kept[0] < kept[1] < kept[2] < 1.0  # less implicit, less numerical damping
+    # numerical damping: less implicit or smaller steps, less of it; all of them damp
+    assert be["energy_kept_per_period"] < theta75["energy_kept_per_period"] < 1.0
+    assert be["energy_kept_per_period"] < be_sub4["energy_kept_per_period"] < 1.0
 
 
 def test_gelatin_scene_settles_at_the_continuum_height():
