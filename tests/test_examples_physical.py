@@ -96,3 +96,12 @@ def test_paper_preset_is_the_report_run():
     assert p["ground"]["model"] == "paper" and (p["ground"]["mu"], p["ground"]["nu"]) == (
         0.1, 0.2)
     assert p["integrator"]["name"] == "paper" and p["integrator"]["dt"] == 0.01  # the scene's
+
+
+def test_paper_preset_example_is_the_spelled_out_paper_cube():
+    a = Scene.load(ROOT / "examples" / "paper_2010_preset.toml").params
+    b = Scene.load(ROOT / "examples" / "paper_cube.toml").params
+    differ = {(s, k) for s in a for k in a[s] if a[s][k] != b[s][k]}
+    # the preset name, the density given in [material] instead of [mass], the output cadence
+    assert differ == {("material", "preset"), ("material", "density"), ("output", "every")}
+    assert a["material"]["density"] == b["mass"]["density"]
