@@ -61,7 +61,8 @@ def wobble(cells, integrator, dt, *, theta=1.0, substeps=1, seconds=1.2, L=0.1, 
     kept = float(np.mean(np.square(np.array(peaks[1:]) / np.array(peaks[:-1])))) if len(
         peaks) > 1 else float("nan")
     return {"integrator": integrator, "theta": theta if integrator == "implicit" else None,
-            "dt_s": dt, "substeps": substeps, "points": model.particle_count, "frequency_hz": float(f),
+            "dt_s": dt, "substeps": substeps, "points": model.particle_count,
+            "frequency_hz": float(f),
             "energy_kept_per_period": kept, "first_peak_m": float(peaks[0]) if peaks else None}
 
 

@@ -192,7 +192,8 @@ class Simulator:
         dv, r, z, p, ap, diag, b, cnrm = self._cg
         sub = self.substeps
         done, status, iters, worst = self._k.implicit_steps(
-            steps * sub, self.dt_step, float(im.theta), float(im.tolerance), int(im.max_iterations),
+            steps * sub, self.dt_step, float(im.theta), float(im.tolerance),
+            int(im.max_iterations),
             s.x, s.v, s.a, m.particle_inv_mass, m.damping, m.gravity, m.spring_ij,
             m.spring_rest_length, m.spring_stiffness, m.point_first_ptr, m.point_second_ptr,
             m.point_second_spring, m.point_second_other, paper, float(g.height), float(g.mu),

@@ -14,8 +14,8 @@ damping rate ``c = delta / m`` the update matrices give (Jury's criterion):
 ``max_p sum_s k_s (1/m_p + 1/sqrt(m_p m_q))``.  The worst damping rate is used for each bound.
 
 * the implicit theta-method (``Integrator.IMPLICIT``): for one mode the amplification factor
-  has ``|A|^2 = (1 + (1 - theta)^2 z^2) / (1 + theta^2 z^2)`` (``z = omega dt``, undamped), which is
-  <= 1 at every dt iff ``theta >= 1/2``: unconditionally stable for the linearised system.  The
+  has ``|A|^2 = (1 + (1 - theta)^2 z^2) / (1 + theta^2 z^2)`` (``z = omega dt``, undamped),
+  which is <= 1 at every dt iff ``theta >= 1/2``: unconditionally stable for the linearised system.  The
   nonlinear step (rotating springs, contact) is guarded at run time by the non-finite/runaway
   check, and the simulator records how far each conjugate-gradient solve converged.
 """

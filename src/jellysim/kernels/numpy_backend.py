@@ -393,15 +393,16 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
     K: the tangent stiffness at x (:func:`spring_frames`), F: springs, damping and gravity.
     The system is solved by Jacobi-preconditioned conjugate gradients from the previous step's
     ``dv`` (warm start) to a residual ``<= tol |rhs|`` (the whole right-hand side, constraint
-    components included) or ``max_iter`` iterations.  Points
-    resting on an obstacle (:func:`contact_normals`) are constrained inside the solve, as in
-    Baraff & Witkin's modified conjugate gradients: their normal velocity change is fixed so
-    that they end the step with zero normal velocity, the rest of the body feels it, and the
-    constraint impulse gives their Coulomb friction (:func:`constraint_friction`).  Then
+    components included) or ``max_iter`` iterations.  Points touching or about to touch an
+    obstacle (:func:`contact_normals`) are constrained inside the solve, as in Baraff &
+    Witkin's modified conjugate gradients: their normal velocity change is fixed so that they
+    end the step at the target normal velocity (all three components for a sticking point),
+    the rest of the body feels it, and the constraint impulse gives their Coulomb friction
+    (:func:`constraint_friction`).  Then
     :func:`contact` (new impacts: restitution) and :func:`finish_step`.  ``mass`` (n,) [kg];
     ``cobs`` (n,) int64 and ``contact_state`` (n,) int8 carry the contact state; the other
-    trailing arrays are scratch ((k,), (k, 5), (k, 3), (n, 3) each, ``cnrm`` (n, 6)).  Returns ``(steps_done, status,
-    total CG iterations, largest relative residual left)``.
+    trailing arrays are scratch ((k,), (k, 5), (k, 3), (n, 3) each, ``cnrm`` (n, 6)).
+    Returns ``(steps_done, status, total CG iterations, largest relative residual left)``.
     """
     h = theta * dt
     h2 = h * h

@@ -9,8 +9,9 @@ dynamics, Born & Huang 1954):
    * bodies with tetrahedra (marching grid, Delaunay, TetGen): ``w_s = sum_{t ∋ s} V_t / L_s^2``
      over the tets that contain edge s (Van Gelder, "Approximate simulation of elastic membranes
      by triangulated spring meshes", J. Graphics Tools 3(2), 1998, in its 3D form);
-   * point clouds (radius springs): every point p owns a volume ``V_p`` (its mass / density, or
-     the body volume split evenly) and shares it equally among its ``Z_p`` springs:
+   * point clouds (radius springs): every point p owns a volume ``V_p`` (given, e.g. by
+     :func:`jellysim.geometry.lattice.grid_point_volumes`, or the body volume split evenly) and
+     shares it equally among its ``Z_p`` springs:
      ``w_s = (V_i / Z_i + V_j / Z_j) / L_s^2``.
 
    Either way ``sum_s w_s L_s^2`` is the body volume, so surface points (fewer springs) get
@@ -24,13 +25,14 @@ dynamics, Born & Huang 1954):
    affine strain leaves on the points, ``K``: the network's stiffness matrix).  Both are linear
    in the springs' common scale ``c`` (``k_s = c w_s``), so ``c`` follows from one evaluation:
    ``E_network(c) = c E_network(1) = E``.  The relaxation term is solved with the surface points
-   held affine and every other point free (one sparse LU solve with 6 right-hand sides).  Young's modulus of the anisotropic tensor is taken as the
+   held affine and every other point free (one sparse LU solve with 6 right-hand sides).
+   Young's modulus of the anisotropic tensor is taken as the
    mean of ``1 / S_aa`` over the three axes (``S = C^-1`` in Voigt notation).
 
 Limits (documented in docs/physics.md): a central-force network obeys the Cauchy relation
 ``C_12 = C_44``, so it cannot represent an arbitrary Poisson's ratio: an isotropic network has
-``nu = 1/4`` (gelatin is nearly incompressible, ``nu ~ 0.5``; the network's bulk modulus is
-too low by a factor 2-10).  Only E is matched, at small strain.
+``nu = 1/4`` (gelatin is nearly incompressible, ``nu ~ 0.5``, so the network's bulk modulus
+is far too low).  Only E is matched, at small strain.
 """
 from __future__ import annotations
 
@@ -40,7 +42,7 @@ from ..body import Body
 
 __all__ = ["spring_weights", "virial_stiffness", "relaxation_stiffness",
            "youngs_from_stiffness", "network_youngs_modulus", "calibrate_springs",
-           "point_masses", "tet_volumes"]
+           "point_masses", "point_volumes", "surface_points", "tet_volumes"]
 
 _VOIGT = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
 
@@ -196,8 +198,8 @@ def relaxation_stiffness(points, springs, stiffness, volume, *, skin: float | No
                          tets=None) -> np.ndarray:
     """Non-affine softening [Pa], 6 x 6 Voigt: ``(1/V_in) Xi_in^T K_in^-1 Xi_in``.
 
-    ``Xi``: force on each point per unit affine strain; the surface points and those within ``skin`` [m]
-    (default 0) of them are held affine, the others relax.  (Holding a thicker skin restrains
+    ``Xi``: force on each point per unit affine strain; the surface points and those within
+    ``skin`` [m] (default 0) of them are held affine, the others relax.  (Holding a thicker skin restrains
     the relaxation: measured on random networks, skin 0 matches tensile tests best.)
     ``V_in`` is the volume the inner points own (their share of ``volume``).
     """
