@@ -10,6 +10,8 @@ __all__ = [
     "ProvotOrder",
     "ProvotParams",
     "GroundParams",
+    "GroundModel",
+    "ImplicitParams",
     "MAX_ALL_PAIRS_POINTS",
     "REPORT_DENSITY",
 ]
@@ -32,10 +34,25 @@ class Integrator(str, Enum):
 
     ``SYMPLECTIC``: semi-implicit Euler: ``a = F(x, v) / m; v += a dt; x += v dt``.
     Undamped it keeps energy bounded for ``dt < 2 / omega_max``.
+
+    ``IMPLICIT``: the linearly implicit theta-method (:class:`ImplicitParams`; Baraff & Witkin
+    1998 for theta = 1), a conjugate-gradient solve per step.  Unconditionally stable for the
+    linearised system with theta >= 1/2; theta = 1/2 does not damp a linear vibration.
+    See docs/physics.md.
     """
 
     PAPER = "paper"
     SYMPLECTIC = "symplectic"
+    IMPLICIT = "implicit"
+
+
+class GroundModel(str, Enum):
+    """Which ground rule acts at ``y = height``."""
+
+    PAPER = "paper"
+    """The report's rule (eqs. 2, 3): no normal force, no bounce."""
+    CONTACT = "contact"
+    """Non-penetration with restitution and Coulomb friction (:mod:`jellysim.physics.contact`)."""
 
 
 class ProvotPairs(str, Enum):
@@ -98,3 +115,40 @@ class GroundParams:
     nu: float = 0.2
     height: float = 0.0
     """Height of the ground plane [m]."""
+    model: GroundModel = GroundModel.PAPER
+    """``PAPER`` (mu, nu above) or ``CONTACT`` (restitution and friction below)."""
+    restitution: float = 0.3
+    """Contact model: coefficient of restitution e [-] (bounce speed / impact speed)."""
+    friction: float = 0.6
+    """Contact model: kinetic Coulomb friction coefficient [-]."""
+    static_friction: float | None = None
+    """Contact model: static Coulomb friction coefficient [-] (default: ``friction``)."""
+
+
+@dataclass(frozen=True)
+class ImplicitParams:
+    """Options of :attr:`Integrator.IMPLICIT`.
+
+    One step solves ``(M + theta dt delta + theta^2 dt^2 K) dv = dt (F - theta dt K v)`` and
+    sets ``x += dt (v + theta dv), v += dv``.
+    """
+
+    theta: float = 1.0
+    """Implicitness in [1/2, 1]: 1 = backward Euler (the default: robust through impacts at
+    a frame-rate dt, but it damps a vibration of angular frequency omega by
+    ``(1 + (omega dt)^2)^-1/2`` per step); 1/2 = linearised implicit midpoint (no damping of
+    a linear vibration, but the single linearised solve lets large, fast deformations gain
+    energy).  See docs/physics.md for the measured damping."""
+    tolerance: float = 1e-3
+    """Conjugate gradients stop when the residual is below this fraction of the right-hand
+    side."""
+    max_iterations: int = 300
+    """Conjugate-gradient iterations per step at most."""
+
+    def __post_init__(self):
+        if not 0.5 <= self.theta <= 1.0:
+            raise ValueError(f"implicit theta must lie in [0.5, 1], got {self.theta}")
+        if not self.tolerance > 0:
+            raise ValueError(f"implicit tolerance must be > 0, got {self.tolerance}")
+        if not self.max_iterations >= 1:
+            raise ValueError(f"implicit max_iterations must be >= 1, got {self.max_iterations}")

@@ -59,7 +59,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "base": Spec("vec3", None, "Types 'mesh'/'file': move the body so the bottom centre of "
                      "its bounding box is here [m]."),
         "distribution": Spec("str", "edge", "Random field: 'uniform' or the report's "
-                             "edge-favouring (1 + cos(2 pi u)) / 2.", choices=("uniform", "edge")),
+                             "edge-favouring (1 + cos(2 pi u)) / 2; or 'grid': a cubic lattice "
+                             "of about that many points (use radius = 1.8 spacings).",
+                             choices=("uniform", "edge", "grid")),
         "lower": Spec("vec3", [0.0, 0.0, 0.0], "Lower box corner [m]."),
         "upper": Spec("vec3", [1.0, 1.0, 1.0], "Upper box corner [m]."),
         "seed": Spec("int", 0, "Random seed (same seed, same points).", lambda v: v >= 0,
@@ -76,7 +78,17 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                            24.0),
         "h": _pos("Type 'mesh', connect 'marching': cube edge [m] (default from points).", None,
                   unit=" (m)"),
-        "stiffness": _pos("Spring stiffness k [N/m].", unit=" (N/m)"),
+        "stiffness": Spec("float", None, "Spring stiffness k [N/m] (paper mode; give this or "
+                          "[material] youngs_modulus).", lambda v: v > 0, "a number > 0 (N/m)"),
+    },
+    "material": {
+        "preset": Spec("str", None, "Preset filling every key not given: 'gelatin' (real "
+                       "gelatin, physical ground, implicit) or 'paper-2010' (the report's "
+                       "constants and hacks).", choices=("gelatin", "paper-2010")),
+        "density": _pos("Density [kg/m^3]; point masses = density x the volume each point "
+                        "owns (overrides [mass] density).", None, " (kg/m^3)"),
+        "youngs_modulus": _pos("Young's modulus E [Pa]: every spring's stiffness is derived so "
+                               "the network's modulus is E (docs/physics.md).", None, " (Pa)"),
     },
     "mass": {
         "density": _pos("Density [kg/m^3]; total mass = density x volume, split evenly.",
@@ -89,8 +101,10 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "gravity": Spec("vec3", [0.0, -9.8, 0.0], "Gravitational acceleration [m/s^2]."),
     },
     "integrator": {
-        "name": Spec("str", "symplectic", "'paper' (report order: x, v, then a) or "
-                     "'symplectic' (semi-implicit Euler).", choices=("paper", "symplectic")),
+        "name": Spec("str", "symplectic", "'paper' (report order: x, v, then a), "
+                     "'symplectic' (semi-implicit Euler) or 'implicit' (theta-method with a "
+                     "conjugate-gradient solve, stiff-stable).",
+                     choices=("paper", "symplectic", "implicit")),
         "dt": _pos("Time step [s].", unit=" (s)"),
         "steps": Spec("int", REQUIRED, "Number of time steps.", lambda v: v >= 1,
                       "an integer >= 1"),
@@ -98,6 +112,14 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         choices=("numba", "numpy")),
         "threads": Spec("int", None, "Numba threads (default: by problem size).",
                         lambda v: v >= 1, "an integer >= 1"),
+        "substeps": Spec("int", 1, "Steps of dt / substeps per step.", lambda v: v >= 1,
+                         "an integer >= 1"),
+        "theta": Spec("float", 1.0, "Implicit: 1 = backward Euler (robust, damps), 0.5 = "
+                      "midpoint (no damping of linear vibrations).", lambda v: 0.5 <= v <= 1,
+                      "a number in [0.5, 1]"),
+        "cg_tolerance": _pos("Implicit: relative residual at which CG stops.", 1e-3),
+        "cg_max_iterations": Spec("int", 300, "Implicit: CG iterations per step at most.",
+                                  lambda v: v >= 1, "an integer >= 1"),
     },
     "provot": {
         "enabled": Spec("bool", True, "Provot strain limiting on/off."),
@@ -115,13 +137,19 @@ SCHEMA: dict[str, dict[str, Spec]] = {
     },
     "ground": {
         "enabled": Spec("bool", True, "The report's ground plane on/off."),
-        "model": Spec("str", "paper", "'paper': the report's mu/nu rule (eqs. 2, 3).",
-                      choices=("paper",)),
+        "model": Spec("str", "paper", "'paper': the report's mu/nu rule (eqs. 2, 3); "
+                      "'contact': non-penetration, restitution, Coulomb friction.",
+                      choices=("paper", "contact")),
         "height": Spec("float", 0.0, "Height of the plane y = height [m]."),
         "mu": Spec("float", 0.1, "Factor on x/z velocity of a point on the ground.",
                    lambda v: 0 <= v <= 1, "a number in [0, 1]"),
         "nu": Spec("float", 0.2, "Fraction of y acceleration removed on the ground.",
                    lambda v: 0 <= v <= 1, "a number in [0, 1]"),
+        "restitution": Spec("float", 0.3, "Contact: coefficient of restitution e.",
+                            lambda v: 0 <= v <= 1, "a number in [0, 1]"),
+        "friction": _nonneg("Contact: kinetic Coulomb friction coefficient.", 0.6),
+        "static_friction": Spec("float", None, "Contact: static Coulomb coefficient "
+                                "(default: friction).", lambda v: v >= 0, "a number >= 0"),
     },
     "output": {
         "every": Spec("int", None, "Steps between saved frames (default: about 100 frames).",
@@ -217,6 +245,15 @@ class Scene:
 
     @staticmethod
     def _validate(raw: dict, name: str) -> dict:
+        preset = raw.get("material", {}).get("preset") if isinstance(
+            raw.get("material"), dict) else None
+        if preset is not None:
+            from .presets import PRESETS, apply_preset
+
+            if preset not in PRESETS:
+                raise SceneError(f"{name}: [material] preset = {preset!r}: unknown choice; "
+                                 "expected one of " + ", ".join(repr(p) for p in PRESETS))
+            raw = apply_preset(raw, preset)
         out: dict[str, dict] = {}
         for section in raw:
             if section not in SCHEMA:
@@ -249,6 +286,20 @@ class Scene:
                 else:
                     values[key] = spec.default
             out[section] = values
+        mat, spr = out["material"], out["springs"]
+        if mat["youngs_modulus"] is None and spr["stiffness"] is None:
+            raise SceneError(f"{name}: give [springs] stiffness (N/m) or [material] "
+                             "youngs_modulus (Pa), or [material] preset = 'gelatin'")
+        if mat["youngs_modulus"] is not None and spr["stiffness"] is not None:
+            raise SceneError(f"{name}: [springs] stiffness and [material] youngs_modulus both "
+                             "set; give one (youngs_modulus derives every spring's stiffness)")
+        it = out["integrator"]
+        if it["name"] == "implicit" and out["provot"]["enabled"] and "provot" in raw and (
+                "enabled" in raw["provot"]):
+            raise SceneError(f"{name}: [provot] enabled = true is not used by the implicit "
+                             "integrator; set it to false")
+        if it["name"] == "implicit":
+            out["provot"]["enabled"] = False
         b, sp = out["body"], out["springs"]
         kind = b["type"]
         if kind == "box":
@@ -325,13 +376,20 @@ class Scene:
             v = self._place(v)
             placed = Mesh.from_arrays(v, mesh.faces, name=str(path))
             self._surface = (v, np.asarray(mesh.faces))
-            density = self.params["mass"]["density"]
+            mat = self.params["material"]
+            density = mat["density"] if mat["density"] is not None else (
+                self.params["mass"]["density"])
             return build_body(placed, points=b["points"], connect=s["connect"],
                               sampling=b["sampling"], radius=s["radius"],
                               neighbours=s["neighbours"], h=s["h"], density=density,
                               seed=b["seed"])
-        points = box_field(b["points"], b["lower"], b["upper"], distribution=b["distribution"],
-                           seed=b["seed"])
+        if b["distribution"] == "grid":
+            from .geometry.lattice import grid_points
+
+            points = grid_points(b["points"], b["lower"], b["upper"])
+        else:
+            points = box_field(b["points"], b["lower"], b["upper"],
+                               distribution=b["distribution"], seed=b["seed"])
         springs = radius_springs(points, s["radius"])
         volume = float(np.prod(np.subtract(b["upper"], b["lower"])))
         return Body(points=points, springs=springs, volume=volume,
@@ -343,9 +401,25 @@ class Scene:
 
         body = self.build_body() if body is None else body
         m, ph = self.params["mass"], self.params["physics"]
+        mat = self.params["material"]
+        density = mat["density"] if mat["density"] is not None else m["density"]
         try:
+            if mat["youngs_modulus"] is not None:
+                from dataclasses import replace
+
+                from .physics.material import calibrate_springs, point_masses
+
+                masses, pv = body.masses, None
+                if body.meta.get("distribution") == "grid" and body.tets is None:
+                    from .geometry.lattice import grid_point_volumes
+
+                    pv = grid_point_volumes(body.points)
+                if masses is None and m["point_mass"] is None:
+                    masses = density * pv if pv is not None else point_masses(body, density)
+                body = replace(body, stiffness=calibrate_springs(
+                    body, mat["youngs_modulus"], point_volume=pv), masses=masses)
             return finalize(body, stiffness=self.params["springs"]["stiffness"],
-                            density=m["density"], point_mass=m["point_mass"],
+                            density=density, point_mass=m["point_mass"],
                             damping=ph["damping"], gravity=ph["gravity"])
         except ValueError as exc:
             raise SceneError(f"{self.name}: {exc}") from None
@@ -362,15 +436,22 @@ class Scene:
         from .params import GroundParams
 
         g = self.params["ground"]
-        return GroundParams(enabled=g["enabled"], mu=g["mu"], nu=g["nu"], height=g["height"])
+        return GroundParams(enabled=g["enabled"], mu=g["mu"], nu=g["nu"], height=g["height"],
+                            model=g["model"], restitution=g["restitution"],
+                            friction=g["friction"], static_friction=g["static_friction"])
 
     def simulator(self, model=None, **overrides):
         from .simulator import Simulator
 
         model = self.build_model() if model is None else model
         it = self.params["integrator"]
+        from .params import ImplicitParams
+
         kw = dict(dt=it["dt"], integrator=it["name"], provot=self.provot_params(),
-                  ground=self.ground_params(), backend=it["backend"], threads=it["threads"])
+                  ground=self.ground_params(), backend=it["backend"], threads=it["threads"],
+                  substeps=it["substeps"],
+                  implicit=ImplicitParams(theta=it["theta"], tolerance=it["cg_tolerance"],
+                                          max_iterations=it["cg_max_iterations"]))
         kw.update(overrides)
         return Simulator(model, **kw)
 

@@ -17,8 +17,8 @@ import numpy as np
 
 from .errors import SceneError, SimulationError
 from .kernels import INTEGRATOR_CODES, STATUS_NONFINITE, STATUS_OK, Backend, get_backend
-from .params import (MAX_ALL_PAIRS_POINTS, GroundParams, Integrator, ProvotOrder,
-                     ProvotPairs, ProvotParams)
+from .params import (MAX_ALL_PAIRS_POINTS, GroundModel, GroundParams, ImplicitParams,
+                     Integrator, ProvotOrder, ProvotPairs, ProvotParams)
 from .stability import StabilityEstimate, estimate_stability
 
 __all__ = ["Simulator", "StabilityWarning", "auto_threads"]
@@ -53,6 +53,15 @@ class Simulator:
         run (default: 100 x the body's bounding-box diagonal, at least 100 m).
     check_stability: estimate the stable dt now and warn (:class:`StabilityWarning`) if
         ``dt`` exceeds it.
+    substeps: take this many steps of ``dt / substeps`` per step (``advance(n)`` still
+        advances ``n dt``); the guard checks ``dt / substeps``.  The explicit integrators need
+        it for stiff materials; the implicit one is stable without it but damps less with it.
+    implicit: :class:`~jellysim.params.ImplicitParams` for ``integrator = "implicit"``.
+    obstacles: static :class:`~jellysim.physics.contact.Plane` / ``Sphere`` / ``Box``
+        obstacles with restitution and Coulomb friction (a ``GroundModel.CONTACT`` ground adds
+        its plane to them).
+    rest_speed: normal speed [m/s] under which a contact is resting (no bounce); default
+        ``2 |g| dt`` (per substep).
     """
 
     def __init__(self, model, *, dt: float, integrator: Integrator | str = Integrator.SYMPLECTIC,
@@ -60,7 +69,8 @@ class Simulator:
                  ground: GroundParams = GroundParams(enabled=False),
                  backend: Backend | str = Backend.NUMBA, threads: int | None = None,
                  runaway_distance: float | None = None, check_stability: bool = True,
-                 state=None):
+                 state=None, substeps: int = 1, implicit: ImplicitParams = ImplicitParams(),
+                 obstacles=(), rest_speed: float | None = None):
         if not (np.isfinite(dt) and dt > 0):
             raise SceneError(f"time step dt must be a positive number of seconds, got {dt}")
         self.model = model
@@ -68,6 +78,37 @@ class Simulator:
         self.integrator = Integrator(integrator)
         self.provot = provot
         self.ground = ground
+        self.substeps = int(substeps)
+        if self.substeps < 1:
+            raise SceneError(f"substeps must be an integer >= 1, got {substeps}")
+        self.implicit = implicit
+        if self.integrator is Integrator.IMPLICIT:
+            if provot.enabled:
+                raise SceneError("Provot strain limiting is a crutch of the explicit "
+                                 "integrators and is not applied by integrator = 'implicit'; "
+                                 "disable it ([provot] enabled = false)")
+        self.obstacles = tuple(obstacles)
+        if ground.enabled and GroundModel(ground.model) is GroundModel.CONTACT:
+            from .physics.contact import Plane
+
+            self.obstacles = (Plane(point=(0.0, ground.height, 0.0), normal=(0.0, 1.0, 0.0),
+                                    restitution=ground.restitution, friction=ground.friction,
+                                    static_friction=ground.static_friction),) + self.obstacles
+        from .physics.contact import pack_obstacles
+
+        try:
+            self._obstacle_kind, self._obstacle_data = pack_obstacles(self.obstacles)
+        except ValueError as exc:
+            raise SceneError(str(exc)) from None
+        self.dt_step = self.dt / self.substeps
+        """The kernels' step [s]: ``dt / substeps``."""
+        if rest_speed is None:
+            rest_speed = 2.0 * float(np.linalg.norm(model.gravity)) * self.dt_step
+        self.rest_speed = float(rest_speed)
+        self.cg_iterations = 0
+        """Conjugate-gradient iterations taken so far (implicit integrator)."""
+        self.cg_worst_residual = 0.0
+        """Largest relative residual a CG solve stopped at (implicit integrator)."""
         self.backend = Backend(backend)
         self._k = get_backend(self.backend)
         n = model.particle_count
@@ -91,23 +132,34 @@ class Simulator:
         self._max_corr = np.zeros(n)
         self._x_pre = np.zeros((n, 3))
         self._provot_scalar = np.zeros(k)
+        if self.integrator is Integrator.IMPLICIT:
+            self._frame = np.zeros((k, 5))
+            self._spring_vec = np.zeros((k, 3))
+            self._cg = [np.zeros((n, 3)) for _ in range(7)]  # dv, r, z, p, Ap, diag, b
+            self._cg.append(np.zeros((n, 6)))  # normal, target speed, impact speed, stuck
+            self._cobs = np.full(n, -1, dtype=np.int64)
+            self._contact_state = np.zeros(n, dtype=np.int8)
         self.stability: StabilityEstimate | None = None
         if check_stability:
             self.check_stability()
 
     def check_stability(self) -> StabilityEstimate:
         """Estimate the largest stable dt; warn when ``dt`` exceeds it."""
-        est = estimate_stability(self.model, self.integrator, self.dt)
+        est = estimate_stability(self.model, self.integrator, self.dt_step,
+                                 theta=self.implicit.theta)
         self.stability = est
-        if self.dt > est.dt_max:
+        if self.dt_step > est.dt_max:
             hint = (f"use dt <= {0.9 * est.dt_max:.3g} s" if est.dt_max > 0
                     else "add damping or use integrator = 'symplectic'")
             held = ""
             if self.provot.enabled:
                 held = (f"; Provot strain limiting (tau = {self.provot.tau:g}) bounds the "
                         "springs' stretch and may keep the run bounded anyway")
+            if self.substeps > 1:
+                hint = (f"use substeps >= {int(np.ceil(self.dt / (0.9 * est.dt_max)))}"
+                        if est.dt_max > 0 else hint)
             warnings.warn(
-                f"dt = {self.dt:g} s exceeds the estimated stable limit {est.dt_max:.3g} s "
+                f"dt = {self.dt_step:g} s exceeds the estimated stable limit {est.dt_max:.3g} s "
                 f"for the {self.integrator.value} integrator ({est.reason}; omega_max = "
                 f"{est.omega_max:.3g} rad/s by {est.method}){held}: {hint}",
                 StabilityWarning, stacklevel=2)
@@ -118,40 +170,78 @@ class Simulator:
         the state as it was after the failing step."""
         if steps <= 0:
             return
-        m = self.model
-        p = self.provot
-        g = self.ground
         s = self.state
         import numba
 
         previous = numba.get_num_threads()
         numba.set_num_threads(max(1, min(self.threads, numba.config.NUMBA_NUM_THREADS)))
         try:
-            done, status = self._k.run_steps(
-                int(steps), self.dt, INTEGRATOR_CODES[self.integrator.value], s.x, s.v, s.a,
-                m.particle_x0, m.particle_inv_mass, m.damping, m.gravity,
-                m.spring_ij, m.spring_rest_length, m.spring_stiffness, m.point_first_ptr,
-                m.point_second_ptr, m.spring_second_slot, m.point_second_other,
-                int(p.loops) if p.enabled else 0, float(p.tau), float(p.tolerance),
-                ProvotPairs(p.pairs) is ProvotPairs.ALL,
-                ProvotOrder(p.order) is ProvotOrder.GAUSS_SEIDEL, bool(p.velocity_update),
-                bool(g.enabled), float(g.height), float(g.mu), float(g.nu),
-                self.center, self.runaway_distance**2,
-                self._scalar, self._dx, self._count, self._max_corr, self._x_pre,
-                self._provot_scalar)
+            if self.integrator is Integrator.IMPLICIT:
+                done, status = self._advance_implicit(int(steps))
+            else:
+                done, status = self._advance_explicit(int(steps))
         finally:
             numba.set_num_threads(previous)
         s.step += int(done)
         s.t += int(done) * self.dt
         if status != STATUS_OK:
-            failed = s.step
-            what = ("a position, velocity or acceleration became NaN/infinite"
-                    if status == STATUS_NONFINITE else
-                    f"a point flew more than {self.runaway_distance:g} m from the start")
-            est = self.stability or estimate_stability(m, self.integrator, self.dt)
-            hint = (f"try dt <= {0.5 * min(self.dt, est.dt_max):.3g} s" if est.dt_max > 0 else
-                    "add damping or use integrator = 'symplectic'")
-            raise SimulationError(
-                f"simulation went unstable at step {failed} (t = {s.t:.6g} s): {what}; "
-                f"{hint} (estimated stable limit {est.dt_max:.3g} s)", step=failed,
-                status=int(status))
+            self._raise(status)
+
+    def _advance_implicit(self, steps):
+        m, g, s, im = self.model, self.ground, self.state, self.implicit
+        paper = g.enabled and GroundModel(g.model) is GroundModel.PAPER
+        dv, r, z, p, ap, diag, b, cnrm = self._cg
+        sub = self.substeps
+        done, status, iters, worst = self._k.implicit_steps(
+            steps * sub, self.dt_step, float(im.theta), float(im.tolerance),
+            int(im.max_iterations),
+            s.x, s.v, s.a, m.particle_inv_mass, m.damping, m.gravity, m.spring_ij,
+            m.spring_rest_length, m.spring_stiffness, m.point_first_ptr, m.point_second_ptr,
+            m.spring_second_slot, m.point_second_other, paper, float(g.height), float(g.mu),
+            float(g.nu), self._obstacle_kind, self._obstacle_data, self.rest_speed,
+            self.center, self.runaway_distance**2, self._scalar, self._frame,
+            self._spring_vec, dv, r, z, p, ap, diag, b, cnrm, m.particle_mass, self._cobs,
+            self._contact_state)
+        self.cg_iterations += int(iters)
+        self.cg_worst_residual = max(self.cg_worst_residual, float(worst))
+        return (done + sub - 1) // sub, status
+
+    def _advance_explicit(self, steps):
+        m, p, g, s = self.model, self.provot, self.ground, self.state
+        paper = g.enabled and GroundModel(g.model) is GroundModel.PAPER
+        sub = self.substeps
+        done, status = self._k.run_steps(
+            steps * sub, self.dt_step, INTEGRATOR_CODES[self.integrator.value], s.x, s.v, s.a,
+            m.particle_x0, m.particle_inv_mass, m.damping, m.gravity,
+            m.spring_ij, m.spring_rest_length, m.spring_stiffness, m.point_first_ptr,
+            m.point_second_ptr, m.spring_second_slot, m.point_second_other,
+            int(p.loops) if p.enabled else 0, float(p.tau), float(p.tolerance),
+            ProvotPairs(p.pairs) is ProvotPairs.ALL,
+            ProvotOrder(p.order) is ProvotOrder.GAUSS_SEIDEL, bool(p.velocity_update),
+            paper, float(g.height), float(g.mu), float(g.nu),
+            self._obstacle_kind, self._obstacle_data, self.rest_speed,
+            self.center, self.runaway_distance**2,
+            self._scalar, self._dx, self._count, self._max_corr, self._x_pre,
+            self._provot_scalar)
+        # a failing substep counts its whole step
+        return (done + sub - 1) // sub, status
+
+    def _raise(self, status):
+        m, s = self.model, self.state
+        failed = s.step
+        what = ("a position, velocity or acceleration became NaN/infinite"
+                if status == STATUS_NONFINITE else
+                f"a point flew more than {self.runaway_distance:g} m from the start")
+        est = self.stability or estimate_stability(m, self.integrator, self.dt_step,
+                                                   theta=self.implicit.theta)
+        if self.integrator is Integrator.IMPLICIT:
+            hint = ("the implicit step is linearised: try a smaller dt, theta closer to 1 "
+                    "or a tighter CG tolerance")
+        elif est.dt_max > 0:
+            hint = f"try dt <= {0.5 * min(self.dt_step, est.dt_max):.3g} s"
+        else:
+            hint = "add damping or use integrator = 'symplectic'"
+        raise SimulationError(
+            f"simulation went unstable at step {failed} (t = {s.t:.6g} s): {what}; "
+            f"{hint} (estimated stable limit {est.dt_max:.3g} s)", step=failed,
+            status=int(status))

@@ -380,7 +380,7 @@ def _add_velocity(v, x, x_pre, dt):
 def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
               spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other,
               provot_loops, tau, tolerance, all_pairs, gauss_seidel, velocity_update,
-              ground, height, mu, nu, center, bound2,
+              ground, height, mu, nu, obstacle_kind, obstacle_data, rest_speed, center, bound2,
               spring_scalar, dx, count, max_corr, x_pre, provot_scalar):
     fuse = integrator == 0 and provot_loops > 0 and not all_pairs and not gauss_seidel
     for step in range(nsteps):
@@ -416,7 +416,406 @@ def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
                        spring_scalar, dx, count, max_corr)
             if velocity_update:
                 _add_velocity(v, x, x_pre, dt)
+        if obstacle_kind.shape[0] > 0:
+            contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
         status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)
         if status != STATUS_OK:
             return step + 1, status
     return nsteps, STATUS_OK
+
+
+# -- physical contact (planes, spheres, boxes) ----------------------------------------------
+@njit(cache=True, inline="always")
+def _contact_point(kind, g, px, py, pz):
+    """(phi, nx, ny, nz) of one point against one obstacle (see the numpy spec)."""
+    if kind == 0:
+        return ((px - g[0]) * g[3] + (py - g[1]) * g[4] + (pz - g[2]) * g[5], g[3], g[4], g[5])
+    if kind == 1:
+        dx = px - g[0]
+        dy = py - g[1]
+        dz = pz - g[2]
+        r = np.sqrt(dx * dx + dy * dy + dz * dz)
+        if r > 0.0:
+            return r - g[3], dx / r, dy / r, dz / r
+        return r - g[3], 0.0, 1.0, 0.0
+    best = px - g[0]
+    face = 0
+    p = (px, py, pz)
+    inside = True
+    for f in range(6):
+        c = f % 3
+        d = p[c] - g[c] if f < 3 else g[3 + c] - p[c]
+        if not d > 0.0:
+            inside = False
+        if d < best:
+            best = d
+            face = f
+    if not inside:
+        return 1.0, 0.0, 0.0, 0.0
+    nx = 0.0
+    ny = 0.0
+    nz = 0.0
+    s = -1.0 if face < 3 else 1.0
+    if face % 3 == 0:
+        nx = s
+    elif face % 3 == 1:
+        ny = s
+    else:
+        nz = s
+    return -best, nx, ny, nz
+
+
+@njit(**_opts)
+def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
+    n = x.shape[0]
+    m = obstacle_kind.shape[0]
+    for p in prange(n):
+        for o in range(m):
+            g = obstacle_data[o]
+            phi, nx, ny, nz = _contact_point(obstacle_kind[o], g, x[p, 0], x[p, 1], x[p, 2])
+            if not phi < 0.0:
+                continue
+            x[p, 0] -= phi * nx
+            x[p, 1] -= phi * ny
+            x[p, 2] -= phi * nz
+            vn = v[p, 0] * nx + v[p, 1] * ny + v[p, 2] * nz
+            tx = v[p, 0] - vn * nx
+            ty = v[p, 1] - vn * ny
+            tz = v[p, 2] - vn * nz
+            vn_new = vn
+            scale = 1.0
+            if vn < 0.0:
+                vn_new = -g[6] * vn if -vn > rest_speed else 0.0
+                dvn = vn_new - vn
+                speed = np.sqrt(tx * tx + ty * ty + tz * tz)
+                if speed <= g[7] * dvn:
+                    scale = 0.0
+                elif speed > 0.0:
+                    scale = max(1.0 - g[8] * dvn / speed, 0.0)
+            x[p, 0] += (scale - 1.0) * tx * dt
+            x[p, 1] += (scale - 1.0) * ty * dt
+            x[p, 2] += (scale - 1.0) * tz * dt
+            v[p, 0] = scale * tx + vn_new * nx
+            v[p, 1] = scale * ty + vn_new * ny
+            v[p, 2] = scale * tz + vn_new * nz
+
+
+# -- linearly implicit theta-method (stiff-stable integrator) --------------------------------
+@njit(**_opts)
+def spring_frames(x, spring_ij, rest, stiff, frame):
+    for s in prange(spring_ij.shape[0]):
+        i = spring_ij[s, 0]
+        j = spring_ij[s, 1]
+        dx = x[j, 0] - x[i, 0]
+        dy = x[j, 1] - x[i, 1]
+        dz = x[j, 2] - x[i, 2]
+        length = np.sqrt(dx * dx + dy * dy + dz * dz)
+        frame[s, 3] = stiff[s]
+        if length > 0.0:
+            frame[s, 0] = dx / length
+            frame[s, 1] = dy / length
+            frame[s, 2] = dz / length
+            frame[s, 4] = stiff[s] * max(1.0 - rest[s] / length, 0.0)
+        else:
+            frame[s, 0] = 0.0
+            frame[s, 1] = 0.0
+            frame[s, 2] = 0.0
+            frame[s, 4] = 0.0
+
+
+@njit(**_opts)
+def system_matvec(u, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr, second_slot,
+                  second_other, spring_vec, out):
+    n = u.shape[0]
+    for p in prange(n):
+        sx = 0.0
+        sy = 0.0
+        sz = 0.0
+        for s in range(first_ptr[p], first_ptr[p + 1]):
+            q = spring_ij[s, 1]
+            dx = u[q, 0] - u[p, 0]
+            dy = u[q, 1] - u[p, 1]
+            dz = u[q, 2] - u[p, 2]
+            nx = frame[s, 0]
+            ny = frame[s, 1]
+            nz = frame[s, 2]
+            g = frame[s, 4]
+            c = (frame[s, 3] - g) * (nx * dx + ny * dy + nz * dz)
+            vx = c * nx + g * dx
+            vy = c * ny + g * dy
+            vz = c * nz + g * dz
+            slot = second_slot[s]
+            spring_vec[slot, 0] = vx
+            spring_vec[slot, 1] = vy
+            spring_vec[slot, 2] = vz
+            sx -= vx
+            sy -= vy
+            sz -= vz
+        out[p, 0] = sx
+        out[p, 1] = sy
+        out[p, 2] = sz
+    for q in prange(n):
+        sx = out[q, 0]
+        sy = out[q, 1]
+        sz = out[q, 2]
+        for t in range(second_ptr[q], second_ptr[q + 1]):
+            sx += spring_vec[t, 0]
+            sy += spring_vec[t, 1]
+            sz += spring_vec[t, 2]
+        w = mass[q] + shift[q]
+        out[q, 0] = w * u[q, 0] + h2 * sx
+        out[q, 1] = w * u[q, 1] + h2 * sy
+        out[q, 2] = w * u[q, 2] + h2 * sz
+
+
+@njit(cache=True)
+def system_diagonal(mass, shift, h2, spring_ij, frame, diag):
+    # a serial pass in spring order (O(k), once per step): same sum order as numpy's bincount
+    for p in range(mass.shape[0]):
+        for c in range(3):
+            diag[p, c] = 0.0
+    _diag_gather(mass, shift, h2, spring_ij, frame, diag)
+
+
+@njit(cache=True)
+def _diag_gather(mass, shift, h2, spring_ij, frame, diag):
+    # serial: O(k), once per step; keeps the sum order fixed (spring index order)
+    for s in range(spring_ij.shape[0]):
+        g = frame[s, 4]
+        kk = frame[s, 3] - g
+        for c in range(3):
+            d = kk * frame[s, c] * frame[s, c] + g
+            diag[spring_ij[s, 0], c] += d
+            diag[spring_ij[s, 1], c] += d
+    for p in range(mass.shape[0]):
+        for c in range(3):
+            diag[p, c] = mass[p] + shift[p] + h2 * diag[p, c]
+
+
+_FREE = 0
+_RELEASED = 1
+_STUCK = 2
+
+
+@njit(**_opts)
+def contact_normals(x, v, obstacle_kind, obstacle_data, margin, contact_state, dt, rest_speed,
+                    first_ptr, second_ptr, cnrm, cobs):
+    for q in prange(x.shape[0]):
+        for c in range(6):
+            cnrm[q, c] = 0.0
+        cobs[q] = -1
+        if contact_state[q] == _RELEASED:
+            continue
+        for o in range(obstacle_kind.shape[0]):
+            phi, nx, ny, nz = _contact_point(obstacle_kind[o], obstacle_data[o], x[q, 0],
+                                             x[q, 1], x[q, 2])
+            vn = v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz
+            if vn <= 0.0 and phi + dt * min(vn, 0.0) <= margin:
+                cnrm[q, 0] = nx
+                cnrm[q, 1] = ny
+                cnrm[q, 2] = nz
+                impact = -vn if -vn > rest_speed else 0.0
+                free = (first_ptr[q + 1] - first_ptr[q] + second_ptr[q + 1]
+                        - second_ptr[q]) == 0
+                if impact > 0.0 and free:
+                    cnrm[q, 3] = obstacle_data[o, 6] * impact
+                else:
+                    cnrm[q, 3] = -max(phi, 0.0) / dt
+                cnrm[q, 4] = impact
+                cnrm[q, 5] = 1.0 if contact_state[q] == _STUCK else 0.0
+                cobs[q] = o
+                break
+
+
+@njit(**_opts)
+def filter_constrained(u, cnrm):
+    for q in prange(u.shape[0]):
+        d = u[q, 0] * cnrm[q, 0] + u[q, 1] * cnrm[q, 1] + u[q, 2] * cnrm[q, 2]
+        keep = 1.0 - cnrm[q, 5]
+        u[q, 0] = (u[q, 0] - d * cnrm[q, 0]) * keep
+        u[q, 1] = (u[q, 1] - d * cnrm[q, 1]) * keep
+        u[q, 2] = (u[q, 2] - d * cnrm[q, 2]) * keep
+
+
+@njit(**_opts)
+def constrain_start(dv, v, cnrm):
+    for q in prange(dv.shape[0]):
+        nx = cnrm[q, 0]
+        ny = cnrm[q, 1]
+        nz = cnrm[q, 2]
+        stick = cnrm[q, 5]
+        d = dv[q, 0] * nx + dv[q, 1] * ny + dv[q, 2] * nz
+        keep = 1.0 - stick
+        vn = v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz
+        t = cnrm[q, 3] - vn
+        dv[q, 0] = (dv[q, 0] - d * nx) * keep + t * nx - stick * (v[q, 0] - vn * nx)
+        dv[q, 1] = (dv[q, 1] - d * ny) * keep + t * ny - stick * (v[q, 1] - vn * ny)
+        dv[q, 2] = (dv[q, 2] - d * nz) * keep + t * nz - stick * (v[q, 2] - vn * nz)
+
+
+@njit(**_opts)
+def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contact_state):
+    for q in prange(x.shape[0]):
+        contact_state[q] = _FREE
+        o = cobs[q]
+        if o < 0:
+            continue
+        nx = cnrm[q, 0]
+        ny = cnrm[q, 1]
+        nz = cnrm[q, 2]
+        jx = ap[q, 0] - b[q, 0]
+        jy = ap[q, 1] - b[q, 1]
+        jz = ap[q, 2] - b[q, 2]
+        jn = jx * nx + jy * ny + jz * nz
+        was_stuck = cnrm[q, 5] > 0.0
+        jtx = jx - jn * nx
+        jty = jy - jn * ny
+        jtz = jz - jn * nz
+        jt_norm = np.sqrt(jtx * jtx + jty * jty + jtz * jtz)
+        budget = max(jn, 0.0) / mass[q]
+        vn = v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz
+        tx = v[q, 0] - vn * nx
+        ty = v[q, 1] - vn * ny
+        tz = v[q, 2] - vn * nz
+        speed = np.sqrt(tx * tx + ty * ty + tz * tz)
+        stick = speed <= obstacle_data[o, 7] * budget
+        if stick or was_stuck:
+            scale = 0.0
+        elif speed > 0.0:
+            scale = max(1.0 - obstacle_data[o, 8] * budget / speed, 0.0)
+        else:
+            scale = 1.0
+        x[q, 0] += (scale - 1.0) * tx * dt
+        x[q, 1] += (scale - 1.0) * ty * dt
+        x[q, 2] += (scale - 1.0) * tz * dt
+        v[q, 0] = scale * tx + vn * nx
+        v[q, 1] = scale * ty + vn * ny
+        v[q, 2] = scale * tz + vn * nz
+        if was_stuck:
+            holds = jt_norm <= obstacle_data[o, 7] * max(jn, 0.0)
+        else:
+            holds = stick
+        if jn < 0.0:
+            contact_state[q] = _RELEASED
+        elif holds:
+            contact_state[q] = _STUCK
+
+
+@njit(cache=True)
+def _dot(a, b):
+    s = 0.0
+    for p in range(a.shape[0]):
+        for c in range(3):
+            s += a[p, c] * b[p, c]
+    return s
+
+
+@njit(**_opts)
+def _axpy_pair(dv, r, p, ap, alpha):
+    for q in prange(dv.shape[0]):
+        for c in range(3):
+            dv[q, c] += alpha * p[q, c]
+            r[q, c] -= alpha * ap[q, c]
+
+
+@njit(**_opts)
+def _precondition(z, r, diag):
+    for q in prange(z.shape[0]):
+        for c in range(3):
+            z[q, c] = r[q, c] / diag[q, c]
+
+
+@njit(**_opts)
+def _update_direction(p, z, beta):
+    for q in prange(p.shape[0]):
+        for c in range(3):
+            p[q, c] = z[q, c] + beta * p[q, c]
+
+
+@njit(**_opts)
+def _implicit_rhs(b, ap, mass, a, v, dt, h):
+    # ap holds (m v + K v) on entry
+    for q in prange(b.shape[0]):
+        for c in range(3):
+            kv = ap[q, c] - mass[q] * v[q, c]
+            b[q, c] = dt * (mass[q] * a[q, c] - h * kv)
+
+
+@njit(**_opts)
+def _residual(r, b, ap):
+    for q in prange(r.shape[0]):
+        for c in range(3):
+            r[q, c] = b[q, c] - ap[q, c]
+
+
+@njit(**_opts)
+def _implicit_update(x, v, a, dv, dt, theta):
+    for q in prange(x.shape[0]):
+        for c in range(3):
+            x[q, c] += dt * (v[q, c] + theta * dv[q, c])
+            v[q, c] += dv[q, c]
+            a[q, c] = dv[q, c] / dt
+
+
+@njit(cache=True)
+def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping, gravity,
+                   spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other,
+                   ground, height, mu, nu, obstacle_kind, obstacle_data, rest_speed,
+                   center, bound2, spring_scalar, frame, spring_vec, dv, r, z, p, ap, diag,
+                   b, cnrm, mass, cobs, contact_state):
+    h = theta * dt
+    h2 = h * h
+    n = mass.shape[0]
+    shift = np.full(n, h * damping)
+    zero = np.zeros(n)
+    iters = 0
+    worst = 0.0
+    for step in range(nsteps):
+        accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff, first_ptr,
+                      second_ptr, second_slot, second_other, spring_scalar, a)
+        spring_frames(x, spring_ij, rest, stiff, frame)
+        system_diagonal(mass, shift, h2, spring_ij, frame, diag)
+        system_matvec(v, mass, zero, 1.0, spring_ij, frame, first_ptr, second_ptr,
+                      second_slot, second_other, spring_vec, ap)
+        _implicit_rhs(b, ap, mass, a, v, dt, h)
+        contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state, dt,
+                        rest_speed, first_ptr, second_ptr, cnrm, cobs)
+        constrain_start(dv, v, cnrm)
+        bnorm = np.sqrt(_dot(b, b))
+        system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
+                      second_slot, second_other, spring_vec, ap)
+        _residual(r, b, ap)
+        filter_constrained(r, cnrm)
+        _precondition(z, r, diag)
+        filter_constrained(z, cnrm)
+        _copy(p, z)
+        rz = _dot(r, z)
+        res = np.sqrt(_dot(r, r))
+        it = 0
+        while it < max_iter and res > tol * bnorm:
+            system_matvec(p, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
+                          second_slot, second_other, spring_vec, ap)
+            filter_constrained(ap, cnrm)
+            alpha = rz / _dot(p, ap)
+            _axpy_pair(dv, r, p, ap, alpha)
+            _precondition(z, r, diag)
+            filter_constrained(z, cnrm)
+            rz_new = _dot(r, z)
+            _update_direction(p, z, rz_new / rz)
+            rz = rz_new
+            res = np.sqrt(_dot(r, r))
+            it += 1
+        iters += it
+        if bnorm > 0.0:
+            worst = max(worst, res / bnorm)
+        _implicit_update(x, v, a, dv, dt, theta)
+        if obstacle_kind.shape[0] > 0:
+            system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
+                          second_slot, second_other, spring_vec, ap)
+            constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt,
+                                contact_state)
+            contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
+        status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)
+        if status != STATUS_OK:
+            return step + 1, status, iters, worst
+    return nsteps, STATUS_OK, iters, worst

@@ -132,7 +132,7 @@ def finish_step(x, v, a, ground, height, mu, nu, center, bound2):
 def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
               spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other,
               provot_loops, tau, tolerance, all_pairs, gauss_seidel, velocity_update,
-              ground, height, mu, nu, center, bound2,
+              ground, height, mu, nu, obstacle_kind, obstacle_data, rest_speed, center, bound2,
               spring_scalar, dx, count, max_corr, x_pre, provot_scalar):
     """Advance ``nsteps`` steps of size ``dt`` [s] in place on x, v, a.
 
@@ -142,8 +142,10 @@ def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
     * symplectic: ``a = F(x, v) / m; v += a dt; x += v dt``;
 
     then ``provot_loops`` Provot passes (if > 0; with ``velocity_update`` the total
-    correction / dt is added to v), then :func:`finish_step`.  ``provot_scalar`` (k,) is
-    scratch for the numba backend's fused force + first Provot pass (paper order).  Returns ``(steps_done, status)``:
+    correction / dt is added to v), then :func:`contact` with the obstacles (if any; kinds
+    (m,) int32, data (m, 9)), then :func:`finish_step`.  ``provot_scalar`` (k,) is scratch for
+    the numba backend's fused force + first Provot pass (paper order).
+    Returns ``(steps_done, status)``:
     on a non-zero status, ``steps_done`` counts the steps completed including the failing one.
     """
     for step in range(nsteps):
@@ -167,7 +169,304 @@ def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
                    count, max_corr)
             if velocity_update:
                 v += (x - x_pre) / dt
+        if obstacle_kind.shape[0] > 0:
+            contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
         status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)
         if status != STATUS_OK:
             return step + 1, status
     return nsteps, STATUS_OK
+
+
+# -- physical contact (planes, spheres, boxes) ----------------------------------------------
+def _contact_geometry(kind, geom, x):
+    """Signed distance [m] (n,) and outward unit normal (n, 3) of points ``x`` to one
+    obstacle: kind 0 plane (point, normal), 1 sphere (centre, radius), 2 solid axis-aligned
+    box (lower, upper; inside points are pushed out through the nearest face)."""
+    n = x.shape[0]
+    if kind == 0:
+        nrm = np.broadcast_to(geom[3:6], (n, 3))
+        return (x - geom[0:3]) @ geom[3:6], nrm
+    if kind == 1:
+        d = x - geom[0:3]
+        r = np.sqrt(np.einsum("ij,ij->i", d, d))
+        nrm = np.where(r[:, None] > 0.0, d / np.where(r > 0.0, r, 1.0)[:, None],
+                       np.array([0.0, 1.0, 0.0]))
+        return r - geom[3], nrm
+    lo, hi = geom[0:3], geom[3:6]
+    depth = np.concatenate([x - lo, hi - x], axis=1)  # (n, 6): distance inside each face
+    face = np.argmin(depth, axis=1)
+    phi = -depth[np.arange(n), face]
+    inside = np.all(depth > 0.0, axis=1)
+    phi = np.where(inside, phi, 1.0)
+    nrm = np.zeros((n, 3))
+    nrm[np.arange(n), face % 3] = np.where(face < 3, -1.0, 1.0)
+    return phi, nrm
+
+
+def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
+    """Non-penetration, restitution and Coulomb friction against static obstacles, in place.
+
+    For each obstacle in order (``obstacle_data`` row: 6 geometry numbers, restitution e,
+    static friction mu_s, kinetic friction mu_k), a point with signed distance ``phi < 0`` is
+    moved out along the normal; if it approaches (``v_n < 0``) its normal velocity becomes
+    ``-e v_n`` (0 when ``-v_n <= rest_speed`` [m/s]: resting contact), and the normal impulse
+    per mass ``dv_n`` buys friction: the tangential velocity ``v_t`` is removed when
+    ``|v_t| <= mu_s dv_n`` (sticking), else reduced by ``mu_k dv_n`` (sliding).  The position
+    is moved tangentially by ``(v_t' - v_t) dt`` so that it follows the corrected velocity
+    (a sticking point does not creep).
+    """
+    for o in range(obstacle_kind.shape[0]):
+        geom = obstacle_data[o]
+        phi, nrm = _contact_geometry(obstacle_kind[o], geom, x)
+        hit = phi < 0.0
+        if not np.any(hit):
+            continue
+        nh = nrm[hit]
+        xh = x[hit] - phi[hit][:, None] * nh
+        vh = v[hit]
+        vn = np.einsum("ij,ij->i", vh, nh)
+        vt = vh - vn[:, None] * nh
+        app = vn < 0.0
+        e, mu_s, mu_k = geom[6], geom[7], geom[8]
+        vn_new = np.where(app, np.where(-vn > rest_speed, -e * vn, 0.0), vn)
+        dvn = vn_new - vn
+        speed = np.sqrt(np.einsum("ij,ij->i", vt, vt))
+        stick = app & (speed <= mu_s * dvn)
+        scale = np.where(stick, 0.0, np.where(
+            app & (speed > 0.0), 1.0 - mu_k * dvn / np.where(speed > 0.0, speed, 1.0), 1.0))
+        scale = np.maximum(scale, 0.0)
+        vt_new = scale[:, None] * vt
+        x[hit] = xh + (vt_new - vt) * dt
+        v[hit] = vt_new + vn_new[:, None] * nh
+
+
+# -- linearly implicit theta-method (stiff-stable integrator) --------------------------------
+def spring_frames(x, spring_ij, rest, stiff, frame):
+    """Per-spring tangent data, ``frame`` (k, 5): unit direction n (3), ``k`` [N/m] and the
+    clamped geometric stiffness ``k max(1 - L0 / L, 0)`` [N/m] (the compressive part is dropped
+    so the tangent stiffness stays positive semi-definite, as in Choi & Ko 2002)."""
+    d = x[spring_ij[:, 1]] - x[spring_ij[:, 0]]
+    length = np.sqrt(np.einsum("ij,ij->i", d, d))
+    safe = np.where(length > 0.0, length, 1.0)
+    frame[:, 0:3] = np.where(length[:, None] > 0.0, d / safe[:, None], 0.0)
+    frame[:, 3] = stiff
+    frame[:, 4] = np.where(length > 0.0, stiff * np.maximum(1.0 - rest / safe, 0.0), 0.0)
+
+
+def system_matvec(u, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr, second_slot,
+                  second_other, spring_vec, out):
+    """``out = (mass + shift) u + h2 K u`` [kg m/s] for u (n, 3): K is the tangent stiffness
+    of ``frame``, ``shift`` [kg] the damping term, ``h2`` [s^2] (theta dt)^2.  ``spring_vec``
+    (k, 3) is scratch (the per-spring ``K_s (u_j - u_i)``)."""
+    n = u.shape[0]
+    du = u[spring_ij[:, 1]] - u[spring_ij[:, 0]]
+    nrm = frame[:, 0:3]
+    dn = np.einsum("ij,ij->i", nrm, du)
+    spring_vec[:] = (frame[:, 3] - frame[:, 4])[:, None] * dn[:, None] * nrm + frame[:, 4][
+        :, None] * du
+    ku = _scatter(n, spring_ij[:, 1], spring_vec) - _scatter(n, spring_ij[:, 0], spring_vec)
+    out[:] = (mass + shift)[:, None] * u + h2 * ku
+
+
+def system_diagonal(mass, shift, h2, spring_ij, frame, diag):
+    """Diagonal of the system matrix [kg], (n, 3) (the Jacobi preconditioner)."""
+    n = mass.shape[0]
+    nrm = frame[:, 0:3]
+    kd = (frame[:, 3] - frame[:, 4])[:, None] * nrm * nrm + frame[:, 4][:, None]
+    diag[:] = (mass + shift)[:, None] + h2 * (_scatter(n, spring_ij[:, 0], kd)
+                                              + _scatter(n, spring_ij[:, 1], kd))
+
+
+CONTACT_FREE = 0
+"""Contact state of a point: no special state (constrained along the normal if touching)."""
+CONTACT_RELEASED = 1
+"""Its constraint pulled last step: left free for one step."""
+CONTACT_STUCK = 2
+"""Static friction held it last step: constrained in all three directions."""
+
+
+def contact_normals(x, v, obstacle_kind, obstacle_data, margin, contact_state, dt, rest_speed,
+                    first_ptr, second_ptr, cnrm, cobs):
+    """Contact constraints for an implicit step (speculative contacts).
+
+    A point is constrained by the first obstacle it touches or would reach during the step at
+    its current speed (``phi + dt min(v_n, 0) <= margin``, ``phi`` [m]: signed distance),
+    unless its ``contact_state`` (n,) int8 is ``CONTACT_RELEASED``.  ``cnrm`` (n, 6) gets per
+    point: the obstacle normal (3; zero for free points), the target normal velocity [m/s],
+    the impact speed ``-v_n`` [m/s] when it exceeds ``rest_speed`` (else 0: resting) and 1.0
+    when the point sticks (``CONTACT_STUCK``: its tangential velocity is held at 0 too).  The
+    target is ``-max(phi, 0) / dt`` (close the gap, no more: the point stops on the surface
+    and the body's own elasticity makes it bounce), except for a point without springs (a
+    free particle), whose target is ``e x impact speed`` (its bounce, up to ``|v_n| dt``
+    early).  Prescribing a bounce to the surface points of a body at a frame-rate dt would
+    drive the layer above through them in one step, so the solve treats body points as
+    inelastic.  ``cobs`` (n,): obstacle index or -1.
+    """
+    cnrm[:] = 0.0
+    cobs[:] = -1
+    for o in range(obstacle_kind.shape[0]):
+        phi, nrm = _contact_geometry(obstacle_kind[o], obstacle_data[o], x)
+        vn = np.einsum("ij,ij->i", v, nrm)
+        hit = ((cobs < 0) & (phi + dt * np.minimum(vn, 0.0) <= margin) & (vn <= 0.0)
+               & (contact_state != CONTACT_RELEASED))
+        cnrm[hit, 0:3] = nrm[hit]
+        impact = np.where(-vn[hit] > rest_speed, -vn[hit], 0.0)
+        free = (np.diff(first_ptr) + np.diff(second_ptr))[hit] == 0
+        cnrm[hit, 3] = np.where((impact > 0.0) & free, obstacle_data[o, 6] * impact,
+                                -np.maximum(phi[hit], 0.0) / dt)
+        cnrm[hit, 4] = impact
+        cnrm[hit, 5] = np.where(contact_state[hit] == CONTACT_STUCK, 1.0, 0.0)
+        cobs[hit] = o
+
+
+def filter_constrained(u, cnrm):
+    """Remove the constrained components of u (n, 3) in place (Baraff & Witkin 1998): the
+    normal one, or all three for a sticking point; ``cnrm`` (n, 6) from
+    :func:`contact_normals`."""
+    nrm = cnrm[:, 0:3]
+    u -= np.einsum("ij,ij->i", u, nrm)[:, None] * nrm
+    u *= (1.0 - cnrm[:, 5])[:, None]
+
+
+def constrain_start(dv, v, cnrm):
+    """Initial guess of an implicit solve (n, 3), in place: the free components of ``dv`` (the
+    last step's, a warm start) and, along each constraint, what reaches the target velocity:
+    ``v + dv = target n`` on the normal (and tangentially 0 for a sticking point)."""
+    nrm = cnrm[:, 0:3]
+    filter_constrained(dv, cnrm)
+    dv += (cnrm[:, 3] - np.einsum("ij,ij->i", v, nrm))[:, None] * nrm
+    vt = v - np.einsum("ij,ij->i", v, nrm)[:, None] * nrm
+    dv -= cnrm[:, 5][:, None] * vt
+
+
+def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contact_state):
+    """Coulomb friction on the constrained points after an implicit step, in place on x, v,
+    and their next ``contact_state``.
+
+    The constraint impulse is ``J = A dv - b`` [kg m/s].  ``J_n < 0`` (the constraint pulled):
+    the point is ``CONTACT_RELEASED`` next step.  A sticking point stays ``CONTACT_STUCK``
+    while ``|J_t| <= mu_s J_n`` (static friction held it, inside the solve), else it slides
+    from the next step.  A sliding point's tangential velocity is removed when
+    ``|v_t| <= mu_s J_n / m`` (it sticks from the next step on), else reduced by
+    ``mu_k J_n / m``; its position follows (``x += (v_t' - v_t) dt``).
+    """
+    contact_state[:] = CONTACT_FREE
+    on = cobs >= 0
+    if not np.any(on):
+        return
+    idx = np.nonzero(on)[0]
+    nrm = cnrm[on, 0:3]
+    j = ap[on] - b[on]
+    jn = np.einsum("ij,ij->i", j, nrm)
+    data = obstacle_data[cobs[on]]
+    was_stuck = cnrm[on, 5] > 0.0
+    jt = j - jn[:, None] * nrm
+    jt_norm = np.sqrt(np.einsum("ij,ij->i", jt, jt))
+    budget = np.maximum(jn, 0.0) / mass[on]
+    vv = v[on]
+    vn = np.einsum("ij,ij->i", vv, nrm)
+    vt = vv - vn[:, None] * nrm
+    speed = np.sqrt(np.einsum("ij,ij->i", vt, vt))
+    stick = speed <= data[:, 7] * budget
+    scale = np.where(stick | was_stuck, 0.0,
+                     np.maximum(1.0 - data[:, 8] * budget / np.where(speed > 0, speed, 1.0),
+                                0.0))
+    x[on] += ((scale - 1.0)[:, None] * vt) * dt
+    v[on] = scale[:, None] * vt + vn[:, None] * nrm
+    holds = np.where(was_stuck, jt_norm <= data[:, 7] * np.maximum(jn, 0.0), stick)
+    contact_state[idx[holds]] = CONTACT_STUCK
+    contact_state[idx[jn < 0.0]] = CONTACT_RELEASED
+
+
+def _dot(a, b):
+    return float(np.sum(a * b))
+
+
+def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping, gravity,
+                   spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other,
+                   ground, height, mu, nu, obstacle_kind, obstacle_data, rest_speed,
+                   center, bound2, spring_scalar, frame, spring_vec, dv, r, z, p, ap, diag,
+                   b, cnrm, mass, cobs, contact_state):
+    """Advance ``nsteps`` steps of the linearly implicit theta-method, in place on x, v, a.
+
+    One step (Baraff & Witkin 1998 for theta = 1; theta = 1/2 is the linearised implicit
+    midpoint rule, which does not damp a linear oscillator)::
+
+        (M + theta dt delta + theta^2 dt^2 K) dv = dt (F(x, v) - theta dt K v)
+        x += dt (v + theta dv);  v += dv;  a = dv / dt
+
+    K: the tangent stiffness at x (:func:`spring_frames`), F: springs, damping and gravity.
+    The system is solved by Jacobi-preconditioned conjugate gradients from the previous step's
+    ``dv`` (warm start) to a residual ``<= tol |rhs|`` (the whole right-hand side, constraint
+    components included) or ``max_iter`` iterations.  Points touching or about to touch an
+    obstacle (:func:`contact_normals`) are constrained inside the solve, as in Baraff &
+    Witkin's modified conjugate gradients: their normal velocity change is fixed so that they
+    end the step at the target normal velocity (all three components for a sticking point),
+    the rest of the body feels it, and the constraint impulse gives their Coulomb friction
+    (:func:`constraint_friction`).  Then
+    :func:`contact` (new impacts: restitution) and :func:`finish_step`.  ``mass`` (n,) [kg];
+    ``cobs`` (n,) int64 and ``contact_state`` (n,) int8 carry the contact state; the other
+    trailing arrays are scratch ((k,), (k, 5), (k, 3), (n, 3) each, ``cnrm`` (n, 6)).
+    Returns ``(steps_done, status, total CG iterations, largest relative residual left)``.
+    """
+    h = theta * dt
+    h2 = h * h
+    shift = np.full(mass.shape[0], h * damping)
+    iters = 0
+    worst = 0.0
+    for step in range(nsteps):
+        accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff, first_ptr,
+                      second_ptr, second_slot, second_other, spring_scalar, a)
+        spring_frames(x, spring_ij, rest, stiff, frame)
+        system_diagonal(mass, shift, h2, spring_ij, frame, diag)
+        # rhs = dt (m a - h K v) = dt m a - dt h K v; K v = (A v - (m + shift) v) / h2
+        system_matvec(v, mass, shift * 0.0, 1.0, spring_ij, frame, first_ptr, second_ptr,
+                      second_slot, second_other, spring_vec, ap)
+        ap -= mass[:, None] * v  # = K v
+        b[:] = dt * (mass[:, None] * a - h * ap)
+        contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state, dt,
+                        rest_speed, first_ptr, second_ptr, cnrm, cobs)
+        constrain_start(dv, v, cnrm)
+        # the scale of the stopping test: the whole right-hand side, constraint components
+        # included (at rest the free part of b vanishes, the weight on the supports does not)
+        bnorm = np.sqrt(_dot(b, b))
+        system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
+                      second_slot, second_other, spring_vec, ap)
+        r[:] = b - ap
+        filter_constrained(r, cnrm)
+        z[:] = r / diag
+        filter_constrained(z, cnrm)
+        p[:] = z
+        rz = _dot(r, z)
+        res = np.sqrt(_dot(r, r))
+        it = 0
+        while it < max_iter and res > tol * bnorm:
+            system_matvec(p, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
+                          second_slot, second_other, spring_vec, ap)
+            filter_constrained(ap, cnrm)
+            alpha = rz / _dot(p, ap)
+            dv += alpha * p
+            r -= alpha * ap
+            z[:] = r / diag
+            filter_constrained(z, cnrm)
+            rz_new = _dot(r, z)
+            p[:] = z + (rz_new / rz) * p
+            rz = rz_new
+            res = np.sqrt(_dot(r, r))
+            it += 1
+        iters += it
+        if bnorm > 0.0:
+            worst = max(worst, res / bnorm)
+        x += dt * (v + theta * dv)
+        v += dv
+        a[:] = dv / dt
+        if obstacle_kind.shape[0] > 0:
+            system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
+                          second_slot, second_other, spring_vec, ap)
+            constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt,
+                                contact_state)
+            contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
+        status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)
+        if status != STATUS_OK:
+            return step + 1, status, iters, worst
+    return nsteps, STATUS_OK, iters, worst

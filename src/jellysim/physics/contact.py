@@ -1,0 +1,106 @@
+"""Contact with static obstacles: planes, spheres and axis-aligned boxes.
+
+Each point of the body is a contact point.  After each step (:func:`contact` kernels in
+:mod:`jellysim.kernels`), a point found inside an obstacle is moved back to its surface along
+the surface normal, and its velocity is changed as a rigid point hitting the obstacle:
+
+* **restitution**: an approaching normal velocity ``v_n < 0`` becomes ``-e v_n``.  Below the
+  *rest speed* (default ``2 |g| dt``: what gravity adds in two steps) the contact is resting
+  and ``v_n`` becomes 0, so a body lying on the ground does not jitter;
+* **Coulomb friction**: the normal impulse per unit mass ``dv_n = v_n' - v_n`` allows a
+  tangential impulse of at most ``mu dv_n``.  If the tangential velocity is below
+  ``mu_s dv_n`` it is removed (static friction, the point sticks), otherwise it is reduced by
+  ``mu_k dv_n`` (kinetic friction).  On a resting contact ``dv_n`` is the normal velocity that
+  gravity and the springs added during the step, so this is Coulomb's law ``|F_t| <= mu F_n``
+  in impulse form: a point on a plane tilted by t stays put for ``tan t <= mu_s`` and otherwise
+  slides with ``a = g (sin t - mu_k cos t)``;
+* the tangential position follows the corrected velocity (``x += (v_t' - v_t) dt``), so a
+  sticking point does not creep down a slope.
+
+The report's ground (``GroundModel.PAPER``: no normal force, friction by a velocity factor)
+stays available; it is not this model.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Plane", "Sphere", "Box", "pack_obstacles", "OBSTACLE_KINDS"]
+
+OBSTACLE_KINDS = {"plane": 0, "sphere": 1, "box": 2}
+
+
+@dataclass(frozen=True, kw_only=True)
+class _Surface:
+    restitution: float = 0.3
+    """Coefficient of restitution e in [0, 1]."""
+    friction: float = 0.6
+    """Kinetic Coulomb coefficient mu_k >= 0."""
+    static_friction: float | None = None
+    """Static Coulomb coefficient mu_s >= mu_k (default: ``friction``)."""
+
+    def _material(self):
+        mu_s = self.friction if self.static_friction is None else self.static_friction
+        if not 0.0 <= self.restitution <= 1.0:
+            raise ValueError(f"restitution must lie in [0, 1], got {self.restitution}")
+        if not self.friction >= 0.0:
+            raise ValueError(f"friction must be >= 0, got {self.friction}")
+        if not mu_s >= self.friction:
+            raise ValueError(f"static friction ({mu_s}) must be >= kinetic friction "
+                             f"({self.friction})")
+        return [float(self.restitution), float(mu_s), float(self.friction)]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Plane(_Surface):
+    """The half-space behind a plane through ``point`` [m] with outward ``normal``."""
+
+    point: tuple = (0.0, 0.0, 0.0)
+    normal: tuple = (0.0, 1.0, 0.0)
+
+    def row(self):
+        nrm = np.asarray(self.normal, dtype=np.float64).reshape(3)
+        length = float(np.linalg.norm(nrm))
+        if not length > 0:
+            raise ValueError("a plane's normal must be a non-zero vector")
+        return 0, [*np.asarray(self.point, float).reshape(3), *(nrm / length),
+                   *self._material()]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Sphere(_Surface):
+    """A solid ball of ``radius`` [m] around ``center`` [m]."""
+
+    center: tuple = (0.0, 0.0, 0.0)
+    radius: float = 1.0
+
+    def row(self):
+        if not self.radius > 0:
+            raise ValueError(f"a sphere's radius must be > 0 m, got {self.radius}")
+        return 1, [*np.asarray(self.center, float).reshape(3), float(self.radius), 0.0, 0.0,
+                   *self._material()]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Box(_Surface):
+    """A solid axis-aligned box from ``lower`` to ``upper`` [m]."""
+
+    lower: tuple = (0.0, 0.0, 0.0)
+    upper: tuple = (1.0, 1.0, 1.0)
+
+    def row(self):
+        lo = np.asarray(self.lower, float).reshape(3)
+        hi = np.asarray(self.upper, float).reshape(3)
+        if not np.all(hi > lo):
+            raise ValueError(f"a box's upper corner {hi.tolist()} must exceed {lo.tolist()}")
+        return 2, [*lo, *hi, *self._material()]
+
+
+def pack_obstacles(obstacles) -> tuple[np.ndarray, np.ndarray]:
+    """Kernel arrays for ``obstacles``: kinds, shape (m,), int32 (0 plane, 1 sphere, 2 box), and
+    data, shape (m, 9), float64: 6 geometry numbers [m] then restitution, mu_s, mu_k [-]."""
+    rows = [o.row() for o in obstacles]
+    kind = np.array([r[0] for r in rows], dtype=np.int32)
+    data = np.array([r[1] for r in rows], dtype=np.float64).reshape(len(rows), 9)
+    return kind, np.ascontiguousarray(data)

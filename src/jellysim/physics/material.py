@@ -1,0 +1,282 @@
+"""Material -> springs: spring stiffnesses and point masses from density and Young's modulus.
+
+Method (virial calibration, after Van Gelder 1998 and the affine "Born" stiffness of lattice
+dynamics, Born & Huang 1954):
+
+1. **Shape of the stiffness field.**  Each spring gets a weight ``w_s`` [m] that spreads the
+   material's volume over the springs:
+
+   * bodies with tetrahedra (marching grid, Delaunay, TetGen): ``w_s = sum_{t ∋ s} V_t / L_s^2``
+     over the tets that contain edge s (Van Gelder, "Approximate simulation of elastic membranes
+     by triangulated spring meshes", J. Graphics Tools 3(2), 1998, in its 3D form);
+   * point clouds (radius springs): every point p owns a volume ``V_p`` (given, e.g. by
+     :func:`jellysim.geometry.lattice.grid_point_volumes`, or the body volume split evenly) and
+     shares it equally among its ``Z_p`` springs:
+     ``w_s = (V_i / Z_i + V_j / Z_j) / L_s^2``.
+
+   Either way ``sum_s w_s L_s^2`` is the body volume, so surface points (fewer springs) get
+   stiffer springs and the modulus does not drop near the surface.
+
+2. **Scale.**  Under a small uniform strain ``eps`` the network's elastic energy per volume, if
+   every point follows the strain (affine), is ``1/2 eps : C : eps`` with the *virial* (Born)
+   stiffness ``C_abcd = (1/V) sum_s k_s L_s^2 n_a n_b n_c n_d``.  Points of a disordered network
+   relax away from the affine positions, which softens it: the relaxed stiffness is
+   ``C = C_affine - (1/V) Xi^T K^-1 Xi`` (Lemaitre & Maloney 2006; ``Xi``: the forces the
+   affine strain leaves on the points, ``K``: the network's stiffness matrix).  Both are linear
+   in the springs' common scale ``c`` (``k_s = c w_s``), so ``c`` follows from one evaluation:
+   ``E_network(c) = c E_network(1) = E``.  The relaxation term is solved with the surface points
+   held affine and every other point free (one sparse LU solve with 6 right-hand sides).
+   Young's modulus of the anisotropic tensor is taken as the
+   mean of ``1 / S_aa`` over the three axes (``S = C^-1`` in Voigt notation).
+
+Limits (documented in docs/physics.md): a central-force network obeys the Cauchy relation
+``C_12 = C_44``, so it cannot represent an arbitrary Poisson's ratio: an isotropic network has
+``nu = 1/4`` (gelatin is nearly incompressible, ``nu ~ 0.5``, so the network's bulk modulus
+is far too low).  Only E is matched, at small strain.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..body import Body
+
+__all__ = ["spring_weights", "virial_stiffness", "relaxation_stiffness",
+           "youngs_from_stiffness", "network_youngs_modulus", "calibrate_springs",
+           "point_masses", "point_volumes", "surface_points", "tet_volumes"]
+
+_VOIGT = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
+
+
+def tet_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Signed volumes [m^3], shape (t,), of tets (t, 4) over points [m] (n, 3)."""
+    p = points[tets]
+    return np.einsum("ij,ij->i", p[:, 1] - p[:, 0],
+                     np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0])) / 6.0
+
+
+def _edge_index(springs: np.ndarray, n: int) -> dict:
+    return {int(a) * n + int(b): s for s, (a, b) in enumerate(springs)}
+
+
+def point_volumes(body: Body, *, density: float | None = None) -> np.ndarray:
+    """Volume owned by each point [m^3], shape (n,).
+
+    From tets (a quarter of each incident tet), else from ``body.masses / density``, else the
+    body volume split evenly.
+    """
+    n = body.point_count
+    if body.tets is not None and len(body.tets):
+        vol = np.abs(tet_volumes(body.points, np.asarray(body.tets)))
+        return np.bincount(np.asarray(body.tets).ravel(), weights=np.repeat(vol / 4, 4),
+                           minlength=n)
+    if body.masses is not None and density:
+        return np.asarray(body.masses, dtype=np.float64) / density
+    if body.volume is None:
+        raise ValueError("cannot derive point volumes: the body has no tets and no volume")
+    return np.full(n, float(body.volume) / n)
+
+
+def point_masses(body: Body, density: float) -> np.ndarray:
+    """Point masses [kg], shape (n,): density x the volume each point owns (lumped mass)."""
+    if body.masses is not None:
+        return np.asarray(body.masses, dtype=np.float64)
+    return density * point_volumes(body)
+
+
+def spring_weights(body: Body, *, point_volume=None) -> np.ndarray:
+    """Relative stiffness ``w_s`` [m], shape (k,), in the body's spring order (see module doc).
+
+    ``point_volume`` [m^3], shape (n,): the volume each point owns, for bodies without tets
+    (default: :func:`point_volumes`)."""
+    pts = np.asarray(body.points, dtype=np.float64)
+    springs = np.asarray(body.springs, dtype=np.int64).reshape(-1, 2)
+    n, k = pts.shape[0], springs.shape[0]
+    length = np.linalg.norm(pts[springs[:, 1]] - pts[springs[:, 0]], axis=1)
+    if np.any(length <= 0):
+        raise ValueError("a spring has zero rest length")
+    if body.tets is not None and len(body.tets):
+        tets = np.asarray(body.tets, dtype=np.int64)
+        vol = np.abs(tet_volumes(pts, tets))
+        pairs = np.array([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)])
+        e = np.sort(tets[:, pairs].reshape(-1, 2), axis=1)
+        key = e[:, 0] * n + e[:, 1]
+        skey = springs[:, 0] * n + springs[:, 1]
+        order = np.argsort(skey)
+        pos = np.searchsorted(skey[order], key)
+        pos = np.minimum(pos, k - 1)
+        found = skey[order][pos] == key
+        if not np.all(found):
+            raise ValueError("a tet edge has no spring: build springs from the tets' edges")
+        w = np.bincount(order[pos], weights=np.repeat(vol, 6), minlength=k)
+        if np.any(w <= 0):
+            raise ValueError("a spring belongs to no tet: cannot weight it by tet volume")
+        return w / length**2
+    vp = point_volumes(body) if point_volume is None else np.asarray(point_volume, float)
+    z = np.bincount(springs.ravel(), minlength=n).astype(np.float64)
+    share = np.where(z > 0, vp / np.maximum(z, 1.0), 0.0)
+    return (share[springs[:, 0]] + share[springs[:, 1]]) / length**2
+
+
+def _directions(points, springs):
+    d = points[springs[:, 1]] - points[springs[:, 0]]
+    length = np.linalg.norm(d, axis=1)
+    return d / length[:, None], length
+
+
+def virial_stiffness(points, springs, stiffness, volume) -> np.ndarray:
+    """Affine (Born) stiffness [Pa], 6 x 6 Voigt matrix: ``(1/V) sum k L^2 n n n n``."""
+    nrm, length = _directions(points, springs)
+    a = np.stack([nrm[:, i] * nrm[:, j] for i, j in _VOIGT], axis=1)  # (k, 6)
+    return (a * (stiffness * length**2)[:, None]).T @ a / volume
+
+
+def _stiffness_matrix(points, springs, stiffness, n):
+    """Rest stiffness K [N/m], sparse (3n, 3n): ``K u`` is minus the spring force."""
+    from scipy.sparse import coo_matrix
+
+    nrm, _ = _directions(points, springs)
+    blocks = stiffness[:, None, None] * nrm[:, :, None] * nrm[:, None, :]  # (k, 3, 3)
+    i, j = springs[:, 0], springs[:, 1]
+    rows, cols, vals = [], [], []
+    for a in range(3):
+        for b in range(3):
+            kab = blocks[:, a, b]
+            rows += [3 * i + a, 3 * j + a, 3 * i + a, 3 * j + a]
+            cols += [3 * i + b, 3 * j + b, 3 * j + b, 3 * i + b]
+            vals += [kab, kab, -kab, -kab]
+    return coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(3 * n, 3 * n)).tocsr()
+
+
+def surface_points(points, springs, tets=None) -> np.ndarray:
+    """Mask (n,) of the points on the body's surface.
+
+    With tets: the corners of the faces that belong to one tet only.  Without: the points whose
+    springs are lopsided, i.e. the mean of their unit spring directions is longer than 0.35
+    (0 for a point surrounded evenly, 0.5 on a flat face).
+    """
+    n = points.shape[0]
+    if tets is not None and len(tets):
+        tets = np.asarray(tets, dtype=np.int64)
+        faces = np.sort(tets[:, [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]]].reshape(-1, 3),
+                        axis=1)
+        uniq, count = np.unique(faces, axis=0, return_counts=True)
+        mask = np.zeros(n, dtype=bool)
+        mask[uniq[count == 1].ravel()] = True
+        return mask
+    nrm, _ = _directions(points, springs)
+    total = np.zeros((n, 3))
+    for c in range(3):
+        total[:, c] = (np.bincount(springs[:, 0], nrm[:, c], n)
+                       - np.bincount(springs[:, 1], nrm[:, c], n))
+    z = np.bincount(springs.ravel(), minlength=n)
+    lopsided = np.linalg.norm(total, axis=1) > 0.35 * np.maximum(z, 1)
+    # springs that do not span 3D (a point on a thin sheet or strand) cannot hold the point in
+    # every direction: treat it as surface (held), or the relaxation solve would be singular
+    scatter = np.zeros((n, 3, 3))
+    for a in range(3):
+        for b in range(a, 3):
+            w = nrm[:, a] * nrm[:, b]
+            scatter[:, a, b] = scatter[:, b, a] = (np.bincount(springs[:, 0], w, n)
+                                                   + np.bincount(springs[:, 1], w, n))
+    flat = np.linalg.eigvalsh(scatter)[:, 0] < 0.05 * np.maximum(z, 1)
+    return lopsided | flat | (z < 4)
+
+
+def inner_points(points, surface, skin: float) -> np.ndarray:
+    """Mask (n,) of the points farther than ``skin`` [m] from every ``surface`` point."""
+    from scipy.spatial import cKDTree
+
+    n = points.shape[0]
+    if not surface.any():
+        return np.ones(n, dtype=bool)
+    dist, _ = cKDTree(points[surface]).query(points)
+    return dist > skin
+
+
+def relaxation_stiffness(points, springs, stiffness, volume, *, skin: float | None = None,
+                         tets=None) -> np.ndarray:
+    """Non-affine softening [Pa], 6 x 6 Voigt: ``(1/V_in) Xi_in^T K_in^-1 Xi_in``.
+
+    ``Xi``: force on each point per unit affine strain; the surface points and those within
+    ``skin`` [m] (default 0) of them are held affine, the others relax.  (Holding a thicker skin restrains
+    the relaxation: measured on random networks, skin 0 matches tensile tests best.)
+    ``V_in`` is the volume the inner points own (their share of ``volume``).
+    """
+    from scipy.sparse.linalg import splu
+
+    points = np.asarray(points, dtype=np.float64)
+    n = points.shape[0]
+    nrm, length = _directions(points, springs)
+    if skin is None:
+        skin = 0.0
+    inner = inner_points(points, surface_points(points, springs, tets), skin)
+    if inner.sum() < 8:
+        return np.zeros((6, 6))
+    # Xi (3n, 6): force on the points per unit Voigt strain (engineering shear).  A spring's
+    # length changes by L a . e (a as in virial_stiffness), its tension by k L a . e; the
+    # tension pulls its first point along +n and its second along -n.
+    a = np.stack([nrm[:, i] * nrm[:, j] for i, j in _VOIGT], axis=1)
+    tension = (stiffness * length)[:, None] * a
+    xi = np.zeros((3 * n, 6))
+    for c in range(3):
+        f = tension * nrm[:, c:c + 1]
+        for v in range(6):
+            xi[c::3, v] = (np.bincount(springs[:, 0], f[:, v], n)
+                           - np.bincount(springs[:, 1], f[:, v], n))
+    K = _stiffness_matrix(points, springs, stiffness, n)
+    dof = np.repeat(inner, 3)
+    Kin = K[dof][:, dof].tocsc()
+    rhs = xi[dof]
+    try:
+        sol = splu(Kin).solve(rhs)
+    except RuntimeError:  # a floppy inner cluster: regularise it (1e-9 of the mean diagonal)
+        from scipy.sparse import identity
+
+        eps = 1e-9 * float(Kin.diagonal().mean())
+        sol = splu((Kin + eps * identity(Kin.shape[0])).tocsc()).solve(rhs)
+    v_in = volume * inner.sum() / n
+    return rhs.T @ sol / v_in
+
+
+def youngs_from_stiffness(C: np.ndarray) -> float:
+    """Mean over the axes of Young's modulus ``1 / S_aa`` [Pa] of a 6 x 6 Voigt stiffness."""
+    S = np.linalg.inv(C)
+    return float(np.mean(1.0 / np.diag(S)[:3]))
+
+
+def network_youngs_modulus(body: Body, stiffness, *, relax: bool = True,
+                           volume: float | None = None) -> float:
+    """Effective Young's modulus [Pa] of ``body``'s springs with per-spring ``stiffness`` [N/m].
+
+    Virial (affine) stiffness minus, with ``relax``, the non-affine relaxation of the inner
+    points; both over the body's volume (tets, else ``body.volume``).
+    """
+    pts = np.asarray(body.points, dtype=np.float64)
+    springs = np.asarray(body.springs, dtype=np.int64).reshape(-1, 2)
+    if volume is None:
+        volume = float(point_volumes(body).sum())
+    C = virial_stiffness(pts, springs, np.asarray(stiffness, dtype=np.float64), volume)
+    if relax:
+        C = C - relaxation_stiffness(pts, springs, np.asarray(stiffness, dtype=np.float64),
+                                     volume, tets=body.tets)
+    return youngs_from_stiffness(C)
+
+
+def calibrate_springs(body: Body, youngs_modulus: float, *, relax: bool = True,
+                      point_volume=None) -> np.ndarray:
+    """Per-spring stiffness [N/m], shape (k,), so that the network's Young's modulus is
+    ``youngs_modulus`` [Pa] (see the module docstring for the method and its limits).
+
+    ``point_volume`` [m^3], shape (n,): the volume each point owns when the body has no tets
+    (e.g. :func:`jellysim.geometry.lattice.grid_point_volumes`); default: the body volume
+    split evenly."""
+    if not (np.isfinite(youngs_modulus) and youngs_modulus > 0):
+        raise ValueError(f"Young's modulus must be a positive number of Pa, got {youngs_modulus}")
+    w = spring_weights(body, point_volume=point_volume)
+    e1 = network_youngs_modulus(body, w, relax=relax, volume=None if point_volume is None
+                                else float(np.sum(point_volume)))
+    if not e1 > 0:
+        raise ValueError("the spring network is not rigid (its effective modulus is 0): "
+                         "connect more points (a larger radius) or use tets")
+    return w * (youngs_modulus / e1)

@@ -1,0 +1,178 @@
+"""Physical contact: restitution and Coulomb friction on point masses, obstacles, backends."""
+import numba
+import numpy as np
+import pytest
+
+from conftest import make_box_model
+from jellysim.body import Body
+from jellysim.kernels import numba_backend as nbk
+from jellysim.kernels import numpy_backend as npk
+from jellysim.model import finalize
+from jellysim.params import GroundModel, GroundParams, ImplicitParams
+from jellysim.physics.contact import Box, Plane, Sphere, pack_obstacles
+from jellysim.simulator import Simulator
+
+G = 9.8
+
+
+def particles(points, mass=0.01):
+    pts = np.atleast_2d(np.asarray(points, dtype=np.float64))
+    body = Body(points=pts, springs=np.zeros((0, 2), dtype=np.int64))
+    return finalize(body, point_mass=mass, gravity=(0.0, -G, 0.0))
+
+
+def contact_ground(e, mu):
+    return GroundParams(model=GroundModel.CONTACT, restitution=e, friction=mu)
+
+
+@pytest.mark.parametrize("integrator,backend", [("symplectic", "numpy"),
+                                                ("symplectic", "numba"),
+                                                ("implicit", "numba")])
+def test_point_mass_rebounds_to_e_squared_h(integrator, backend):
+    h, e, dt = 0.5, 0.6, 1e-4
+    model = particles([0.0, h, 0.0])
+    sim = Simulator(model, dt=dt, integrator=integrator, backend=backend,
+                    ground=contact_ground(e, 0.5))
+    bounced = False
+    top = 0.0
+    for _ in range(int(1.2 / dt)):
+        sim.advance(1)
+        y, vy = sim.state.x[0, 1], sim.state.v[0, 1]
+        if vy > 0:
+            bounced = True
+        if bounced:
+            top = max(top, y)
+            if vy < 0:
+                break
+    assert bounced
+    assert top == pytest.approx(e**2 * h, rel=0.01)
+
+
+def tilted_plane(t_deg, mu_s, mu_k):
+    t = np.radians(t_deg)
+    normal = (-np.sin(t), np.cos(t), 0.0)  # the slope goes down towards +x
+    return t, Plane(point=(0.0, 0.0, 0.0), normal=normal, restitution=0.0, friction=mu_k,
+                    static_friction=mu_s)
+
+
+@pytest.mark.parametrize("integrator", ["symplectic", "implicit"])
+def test_point_on_slope_below_friction_angle_stays_put(integrator):
+    mu_s, mu_k = 0.6, 0.3
+    t, plane = tilted_plane(25.0, mu_s, mu_k)  # tan 25 deg = 0.47 < 0.6
+    assert np.tan(t) < mu_s
+    model = particles([0.0, 0.0, 0.0])
+    sim = Simulator(model, dt=1e-3, integrator=integrator, obstacles=[plane])
+    sim.advance(1000)
+    assert np.linalg.norm(sim.state.x[0]) < 1e-9
+    assert np.linalg.norm(sim.state.v[0]) < 1e-9
+
+
+@pytest.mark.parametrize("integrator", ["symplectic", "implicit"])
+def test_point_on_slope_above_friction_angle_slides_at_coulomb_rate(integrator):
+    mu_s, mu_k = 0.6, 0.3
+    t, plane = tilted_plane(35.0, mu_s, mu_k)  # tan 35 deg = 0.70 > 0.6
+    model = particles([0.0, 0.0, 0.0])
+    dt, n = 1e-3, 500
+    sim = Simulator(model, dt=dt, integrator=integrator, obstacles=[plane])
+    sim.advance(n)
+    down = np.array([np.cos(t), np.sin(t), 0.0])  # down the slope: +x, +y tilted... sign below
+    down = -down if down[1] > 0 else down
+    speed = float(sim.state.v[0] @ down)
+    expected = G * (np.sin(t) - mu_k * np.cos(t))
+    assert speed / (n * dt) == pytest.approx(expected, rel=0.01)
+    # and it stays on the plane
+    assert abs(sim.state.x[0] @ np.array(plane.normal)) < 1e-9
+
+
+@pytest.mark.parametrize("integrator", ["symplectic", "implicit"])
+def test_nothing_ends_inside_sphere_or_box_obstacles(integrator):
+    rng = np.random.default_rng(4)
+    pts = rng.uniform((-0.3, 0.6, -0.3), (0.3, 1.0, 0.3), (200, 3))
+    model = particles(pts)
+    # apart from each other and from the ground: one projection pass per step cannot resolve
+    # a point wedged between two obstacles (a documented limitation)
+    sphere = Sphere(center=(-0.15, 0.35, 0.0), radius=0.2, restitution=0.2, friction=0.4)
+    box = Box(lower=(0.1, 0.0, -0.3), upper=(0.3, 0.3, 0.3), restitution=0.2, friction=0.4)
+    sim = Simulator(model, dt=2e-3, integrator=integrator, obstacles=[sphere, box],
+                    ground=contact_ground(0.2, 0.4))
+    touched = np.zeros(len(pts), bool)
+    for _ in range(60):
+        sim.advance(10)
+        x = sim.state.x
+        r = np.linalg.norm(x - sphere.center, axis=1)
+        inside_box = np.all((x > np.array(box.lower) + 1e-9) & (x < np.array(box.upper) - 1e-9),
+                            axis=1)
+        assert r.min() >= 0.2 - 1e-9
+        assert not inside_box.any()
+        assert x[:, 1].min() >= -1e-12
+        touched |= (np.abs(r - 0.2) < 1e-6) | ((np.abs(x[:, 1] - 0.3) < 1e-6) & (x[:, 0] > 0.1))
+    assert touched.sum() > 10  # many landed on the sphere or the box top
+
+
+def test_contact_kernels_agree():
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-1, 1, (500, 3))
+    v = rng.standard_normal((500, 3))
+    kind, data = pack_obstacles([
+        Plane(point=(0, -0.2, 0), normal=(0.1, 1, 0), restitution=0.4, friction=0.3,
+              static_friction=0.5),
+        Sphere(center=(0.3, 0.2, 0.1), radius=0.4, restitution=0.1, friction=0.8),
+        Box(lower=(-0.9, 0.0, -0.5), upper=(-0.2, 0.7, 0.5), restitution=0.0, friction=0.2)])
+    out = []
+    for k in (npk, nbk):
+        xx, vv = x.copy(), v.copy()
+        k.contact(xx, vv, kind, data, 0.05, 1e-3)
+        out.append((xx, vv))
+    assert np.allclose(out[0][0], out[1][0], rtol=0, atol=1e-13)
+    assert np.allclose(out[0][1], out[1][1], rtol=0, atol=1e-13)
+    assert not np.allclose(out[0][1], v)
+
+
+def _implicit_sim(backend, threads=None, n=300):
+    m = make_box_model(n, stiffness=40.0, damping=0.01, point_mass=0.02,
+                       lower=(0, 0.03, 0), upper=(1, 1.03, 1))
+    return Simulator(m, dt=1 / 60, integrator="implicit", backend=backend, threads=threads,
+                     ground=contact_ground(0.3, 0.6), implicit=ImplicitParams(theta=0.7),
+                     obstacles=[Sphere(center=(0.5, -0.3, 0.5), radius=0.45)])
+
+
+def test_implicit_steps_agree():
+    # contact decisions (v_n <= 0, phi <= margin) are discontinuous, so round-off differences
+    # between the backends would grow over many steps: compare one step at a time from the
+    # same state
+    ref, fast = _implicit_sim("numpy"), _implicit_sim("numba")
+    landed = False
+    for _ in range(30):
+        ref.advance(1)
+        fast.advance(1)
+        assert np.allclose(ref.state.x, fast.state.x, rtol=0, atol=1e-12)
+        assert np.allclose(ref.state.v, fast.state.v, rtol=0, atol=1e-10)
+        assert np.array_equal(ref._cobs, fast._cobs)
+        landed |= bool((ref._cobs >= 0).any())
+        for dst, src in zip([fast.state.x, fast.state.v, fast.state.a, *fast._cg,
+                             fast._cobs, fast._contact_state],
+                            [ref.state.x, ref.state.v, ref.state.a, *ref._cg, ref._cobs,
+                             ref._contact_state]):
+            dst[...] = src
+    assert landed
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 numba threads")
+def test_implicit_one_and_two_threads_bitwise_equal():
+    results = []
+    for threads in (1, 2):
+        sim = _implicit_sim("numba", threads=threads, n=2000)
+        sim.advance(20)
+        results.append(sim.state)
+    assert np.array_equal(results[0].x, results[1].x)
+    assert np.array_equal(results[0].v, results[1].v)
+
+
+def test_bad_obstacles_are_refused():
+    from jellysim.errors import SceneError
+
+    model = particles([0.0, 1.0, 0.0])
+    with pytest.raises(SceneError, match="restitution"):
+        Simulator(model, dt=1e-3, obstacles=[Plane(restitution=1.5)])
+    with pytest.raises(SceneError, match="static friction"):
+        Simulator(model, dt=1e-3, obstacles=[Plane(friction=0.5, static_friction=0.2)])

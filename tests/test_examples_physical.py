@@ -1,0 +1,107 @@
+"""The physical examples, run at reduced size (``--test``), and the gelatin scene."""
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from jellysim.errors import SceneError
+from jellysim.scene import Scene
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "examples"))
+
+RHO, G = 1141.0, 9.8
+
+
+def test_column_sag_example_converges_to_closed_form(capsys):
+    import validate_column_sag
+
+    rows = validate_column_sag.main(["--test"])
+    errors = [abs(r["error"]) for r in rows]
+    assert all(e < 0.10 for e in errors)
+    assert errors[1] < errors[0]  # finer is closer
+
+
+def test_bounce_example(capsys):
+    import validate_bounce
+
+    out = validate_bounce.main(["--test"])
+    for row in out["point_mass"]:
+        assert abs(row["error"]) < 0.01
+    cube = out["gelatin_cube"][0]
+    assert cube["com_rebound_m"] > 1e-3  # it squashes and springs back up
+    expected_top = 0.1 - RHO * G * 0.1**2 / (2 * 1e4)
+    assert cube["final_height_m"] == pytest.approx(expected_top, rel=0.03)
+
+
+def test_wobble_example_frequency_and_measured_damping(capsys):
+    import validate_wobble
+
+    runs = validate_wobble.main(["--test"])["runs"]
+    ref = runs[0]
+    assert ref["integrator"] == "symplectic"
+    assert 1.0 < ref["frequency_hz"] < 10.0  # "a believable few hertz"
+    assert ref["energy_kept_per_period"] > 0.9  # the reference barely damps
+    be, theta75, _, be_sub4 = runs[1:]  # theta = 1, 0.75, (0.5: not asserted), 1 x 4 substeps
+    for r in (be, theta75, be_sub4):
+        assert r["frequency_hz"] == pytest.approx(ref["frequency_hz"], rel=0.10)
+    # numerical damping: less implicit or smaller steps, less of it; all of them damp
+    assert be["energy_kept_per_period"] < theta75["energy_kept_per_period"] < 1.0
+    assert be["energy_kept_per_period"] < be_sub4["energy_kept_per_period"] < 1.0
+
+
+def test_gelatin_scene_settles_at_the_continuum_height():
+    scene = Scene.load(ROOT / "examples" / "gelatin_cube.toml")
+    assert scene.params["integrator"]["name"] == "implicit"
+    assert scene.params["ground"]["model"] == "contact"
+    model = scene.build_model()
+    assert model.total_mass == pytest.approx(RHO * 0.1**3, rel=1e-9)
+    sim = scene.simulator(model)
+    sim.advance(90)
+    expected_top = 0.1 - RHO * G * 0.1**2 / (2 * scene.params["material"]["youngs_modulus"])
+    assert sim.state.x[:, 1].max() == pytest.approx(expected_top, rel=0.02)
+
+
+BASE = """
+[body]
+points = 30
+lower = [0.0, 0.0, 0.0]
+upper = [0.1, 0.1, 0.1]
+[springs]
+radius = 0.05
+[integrator]
+dt = 0.01
+steps = 2
+"""
+
+
+def test_material_scene_errors():
+    with pytest.raises(SceneError, match="youngs_modulus"):
+        Scene.from_text(BASE)  # neither k nor E
+    with pytest.raises(SceneError, match="both"):
+        Scene.from_text(BASE.replace("radius = 0.05", "radius = 0.05\nstiffness = 2.0")
+                        + "[material]\nyoungs_modulus = 1e4\n")
+    with pytest.raises(SceneError, match="preset"):
+        Scene.from_text(BASE + "[material]\npreset = 'jelly'\n")
+    with pytest.raises(SceneError, match="implicit"):
+        Scene.from_text(BASE + "[material]\npreset = 'gelatin'\n[provot]\nenabled = true\n")
+
+
+def test_paper_preset_is_the_report_run():
+    scene = Scene.from_text(BASE + "[material]\npreset = 'paper-2010'\n")
+    p = scene.params
+    assert p["springs"]["stiffness"] == 2.0 and p["physics"]["damping"] == 0.8
+    assert p["provot"]["pairs"] == "all" and p["provot"]["loops"] == 1
+    assert p["ground"]["model"] == "paper" and (p["ground"]["mu"], p["ground"]["nu"]) == (
+        0.1, 0.2)
+    assert p["integrator"]["name"] == "paper" and p["integrator"]["dt"] == 0.01  # the scene's
+
+
+def test_paper_preset_example_is_the_spelled_out_paper_cube():
+    a = Scene.load(ROOT / "examples" / "paper_2010_preset.toml").params
+    b = Scene.load(ROOT / "examples" / "paper_cube.toml").params
+    differ = {(s, k) for s in a for k in a[s] if a[s][k] != b[s][k]}
+    # the preset name, the density given in [material] instead of [mass], the output cadence
+    assert differ == {("material", "preset"), ("material", "density"), ("output", "every")}
+    assert a["material"]["density"] == b["mass"]["density"]
