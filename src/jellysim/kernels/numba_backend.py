@@ -76,6 +76,14 @@ def _provot_c(length, rest, tau):
     return 0.0
 
 
+@njit(cache=True, inline="always")
+def _provot_c_inv(length, inv_length, rest, tau):
+    """Branch-free :func:`_provot_c` given ``1 / length`` (0 for a zero length): clamping
+    compiles to min/max instead of unpredictable branches."""
+    target = min(max(length, (1.0 - tau) * rest), (1.0 + tau) * rest)
+    return 0.5 * (length - target) * inv_length
+
+
 @njit(**_opts)
 def _provot_jacobi_springs(x, spring_ij, rest, first_ptr, second_ptr, second_slot,
                            second_other, tau, spring_scalar, dx, count, max_corr):
@@ -153,21 +161,20 @@ def _accelerations_provot_fused(x, v, inv_mass, damping, gravity, spring_ij, res
             ey = x[q, 1] - py
             ez = x[q, 2] - pz
             length = np.sqrt(ex * ex + ey * ey + ez * ez)
-            c = 0.0
-            if length > 0.0:
-                c = stiff[s] * (length - rest[s]) / length
+            inv = 1.0 / length if length > 0.0 else 0.0
+            r0 = rest[s]
+            c = stiff[s] * (length - r0) * inv
             slot = second_slot[s]
             spring_scalar[slot] = c
             fx += c * ex
             fy += c * ey
             fz += c * ez
-            cp = _provot_c(length, rest[s], tau)
+            cp = _provot_c_inv(length, inv, r0, tau)
             provot_scalar[slot] = cp
-            if cp != 0.0:
-                sx += cp * ex
-                sy += cp * ey
-                sz += cp * ez
-                cnt += 1
+            sx += cp * ex
+            sy += cp * ey
+            sz += cp * ez
+            cnt += cp != 0.0
         a_out[p, 0] = fx
         a_out[p, 1] = fy
         a_out[p, 2] = fz
@@ -194,11 +201,10 @@ def _accelerations_provot_fused(x, v, inv_mass, damping, gravity, spring_ij, res
             fy += c * ey
             fz += c * ez
             cp = provot_scalar[t]
-            if cp != 0.0:
-                sx += cp * ex
-                sy += cp * ey
-                sz += cp * ez
-                cnt += 1
+            sx += cp * ex
+            sy += cp * ey
+            sz += cp * ez
+            cnt += cp != 0.0
         w = inv_mass[q]
         a_out[q, 0] = (fx - damping * v[q, 0]) * w + gravity[0]
         a_out[q, 1] = (fy - damping * v[q, 1]) * w + gravity[1]
