@@ -99,13 +99,13 @@ def _provot_jacobi_springs(x, spring_ij, rest, first_ptr, second_ptr, second_slo
             ex = x[q, 0] - px
             ey = x[q, 1] - py
             ez = x[q, 2] - pz
-            c = _provot_c(np.sqrt(ex * ex + ey * ey + ez * ez), rest[s], tau)
+            length = np.sqrt(ex * ex + ey * ey + ez * ez)
+            c = _provot_c_inv(length, 1.0 / length if length > 0.0 else 0.0, rest[s], tau)
             spring_scalar[second_slot[s]] = c
-            if c != 0.0:
-                sx += c * ex
-                sy += c * ey
-                sz += c * ez
-                cnt += 1
+            sx += c * ex
+            sy += c * ey
+            sz += c * ez
+            cnt += c != 0.0
         dx[p, 0] = sx
         dx[p, 1] = sy
         dx[p, 2] = sz
@@ -118,12 +118,11 @@ def _provot_jacobi_springs(x, spring_ij, rest, first_ptr, second_ptr, second_slo
         qx, qy, qz = x[q, 0], x[q, 1], x[q, 2]
         for t in range(second_ptr[q], second_ptr[q + 1]):
             c = spring_scalar[t]
-            if c != 0.0:
-                i = second_other[t]
-                sx -= c * (qx - x[i, 0])
-                sy -= c * (qy - x[i, 1])
-                sz -= c * (qz - x[i, 2])
-                cnt += 1
+            i = second_other[t]
+            sx -= c * (qx - x[i, 0])
+            sy -= c * (qy - x[i, 1])
+            sz -= c * (qz - x[i, 2])
+            cnt += c != 0.0
         if cnt > 0:
             sx /= cnt
             sy /= cnt
