@@ -21,7 +21,7 @@ def cli() -> None:
 
 @cli.command()
 @click.argument("scene_file", type=click.Path(dir_okay=False))
-@click.option("--out", "out_dir", type=click.Path(file_okay=False), default=None,
+@click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False), default=None,
               help="Output directory (default: out/<scene name>).")
 @click.option("--steps", type=click.IntRange(min=1), default=None,
               help="Override the scene's step count (e.g. a quick test run).")
