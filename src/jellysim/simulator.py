@@ -23,9 +23,10 @@ from .stability import StabilityEstimate, estimate_stability
 
 __all__ = ["Simulator", "StabilityWarning", "auto_threads"]
 
-PARALLEL_MIN_POINTS = 2_000
-"""Below this many points one thread is used: two threads gain little there (10.5k vs 11.8k
-steps/s on the paper scene) and lose badly when another process competes for the cores."""
+PARALLEL_MIN_POINTS = 500
+"""Below this many points one thread is used.  From the paper scene's 600 points on, two
+threads win on a quiet machine (about 20k vs 12k steps/s, BENCHMARKS.md); on a machine whose
+other core is busy they can lose badly: pass ``threads=1`` there."""
 
 
 class StabilityWarning(UserWarning):

@@ -140,7 +140,7 @@ def _provot_jacobi_springs(x, spring_ij, rest, first_ptr, second_ptr, second_slo
 @njit(**_opts)
 def _accelerations_provot_fused(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff,
                                 first_ptr, second_ptr, second_slot, second_other, tau,
-                                spring_scalar, provot_scalar, a_out, dx, max_corr):
+                                spring_scalar, provot_scalar, a_out, dx, max_corr, apply):
     """``accelerations`` and the first Jacobi Provot pass over the springs, sharing one
     length computation per spring: valid when Provot follows the force evaluation with no
     position change in between (the report's order).  Positions are corrected in place."""
@@ -216,10 +216,11 @@ def _accelerations_provot_fused(x, v, inv_mass, damping, gravity, spring_ij, res
         dx[q, 1] = sy
         dx[q, 2] = sz
         max_corr[q] = np.sqrt(sx * sx + sy * sy + sz * sz)
-    for p in prange(n):
-        x[p, 0] += dx[p, 0]
-        x[p, 1] += dx[p, 1]
-        x[p, 2] += dx[p, 2]
+    if apply:  # else the caller's finishing pass applies dx (one parallel region less)
+        for p in prange(n):
+            x[p, 0] += dx[p, 0]
+            x[p, 1] += dx[p, 1]
+            x[p, 2] += dx[p, 2]
 
 
 @njit(**_opts)
@@ -355,7 +356,8 @@ def finish_step(x, v, a, ground, height, mu, nu, center, bound2):
 
 
 @njit(**_opts)
-def _drift(x, v, a, dt, paper):
+def _drift(x, v, a, dt, paper, x_pre, save):
+    """Integrator position/velocity update; with ``save``, also x_pre = x afterwards."""
     for p in prange(x.shape[0]):
         for c in range(3):
             if paper:
@@ -364,6 +366,46 @@ def _drift(x, v, a, dt, paper):
             else:
                 v[p, c] += a[p, c] * dt
                 x[p, c] += v[p, c] * dt
+            if save:
+                x_pre[p, c] = x[p, c]
+
+
+@njit(**_opts)
+def _finish_fused(x, v, a, dx, apply_dx, x_pre, add_velocity, dt, ground, height, mu, nu,
+                  center, bound2):
+    """Per point, in one parallel region: (x += dx), (v += (x - x_pre) / dt), then exactly
+    :func:`finish_step`'s ground rule and checks."""
+    n = x.shape[0]
+    inv = 1.0 / dt
+    nonfinite = 0
+    runaway = 0
+    for p in prange(n):
+        for c in range(3):
+            if apply_dx:
+                x[p, c] += dx[p, c]
+            if add_velocity:
+                v[p, c] += (x[p, c] - x_pre[p, c]) * inv
+        if ground and x[p, 1] < height:
+            x[p, 1] = height
+            v[p, 1] = 0.0
+            v[p, 0] *= mu
+            v[p, 2] *= mu
+            a[p, 1] -= nu * a[p, 1]
+        s = 0.0
+        for c in range(3):
+            s += x[p, c] + v[p, c] + a[p, c]
+        if not np.isfinite(s):
+            nonfinite += 1
+        rx = x[p, 0] - center[0]
+        ry = x[p, 1] - center[1]
+        rz = x[p, 2] - center[2]
+        if rx * rx + ry * ry + rz * rz > bound2:
+            runaway += 1
+    if nonfinite > 0:
+        return STATUS_NONFINITE
+    if runaway > 0:
+        return STATUS_RUNAWAY
+    return STATUS_OK
 
 
 @njit(**_opts)
@@ -388,18 +430,21 @@ def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
               ground, height, mu, nu, obstacle_kind, obstacle_data, rest_speed, center, bound2,
               spring_scalar, dx, count, max_corr, x_pre, provot_scalar):
     fuse = integrator == 0 and provot_loops > 0 and not all_pairs and not gauss_seidel
+    obstacles = obstacle_kind.shape[0] > 0
+    save = provot_loops > 0 and velocity_update
     for step in range(nsteps):
+        pending = False  # a Provot correction in dx still to be applied by the finishing pass
         if integrator == 0:
-            _drift(x, v, a, dt, True)
-            if provot_loops > 0 and velocity_update:
-                _copy(x_pre, x)
+            _drift(x, v, a, dt, True, x_pre, save)
             if fuse:
                 # the report's order evaluates forces and then corrects the same positions:
                 # one pass serves both (identical results to the separate kernels)
+                last = provot_loops == 1 and not obstacles
                 _accelerations_provot_fused(x, v, inv_mass, damping, gravity, spring_ij, rest,
                                             stiff, first_ptr, second_ptr, second_slot,
                                             second_other, tau, spring_scalar, provot_scalar,
-                                            a, dx, max_corr)
+                                            a, dx, max_corr, not last)
+                pending = last
                 if provot_loops > 1 and _serial_max(max_corr) > tolerance:
                     provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_slot,
                            second_other, tau, provot_loops - 1, tolerance, all_pairs,
@@ -411,19 +456,19 @@ def run_steps(nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
         else:
             accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff, first_ptr,
                           second_ptr, second_slot, second_other, spring_scalar, a)
-            _drift(x, v, a, dt, False)
-            if provot_loops > 0 and velocity_update:
-                _copy(x_pre, x)
-        if provot_loops > 0:
-            if not fuse:
-                provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_slot,
-                       second_other, tau, provot_loops, tolerance, all_pairs, gauss_seidel,
-                       spring_scalar, dx, count, max_corr)
-            if velocity_update:
+            _drift(x, v, a, dt, False, x_pre, save)
+        if provot_loops > 0 and not fuse:
+            provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_slot,
+                   second_other, tau, provot_loops, tolerance, all_pairs, gauss_seidel,
+                   spring_scalar, dx, count, max_corr)
+        if obstacles:
+            if save:
                 _add_velocity(v, x, x_pre, dt)
-        if obstacle_kind.shape[0] > 0:
             contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
-        status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)
+            status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)
+        else:
+            status = _finish_fused(x, v, a, dx, pending, x_pre, save, dt, ground, height, mu,
+                                   nu, center, bound2)
         if status != STATUS_OK:
             return step + 1, status
     return nsteps, STATUS_OK
