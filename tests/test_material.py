@@ -11,8 +11,8 @@ from jellysim.physics.material import calibrate_springs, point_masses
 E = 5e3
 
 # The real Delaunay pipeline (random samples + surface vertices, slivers dropped, carved) is
-# not listed: its calibrated bodies measure 22-42 % too stiff in this tensile test (300 and
-# 1200 points); the jittered-grid Delaunay imitation below is within 5 %.  Known limitation,
+# not listed: its calibrated bodies measure 11-20 % too stiff in this tensile test (300 to 4000
+# samples); the jittered-grid Delaunay imitation below is within 5 %.  Known limitation,
 # docs/physics.md.
 def built(connect, **kw):
     """A unit cube body made by the real mesh pipeline (jellysim.build.build_body)."""
