@@ -326,33 +326,43 @@ def provot(x, x0, spring_ij, rest, first_ptr, second_ptr, second_slot, second_ot
     return passes, largest
 
 
+@njit(cache=True, inline="always")
+def _ground_and_check(p, x, v, a, ground, height, mu, nu, center, bound2):
+    """The report's ground rule on point p, then (non-finite?, runaway?) as 0/1 ints."""
+    if ground and x[p, 1] < height:
+        x[p, 1] = height
+        v[p, 1] = 0.0
+        v[p, 0] *= mu
+        v[p, 2] *= mu
+        a[p, 1] -= nu * a[p, 1]
+    s = 0.0
+    for c in range(3):
+        s += x[p, c] + v[p, c] + a[p, c]
+    rx = x[p, 0] - center[0]
+    ry = x[p, 1] - center[1]
+    rz = x[p, 2] - center[2]
+    return (0 if np.isfinite(s) else 1), (1 if rx * rx + ry * ry + rz * rz > bound2 else 0)
+
+
+@njit(cache=True, inline="always")
+def _status(nonfinite, runaway):
+    if nonfinite > 0:
+        return STATUS_NONFINITE
+    if runaway > 0:
+        return STATUS_RUNAWAY
+    return STATUS_OK
+
+
 @njit(**_opts)
 def finish_step(x, v, a, ground, height, mu, nu, center, bound2):
     n = x.shape[0]
     nonfinite = 0
     runaway = 0
     for p in prange(n):
-        if ground and x[p, 1] < height:
-            x[p, 1] = height
-            v[p, 1] = 0.0
-            v[p, 0] *= mu
-            v[p, 2] *= mu
-            a[p, 1] -= nu * a[p, 1]
-        s = 0.0
-        for c in range(3):
-            s += x[p, c] + v[p, c] + a[p, c]
-        if not np.isfinite(s):
-            nonfinite += 1
-        rx = x[p, 0] - center[0]
-        ry = x[p, 1] - center[1]
-        rz = x[p, 2] - center[2]
-        if rx * rx + ry * ry + rz * rz > bound2:
-            runaway += 1
-    if nonfinite > 0:
-        return STATUS_NONFINITE
-    if runaway > 0:
-        return STATUS_RUNAWAY
-    return STATUS_OK
+        bad, far = _ground_and_check(p, x, v, a, ground, height, mu, nu, center, bound2)
+        nonfinite += bad
+        runaway += far
+    return _status(nonfinite, runaway)
 
 
 @njit(**_opts)
@@ -385,27 +395,10 @@ def _finish_fused(x, v, a, dx, apply_dx, x_pre, add_velocity, dt, ground, height
                 x[p, c] += dx[p, c]
             if add_velocity:
                 v[p, c] += (x[p, c] - x_pre[p, c]) * inv
-        if ground and x[p, 1] < height:
-            x[p, 1] = height
-            v[p, 1] = 0.0
-            v[p, 0] *= mu
-            v[p, 2] *= mu
-            a[p, 1] -= nu * a[p, 1]
-        s = 0.0
-        for c in range(3):
-            s += x[p, c] + v[p, c] + a[p, c]
-        if not np.isfinite(s):
-            nonfinite += 1
-        rx = x[p, 0] - center[0]
-        ry = x[p, 1] - center[1]
-        rz = x[p, 2] - center[2]
-        if rx * rx + ry * ry + rz * rz > bound2:
-            runaway += 1
-    if nonfinite > 0:
-        return STATUS_NONFINITE
-    if runaway > 0:
-        return STATUS_RUNAWAY
-    return STATUS_OK
+        bad, far = _ground_and_check(p, x, v, a, ground, height, mu, nu, center, bound2)
+        nonfinite += bad
+        runaway += far
+    return _status(nonfinite, runaway)
 
 
 @njit(**_opts)
