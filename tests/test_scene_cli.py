@@ -309,3 +309,76 @@ def test_spot_example_runs_from_a_plain_clone_and_stands(tmp_path):
     x = sim.state.x
     assert x[:, 1].min() >= -1e-9 and x[:, 1].min() < 1e-6  # landed, not through the plate
     assert 0.9 * h0 < np.ptp(x[:, 1]) <= 1.01 * h0  # stands (the firm gelatin carries it)
+
+
+OBSTACLE_SCENE = """
+[body]
+points = 300
+distribution = "uniform"
+lower = [-0.05, 0.12, -0.05]
+upper = [0.05, 0.22, 0.05]
+seed = 2
+
+[springs]
+radius = 0.03
+stiffness = 200.0
+
+[mass]
+point_mass = 0.002
+
+[physics]
+damping = 0.001
+
+[integrator]
+name = "symplectic"
+dt = 0.0005
+steps = 800
+
+[provot]
+tau = 0.05
+loops = 3
+
+[ground]
+model = "contact"
+
+[[obstacle]]
+kind = "sphere"
+center = [0.0, 0.05, 0.0]
+radius = 0.05
+friction = 0.3
+
+[[obstacle]]
+kind = "box"
+lower = [0.2, 0.0, 0.2]
+upper = [0.3, 0.1, 0.3]
+"""
+
+
+def test_scene_obstacles_hold_the_body_off_and_outside():
+    scene = Scene.from_text(OBSTACLE_SCENE, name="obstacles.toml")
+    assert [o["kind"] for o in scene.params["obstacle"]] == ["sphere", "box"]
+    sim = scene.simulator(scene.build_model())
+    sim.advance(scene.steps)  # 0.4 s: the blob falls 7 cm onto the ball
+    x = sim.state.x
+    r = np.linalg.norm(x - [0.0, 0.05, 0.0], axis=1)
+    assert r.min() >= 0.05 - 1e-9  # nothing inside the sphere
+    assert x[:, 1].min() >= -1e-9
+    assert np.any(r < 0.05 + 0.01)  # it rests on it
+
+
+@pytest.mark.parametrize("edit,words", [
+    (("radius = 0.05", "radius = -1.0"), ["[[obstacle]] #1 radius", "out of range"]),
+    (('kind = "box"', 'kind = "cone"'), ["[[obstacle]] #2 kind", "unknown choice"]),
+    (("radius = 0.05\n", ""), ["[[obstacle]] #1 missing value 'radius'", "sphere"]),
+    (('kind = "sphere"', 'kind = "sphere"\nnormal = [0, 1, 0]'), ["'normal' is not used"]),
+    (("friction = 0.3", "fricton = 0.3"), ["unknown key 'fricton'", "did you mean 'friction'"]),
+    (("upper = [0.3, 0.1, 0.3]", "upper = [0.1, 0.1, 0.3]"), ["[[obstacle]] #2", "must exceed"]),
+])
+def test_bad_obstacles_give_one_clear_line(edit, words):
+    text = OBSTACLE_SCENE.replace(*edit, 1)
+    with pytest.raises(SceneError) as info:
+        Scene.from_text(text, name="obstacles.toml")
+    msg = str(info.value)
+    assert "\n" not in msg and "obstacles.toml" in msg
+    for w in words:
+        assert w in msg, (w, msg)

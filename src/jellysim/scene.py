@@ -159,6 +159,27 @@ SCHEMA: dict[str, dict[str, Spec]] = {
 }
 REQUIRED_SECTIONS = ("body", "springs", "integrator")
 
+OBSTACLE_SCHEMA: dict[str, Spec] = {
+    "kind": Spec("str", REQUIRED, "'plane', 'sphere' or 'box'.",
+                 choices=("plane", "sphere", "box")),
+    "point": Spec("vec3", None, "Plane: a point on it [m]."),
+    "normal": Spec("vec3", None, "Plane: its outward normal (any length > 0)."),
+    "center": Spec("vec3", None, "Sphere: centre [m]."),
+    "radius": Spec("float", None, "Sphere: radius [m].", lambda v: v > 0, "a number > 0 (m)"),
+    "lower": Spec("vec3", None, "Box: lower corner [m]."),
+    "upper": Spec("vec3", None, "Box: upper corner [m]."),
+    "restitution": Spec("float", 0.3, "Coefficient of restitution e.", lambda v: 0 <= v <= 1,
+                        "a number in [0, 1]"),
+    "friction": Spec("float", 0.6, "Kinetic Coulomb friction coefficient.", lambda v: v >= 0,
+                     "a number >= 0"),
+    "static_friction": Spec("float", None, "Static Coulomb coefficient (default: friction).",
+                            lambda v: v >= 0, "a number >= 0"),
+}
+"""``[[obstacle]]`` tables: static obstacles with restitution and Coulomb friction (contact
+model; used with every integrator)."""
+OBSTACLE_KEYS = {"plane": ("point", "normal"), "sphere": ("center", "radius"),
+                 "box": ("lower", "upper")}
+
 
 def schema_markdown() -> str:
     """The scene format as a Markdown table (for docs/scene.md)."""
@@ -171,11 +192,20 @@ def schema_markdown() -> str:
             allowed = spec.allowed or (", ".join(f"`{c}`" for c in spec.choices))
             lines.append(f"| `{key}` | {spec.kind} | {default} | {allowed} | {spec.doc} |")
         lines.append("")
+    lines += ["### `[[obstacle]]` (any number)", "",
+              "Static obstacles with restitution and Coulomb friction.  A plane takes `point` "
+              "and `normal`, a sphere `center` and `radius`, a box `lower` and `upper`.", "",
+              "| key | type | default | allowed | meaning |", "|---|---|---|---|---|"]
+    for key, spec in OBSTACLE_SCHEMA.items():
+        default = "**required**" if spec.default is REQUIRED else f"`{spec.default!r}`"
+        allowed = spec.allowed or (", ".join(f"`{c}`" for c in spec.choices))
+        lines.append(f"| `{key}` | {spec.kind} | {default} | {allowed} | {spec.doc} |")
     return "\n".join(lines)
 
 
 def _check(name: str, section: str, key: str, spec: Spec, value: Any) -> Any:
-    where = f"{name}: [{section}] {key}"
+    label = section if section.startswith("[") else f"[{section}]"
+    where = f"{name}: {label} {key}"
     kind = spec.kind
 
     def fail(problem: str, allowed: str) -> SceneError:
@@ -255,6 +285,8 @@ class Scene:
                                  "expected one of " + ", ".join(repr(p) for p in PRESETS))
             raw = apply_preset(raw, preset)
         out: dict[str, dict] = {}
+        raw = dict(raw)
+        obstacles = Scene._validate_obstacles(raw.pop("obstacle", []), name)
         for section in raw:
             if section not in SCHEMA:
                 near = difflib.get_close_matches(section, SCHEMA, n=1)
@@ -323,7 +355,66 @@ class Scene:
         if not all(u > lo for u, lo in zip(b["upper"], b["lower"])):
             raise SceneError(f"{name}: [body] upper = {b['upper']} must exceed lower = "
                              f"{b['lower']} in every coordinate")
+        out["obstacle"] = obstacles
         return out
+
+    @staticmethod
+    def _validate_obstacles(entries, name: str) -> list[dict]:
+        if isinstance(entries, dict):
+            entries = [entries]
+        if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+            raise SceneError(f"{name}: obstacles are tables: write [[obstacle]] (double "
+                             "brackets) before each one")
+        out = []
+        for k, entry in enumerate(entries, start=1):
+            where = f"[[obstacle]] #{k}"
+            for key in entry:
+                if key not in OBSTACLE_SCHEMA:
+                    near = difflib.get_close_matches(key, OBSTACLE_SCHEMA, n=1)
+                    hint = f" (did you mean '{near[0]}'?)" if near else ""
+                    raise SceneError(f"{name}: {where} unknown key '{key}'{hint}; allowed: "
+                                     + ", ".join(OBSTACLE_SCHEMA))
+            values = {}
+            for key, spec in OBSTACLE_SCHEMA.items():
+                if key in entry:
+                    values[key] = _check(name, where, key, spec, entry[key])
+                elif spec.default is REQUIRED:
+                    raise SceneError(f"{name}: {where} missing value '{key}': {spec.doc}")
+                else:
+                    values[key] = spec.default
+            kind = values["kind"]
+            for key in OBSTACLE_KEYS[kind]:
+                if values[key] is None:
+                    raise SceneError(f"{name}: {where} missing value '{key}' (needed for kind "
+                                     f"= {kind!r}): {OBSTACLE_SCHEMA[key].doc}")
+            extra = [key for key in ("point", "normal", "center", "radius", "lower", "upper")
+                     if key in entry and key not in OBSTACLE_KEYS[kind]]
+            if extra:
+                raise SceneError(f"{name}: {where} '{extra[0]}' is not used by kind = {kind!r};"
+                                 f" it takes {', '.join(OBSTACLE_KEYS[kind])}")
+            try:
+                Scene._obstacle(values).row()
+            except ValueError as exc:
+                raise SceneError(f"{name}: {where}: {exc}") from None
+            out.append(values)
+        return out
+
+    @staticmethod
+    def _obstacle(values: dict):
+        from .physics.contact import Box, Plane, Sphere
+
+        material = {k: values[k] for k in ("restitution", "friction", "static_friction")}
+        kind = values["kind"]
+        if kind == "plane":
+            return Plane(point=tuple(values["point"]), normal=tuple(values["normal"]),
+                         **material)
+        if kind == "sphere":
+            return Sphere(center=tuple(values["center"]), radius=values["radius"], **material)
+        return Box(lower=tuple(values["lower"]), upper=tuple(values["upper"]), **material)
+
+    def obstacles(self) -> tuple:
+        """The scene's static obstacles (:mod:`jellysim.physics.contact` objects)."""
+        return tuple(self._obstacle(v) for v in self.params.get("obstacle", []))
 
     # -- building ---------------------------------------------------------------------------
     def resolve(self, path: str) -> Path:
@@ -451,7 +542,8 @@ class Scene:
                   ground=self.ground_params(), backend=it["backend"], threads=it["threads"],
                   substeps=it["substeps"],
                   implicit=ImplicitParams(theta=it["theta"], tolerance=it["cg_tolerance"],
-                                          max_iterations=it["cg_max_iterations"]))
+                                          max_iterations=it["cg_max_iterations"]),
+                  obstacles=self.obstacles())
         kw.update(overrides)
         return Simulator(model, **kw)
 
