@@ -242,6 +242,29 @@ def _check(name: str, section: str, key: str, spec: Spec, value: Any) -> Any:
     return value
 
 
+def _table(name: str, label: str, given: dict, keys: dict[str, Spec]) -> dict:
+    """One table checked against ``keys``: unknown keys, missing required values and each
+    value (:func:`_check`); defaults filled in.  ``label`` names it (``[section]``)."""
+    for key in given:
+        if key not in keys:
+            near = difflib.get_close_matches(key, keys, n=1)
+            hint = f" (did you mean '{near[0]}'?)" if near else ""
+            raise SceneError(f"{name}: {label} unknown key '{key}'{hint}; allowed: "
+                             + ", ".join(keys))
+    values = {}
+    for key, spec in keys.items():
+        if key in given and given[key] is None and spec.default is None:
+            values[key] = None  # "not set" (only reachable from Python dicts)
+        elif key in given:
+            values[key] = _check(name, label, key, spec, given[key])
+        elif spec.default is REQUIRED:
+            raise SceneError(f"{name}: {label} missing value '{key}': {spec.doc} "
+                             f"Expected {spec.allowed or spec.kind}.")
+        else:
+            values[key] = spec.default
+    return values
+
+
 class Scene:
     """A validated scene: ``scene.params[section][key]`` with every default filled in."""
 
@@ -299,25 +322,7 @@ class Scene:
             if section not in raw:
                 raise SceneError(f"{name}: missing section [{section}]")
         for section, keys in SCHEMA.items():
-            given = raw.get(section, {})
-            for key in given:
-                if key not in keys:
-                    near = difflib.get_close_matches(key, keys, n=1)
-                    hint = f" (did you mean '{near[0]}'?)" if near else ""
-                    raise SceneError(f"{name}: [{section}] unknown key '{key}'{hint}; allowed: "
-                                     + ", ".join(keys))
-            values = {}
-            for key, spec in keys.items():
-                if key in given and given[key] is None and spec.default is None:
-                    values[key] = None  # "not set" (only reachable from Python dicts)
-                elif key in given:
-                    values[key] = _check(name, section, key, spec, given[key])
-                elif spec.default is REQUIRED:
-                    raise SceneError(f"{name}: [{section}] missing value '{key}': {spec.doc} "
-                                     f"Expected {spec.allowed or spec.kind}.")
-                else:
-                    values[key] = spec.default
-            out[section] = values
+            out[section] = _table(name, f"[{section}]", raw.get(section, {}), keys)
         mat, spr = out["material"], out["springs"]
         if mat["youngs_modulus"] is None and spr["stiffness"] is None:
             raise SceneError(f"{name}: give [springs] stiffness (N/m) or [material] "
@@ -368,20 +373,7 @@ class Scene:
         out = []
         for k, entry in enumerate(entries, start=1):
             where = f"[[obstacle]] #{k}"
-            for key in entry:
-                if key not in OBSTACLE_SCHEMA:
-                    near = difflib.get_close_matches(key, OBSTACLE_SCHEMA, n=1)
-                    hint = f" (did you mean '{near[0]}'?)" if near else ""
-                    raise SceneError(f"{name}: {where} unknown key '{key}'{hint}; allowed: "
-                                     + ", ".join(OBSTACLE_SCHEMA))
-            values = {}
-            for key, spec in OBSTACLE_SCHEMA.items():
-                if key in entry:
-                    values[key] = _check(name, where, key, spec, entry[key])
-                elif spec.default is REQUIRED:
-                    raise SceneError(f"{name}: {where} missing value '{key}': {spec.doc}")
-                else:
-                    values[key] = spec.default
+            values = _table(name, where, entry, OBSTACLE_SCHEMA)
             kind = values["kind"]
             for key in OBSTACLE_KEYS[kind]:
                 if values[key] is None:
