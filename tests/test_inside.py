@@ -10,33 +10,20 @@ from __future__ import annotations
 import functools
 import warnings
 from fractions import Fraction
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 igl = pytest.importorskip("igl")
 
+from conftest import SHARED_MESHES as SHARED  # noqa: E402
+from conftest import STANFORD, mesh_path  # noqa: E402
 from jellysim.geometry import classify, inside, load_mesh  # noqa: E402
 from jellysim.geometry.inside import InsideQuery, _orient2d, _orient3d  # noqa: E402
-
-DATA = Path(__file__).resolve().parent / "data"
-SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "meshes"
 
 CLOSED = ["cube.obj", "sphere.obj", "torus.obj", "bunny.obj", "spot.obj", "featuretype.stl",
           "hollow_sphere.obj"]
 OPEN = ["cube_no_bottom.obj", "stanford_bunny_scan_holes.obj", "teapot.obj", "suzanne.obj"]
-STANFORD = {"bunny.obj", "stanford_bunny_scan_holes.obj"}
-
-
-def mesh_path(name: str) -> Path:
-    if name in STANFORD:
-        p = SHARED / name
-        if not p.exists():
-            pytest.skip(f"{name} is a Stanford model, not redistributed with the repository; "
-                        f"it is read from {SHARED}, which does not exist here")
-        return p
-    return DATA / name
 
 
 @functools.lru_cache(maxsize=None)

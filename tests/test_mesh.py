@@ -16,7 +16,7 @@ from jellysim.errors import JellysimError, MeshError
 from jellysim.geometry import Mesh, load_mesh
 
 DATA = Path(__file__).resolve().parent / "data"
-SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "meshes"
+from conftest import SHARED_MESHES as SHARED  # noqa: E402
 
 # file: (vertices, faces, watertight, shells, boundary edges) from tests/data/README.md
 README = {

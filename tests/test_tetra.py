@@ -25,7 +25,7 @@ trimesh = pytest.importorskip("trimesh")
 igl = pytest.importorskip("igl")
 
 DATA = Path(__file__).resolve().parent / "data"
-SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "meshes"
+from conftest import SHARED_MESHES as SHARED  # noqa: E402
 
 
 def load(path: Path):
