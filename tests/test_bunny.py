@@ -34,7 +34,9 @@ def test_gelatin_bunny_runs_5_s_at_frame_rate():
     x = sim.state.x
     assert x[:, 1].min() >= -1e-9
     assert np.abs(sim.state.v).max() < 0.05  # it settled
-    # it sags under its own weight (rho g H / E = 0.11 at the base, and the overhanging head
-    # and ears bend: the body settles at about 73 % of its height) but does not collapse
-    assert 0.65 * height0 < np.ptp(x[:, 1]) < 0.95 * height0
+    # it sags under its own weight (rho g H / E = 0.11 at the base) and the ears fold over (a
+    # gelatin ear ~3 cm long and ~5 mm thick bends under its own weight by 1.5 rho g L^4 /
+    # (E t^2) ~ 5 cm, more than its length): the body settles at about 59 % of its height,
+    # but it does not collapse
+    assert 0.5 * height0 < np.ptp(x[:, 1]) < 0.9 * height0
     assert sim.cg_worst_residual <= 1.01 * sim.implicit.tolerance  # every solve converged

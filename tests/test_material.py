@@ -10,25 +10,32 @@ from jellysim.physics.material import calibrate_springs, point_masses
 
 E = 5e3
 
-# The real Delaunay pipeline (random samples + surface vertices, slivers dropped, carved) is
-# not listed: its calibrated bodies measure 11-20 % too stiff in this tensile test (300 to 4000
-# samples); the jittered-grid Delaunay imitation below is within 5 %.  Known limitation,
-# docs/physics.md.
-def built(connect, **kw):
-    """A unit cube body made by the real mesh pipeline (jellysim.build.build_body)."""
+def built(connect, subdivide=0, **kw):
+    """A unit cube body made by the real mesh pipeline (jellysim.build.build_body); the cube's
+    triangles split in four ``subdivide`` times (a surface far denser than the points inside,
+    like a scanned mesh)."""
+    import trimesh
     from conftest import mesh_path
     from jellysim.build import build_body
     from jellysim.geometry import load_mesh
     from jellysim.geometry.mesh import Mesh
 
     cube = load_mesh(mesh_path("cube.obj"))  # [-1, 1]^3
-    unit = Mesh.from_arrays((cube.vertices + 1.0) / 2.0, cube.faces, name="unit cube")
-    return build_body(unit, connect=connect, seed=1, **kw)
+    v, f = (cube.vertices + 1.0) / 2.0, cube.faces
+    for _ in range(subdivide):
+        v, f = trimesh.remesh.subdivide(v, f)
+    return build_body(Mesh.from_arrays(v, f, name="unit cube"), connect=connect, seed=1, **kw)
 
 
 BODIES = {
     "builder-marching-6": lambda: built("marching", points=216, h=1 / 6),
     "builder-marching-10": lambda: built("marching", points=1000, h=1 / 10),
+    "builder-delaunay-1000": lambda: built("delaunay", points=1000),
+    "builder-delaunay-4000": lambda: built("delaunay", points=4000),
+    # 1538 surface vertices around 300 points inside: the body is mostly surface (the bunny)
+    "builder-delaunay-dense-surface": lambda: built("delaunay", points=300, subdivide=4),
+    "builder-tetgen-1000": lambda: built("tetgen", points=1000),
+    "builder-tetgen-3000": lambda: built("tetgen", points=3000),
     "builder-radius-1500": lambda: built("radius", points=1500, neighbours=24),
     "builder-radius-3000": lambda: built("radius", points=3000, neighbours=24),
     "marching-6": lambda: kuhn_box((6, 6, 6)),
@@ -42,6 +49,8 @@ BODIES = {
 
 @pytest.mark.parametrize("name", BODIES)
 def test_calibrated_network_has_requested_youngs_modulus(name):
+    if "tetgen" in name:
+        pytest.importorskip("tetgen")
     body = BODIES[name]()
     k = calibrate_springs(body, E)
     measured = [uniaxial_youngs(body, k, axis=a)[0] for a in range(3)]

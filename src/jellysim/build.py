@@ -37,6 +37,9 @@ from .params import REPORT_DENSITY
 __all__ = ["Connect", "build_body", "body_stats", "enclosed_volume"]
 
 VOLUME_SAMPLES = 400_000
+SURFACE_GAP = 0.5
+"""Delaunay with surface samples: sampled points closer to the surface than this many spacings
+are dropped (they would make flat tets with the surface points)."""
 
 
 class Connect(str, Enum):
@@ -91,7 +94,8 @@ def _rescale_masses(body: Body, density: float, volume: float) -> Body:
 def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RADIUS,
                sampling: Sampling | str = Sampling.UNIFORM, radius: float | None = None,
                neighbours: float = 24.0, h: float | None = None,
-               surface_vertices: bool | None = None, density: float = REPORT_DENSITY,
+               surface_vertices: bool | None = None, surface_samples: bool | None = None,
+               density: float = REPORT_DENSITY,
                seed: int = 0, rule: str = "auto", epsilon: float | None = None,
                min_quality: float | None = None, max_volume: float | None = None) -> Body:
     """A jello :class:`~jellysim.body.Body` from a surface mesh.
@@ -109,6 +113,12 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     h: cube edge [m] for ``marching`` (default: (volume / points)^(1/3)).
     surface_vertices: add the mesh's vertices to the points so the faces are well defined
         (default: on for ``delaunay``, off for ``radius``).
+    surface_samples: ``delaunay``: also put points on the surface about one spacing
+        ``(volume / points)^(1/3)`` apart (its vertices, its sharp edges, its faces: see
+        :func:`~jellysim.geometry.sampling.sample_surface`) and drop the sampled points closer
+        than half a spacing to it, so the body's surface lies on the mesh with well-shaped tets
+        (default: on; ``False`` is the report's way, mesh vertices only, whose near-surface
+        tets are slivers fanning out from a few vertices on coarse meshes such as a cube).
     density: [kg/m^3].
     seed: random seed.
     rule: inside rule (``auto``, ``parity``, ``winding``), see :func:`jellysim.geometry.inside`.
@@ -161,7 +171,18 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     except ValueError as exc:
         raise BuildError(f"{name}: {exc}") from None
     add_surface = (connect is Connect.DELAUNAY) if surface_vertices is None else surface_vertices
-    if add_surface:
+    on_surface = (connect is Connect.DELAUNAY) if surface_samples is None else surface_samples
+    if on_surface and connect is not Connect.DELAUNAY:
+        raise BuildError("surface_samples applies to connect='delaunay' only")
+    if on_surface:
+        from .geometry.sampling import sample_surface, surface_distance
+
+        spacing = (volume / points) ** (1.0 / 3.0)
+        skin = sample_surface(m.vertices, m.faces, spacing, seed=seed)
+        inner = pts[surface_distance(pts, m.vertices, m.faces, spacing, seed=seed)
+                    > SURFACE_GAP * spacing]
+        pts = np.concatenate([skin, inner])
+    elif add_surface:
         pts = _add_surface_vertices(pts, m.vertices)
     if connect is Connect.DELAUNAY:
         from .geometry.tetra import delaunay_body
@@ -169,7 +190,8 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
         kw = {} if min_quality is None else {"min_quality": min_quality}
         body = delaunay_body(pts, m.vertices, m.faces, query.query, epsilon=epsilon, seed=seed,
                              density=density, **kw)
-        body.meta.update(source=name, connect="delaunay", sampling=sampling.value)
+        body.meta.update(source=name, connect="delaunay", sampling=sampling.value,
+                         surface_samples=bool(on_surface))
         return _rescale_masses(body, density, volume)
     pts = pts[morton_order(pts)]
     chosen = radius is None

@@ -44,11 +44,6 @@ __all__ = ["spring_weights", "virial_stiffness", "relaxation_stiffness",
            "youngs_from_stiffness", "network_youngs_modulus", "calibrate_springs",
            "point_masses", "point_volumes", "surface_points", "tet_volumes"]
 
-LOPSIDED_WITH_TETS = True
-"""Tet bodies: count as surface also the points whose springs are lopsided (see
-:func:`surface_points`).  A random Delaunay body's hull has only the mesh's vertices on it; its
-near-surface points, with tets on one side only, would otherwise relax as if in the bulk and
-the calibration came out 25-42 % too stiff (20 % with this rule; docs/physics.md)."""
 _VOIGT = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
 
 
@@ -156,10 +151,10 @@ def _stiffness_matrix(points, springs, stiffness, n):
 def surface_points(points, springs, tets=None) -> np.ndarray:
     """Mask (n,) of the points on the body's surface.
 
-    With tets: the corners of the faces that belong to one tet only, and (with
-    :data:`LOPSIDED_WITH_TETS`) the points found by the test used without tets.  Without: the
-    points whose springs are lopsided, i.e. the mean of their unit spring directions is longer than 0.35
-    (0 for a point surrounded evenly, 0.5 on a flat face).
+    With tets: the corners of the faces that belong to one tet only.  Without: the points
+    whose springs are lopsided, i.e. the mean of their unit spring directions is longer than
+    0.35 (0 for a point surrounded evenly, 0.5 on a flat face).  Either way also the points
+    whose springs cannot hold them in every direction (fewer than 4, or all in a plane).
     """
     n = points.shape[0]
     mask = np.zeros(n, dtype=bool)
@@ -169,8 +164,6 @@ def surface_points(points, springs, tets=None) -> np.ndarray:
                         axis=1)
         uniq, count = np.unique(faces, axis=0, return_counts=True)
         mask[uniq[count == 1].ravel()] = True
-        if not LOPSIDED_WITH_TETS:
-            return mask
     nrm, _ = _directions(points, springs)
     total = np.zeros((n, 3))
     for c in range(3):
@@ -178,6 +171,8 @@ def surface_points(points, springs, tets=None) -> np.ndarray:
                        - np.bincount(springs[:, 1], nrm[:, c], n))
     z = np.bincount(springs.ravel(), minlength=n)
     lopsided = np.linalg.norm(total, axis=1) > 0.35 * np.maximum(z, 1)
+    if tets is not None and len(tets):
+        lopsided[:] = False
     # springs that do not span 3D (a point on a thin sheet or strand) cannot hold the point in
     # every direction: treat it as surface (held), or the relaxation solve would be singular
     scatter = np.zeros((n, 3, 3))
@@ -201,6 +196,64 @@ def inner_points(points, surface, skin: float) -> np.ndarray:
     return dist > skin
 
 
+def _strain_forces(points, springs, stiffness):
+    """Xi (3n, 6): force on each point per unit affine Voigt strain (engineering shear).  A
+    spring's length changes by ``L a . e`` (a as in :func:`virial_stiffness`), its tension by
+    ``k L a . e``; the tension pulls its first point along +n and its second along -n."""
+    n = points.shape[0]
+    nrm, length = _directions(points, springs)
+    a = np.stack([nrm[:, i] * nrm[:, j] for i, j in _VOIGT], axis=1)
+    tension = (stiffness * length)[:, None] * a
+    xi = np.zeros((3 * n, 6))
+    for c in range(3):
+        f = tension * nrm[:, c:c + 1]
+        for v in range(6):
+            xi[c::3, v] = (np.bincount(springs[:, 0], f[:, v], n)
+                           - np.bincount(springs[:, 1], f[:, v], n))
+    return xi
+
+
+def _solve(K, rhs, *, rtol: float = 1e-10) -> np.ndarray:
+    """``K^-1 rhs`` for a symmetric positive (semi-)definite sparse ``K`` and a few right-hand
+    sides: Jacobi-preconditioned conjugate gradients (tens of iterations per thousand points,
+    where a sparse LU's fill-in grows too fast past ~10^4 points); a column that does not
+    converge is solved by sparse LU, regularised (1e-9 of the mean diagonal) if singular."""
+    from scipy.sparse import diags, identity
+    from scipy.sparse.linalg import cg, splu
+
+    K = K.tocsr()
+    diag = K.diagonal()
+    if np.any(diag <= 0):
+        diag = np.where(diag > 0, diag, max(float(diag.max()), 1e-300))
+    pre = diags(1.0 / diag)
+    out = np.zeros_like(rhs)
+    failed = []
+    for j in range(rhs.shape[1]):
+        out[:, j], info = cg(K, rhs[:, j], rtol=rtol, atol=0.0, M=pre,
+                             maxiter=max(2000, 10 * K.shape[0]))
+        if info != 0:
+            failed.append(j)
+    if failed:
+        A = K.tocsc()
+        try:
+            lu = splu(A)
+        except RuntimeError:
+            lu = splu((A + 1e-9 * float(diag.mean()) * identity(A.shape[0])).tocsc())
+        out[:, failed] = lu.solve(rhs[:, failed])
+    return out
+
+
+def _relaxation(points, springs, stiffness, held) -> np.ndarray:
+    """``Xi_free^T K_free^-1 Xi_free`` [N m], 6 x 6: the energy the free points (``~held``)
+    give back by relaxing from the affine positions while the ``held`` points stay affine."""
+    n = points.shape[0]
+    xi = _strain_forces(points, springs, stiffness)
+    dof = np.repeat(~held, 3)
+    K = _stiffness_matrix(points, springs, stiffness, n)
+    rhs = xi[dof]
+    return rhs.T @ _solve(K[dof][:, dof], rhs)
+
+
 def relaxation_stiffness(points, springs, stiffness, volume, *, skin: float | None = None,
                          tets=None) -> np.ndarray:
     """Non-affine softening [Pa], 6 x 6 Voigt: ``(1/V_in) Xi_in^T K_in^-1 Xi_in``.
@@ -210,40 +263,61 @@ def relaxation_stiffness(points, springs, stiffness, volume, *, skin: float | No
     the relaxation: measured on random networks, skin 0 matches tensile tests best.)
     ``V_in`` is the volume the inner points own (their share of ``volume``).
     """
-    from scipy.sparse.linalg import splu
+    points = np.asarray(points, dtype=np.float64)
+    n = points.shape[0]
+    inner = inner_points(points, surface_points(points, springs, tets), skin or 0.0)
+    if inner.sum() < 8:
+        return np.zeros((6, 6))
+    v_in = volume * inner.sum() / n
+    return _relaxation(points, springs, stiffness, ~inner) / v_in
+
+
+def kinematic_stiffness(points, springs, stiffness, tets, volume) -> np.ndarray:
+    """Apparent stiffness [Pa], 6 x 6 Voigt, of a tet body whose boundary points follow a
+    uniform strain (kinematic boundary conditions) and whose other points relax:
+    ``(sum_s k L^2 a a^T - Xi^T K^-1 Xi) / V``.  An upper bound of the body's stiffness."""
+    points = np.asarray(points, dtype=np.float64)
+    C = virial_stiffness(points, springs, stiffness, volume)
+    held = surface_points(points, springs, tets)
+    if (~held).sum() < 1:
+        return C
+    return C - _relaxation(points, springs, stiffness, held) / volume
+
+
+def static_compliance(points, springs, stiffness, tets) -> np.ndarray:
+    """Apparent compliance [1/Pa], 6 x 6 Voigt, of a tet body loaded by a uniform stress on
+    its boundary (static boundary conditions): each boundary face carries ``sigma n A`` split
+    over its corners; the mean strain is ``(1/V) integral sym(u n) dA`` over the boundary (the
+    divergence theorem, exact for the tets' linear interpolation).  Its inverse is a lower bound
+    of the body's stiffness."""
+    from ..geometry.tetra import boundary_faces, orient_tets
 
     points = np.asarray(points, dtype=np.float64)
     n = points.shape[0]
-    nrm, length = _directions(points, springs)
-    if skin is None:
-        skin = 0.0
-    inner = inner_points(points, surface_points(points, springs, tets), skin)
-    if inner.sum() < 8:
-        return np.zeros((6, 6))
-    # Xi (3n, 6): force on the points per unit Voigt strain (engineering shear).  A spring's
-    # length changes by L a . e (a as in virial_stiffness), its tension by k L a . e; the
-    # tension pulls its first point along +n and its second along -n.
-    a = np.stack([nrm[:, i] * nrm[:, j] for i, j in _VOIGT], axis=1)
-    tension = (stiffness * length)[:, None] * a
-    xi = np.zeros((3 * n, 6))
-    for c in range(3):
-        f = tension * nrm[:, c:c + 1]
-        for v in range(6):
-            xi[c::3, v] = (np.bincount(springs[:, 0], f[:, v], n)
-                           - np.bincount(springs[:, 1], f[:, v], n))
-    K = _stiffness_matrix(points, springs, stiffness, n)
-    dof = np.repeat(inner, 3)
-    Kin = K[dof][:, dof].tocsc()
-    rhs = xi[dof]
-    try:
-        sol = splu(Kin).solve(rhs)
-    except RuntimeError:  # a floppy inner cluster: regularise it (1e-9 of the mean diagonal)
-        from scipy.sparse import identity
-
-        eps = 1e-9 * float(Kin.diagonal().mean())
-        sol = splu((Kin + eps * identity(Kin.shape[0])).tocsc()).solve(rhs)
-    v_in = volume * inner.sum() / n
-    return rhs.T @ sol / v_in
+    tets = orient_tets(points, np.asarray(tets, dtype=np.int64))
+    faces = boundary_faces(tets, n)
+    p = points[faces]
+    an = 0.5 * np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # outward normal x area
+    volume = float(np.abs(tet_volumes(points, tets)).sum())
+    load = np.zeros((3 * n, 6))
+    for v, (i, j) in enumerate(_VOIGT):
+        t = np.zeros_like(an)  # traction sigma n for the unit Voigt stress v
+        t[:, i] += an[:, j]
+        if i != j:
+            t[:, j] += an[:, i]
+        for c in range(3):
+            load[c::3, v] = np.bincount(faces.ravel(), np.repeat(t[:, c] / 3.0, 3), n)
+    # K is singular (rigid motions) but the load is balanced (no net force or moment on a
+    # closed boundary), so conjugate gradients converge; rigid motions of u do not change the
+    # symmetric mean strain.
+    u = _solve(_stiffness_matrix(points, springs, stiffness, n), load)
+    S = np.zeros((6, 6))
+    for v in range(6):
+        mean_u = u[:, v].reshape(n, 3)[faces].mean(axis=1)
+        G = mean_u.T @ an / volume
+        G = 0.5 * (G + G.T)
+        S[:, v] = [G[0, 0], G[1, 1], G[2, 2], 2 * G[1, 2], 2 * G[0, 2], 2 * G[0, 1]]
+    return 0.5 * (S + S.T)
 
 
 def youngs_from_stiffness(C: np.ndarray) -> float:
@@ -256,18 +330,25 @@ def network_youngs_modulus(body: Body, stiffness, *, relax: bool = True,
                            volume: float | None = None) -> float:
     """Effective Young's modulus [Pa] of ``body``'s springs with per-spring ``stiffness`` [N/m].
 
-    Virial (affine) stiffness minus, with ``relax``, the non-affine relaxation of the inner
-    points; both over the body's volume (tets, else ``body.volume``).
+    Without ``relax``: the virial (affine) stiffness.  With it, bodies with tets: the mean
+    (Hill) of the kinematic and static apparent stiffnesses of the whole body
+    (:func:`kinematic_stiffness`, :func:`static_compliance`), which bound it from above and
+    below; point clouds: the virial stiffness minus the relaxation of the inner points
+    (:func:`relaxation_stiffness`), over the body's volume (tets, else ``body.volume``).
     """
     pts = np.asarray(body.points, dtype=np.float64)
     springs = np.asarray(body.springs, dtype=np.int64).reshape(-1, 2)
+    k = np.asarray(stiffness, dtype=np.float64)
     if volume is None:
         volume = float(point_volumes(body).sum())
-    C = virial_stiffness(pts, springs, np.asarray(stiffness, dtype=np.float64), volume)
-    if relax:
-        C = C - relaxation_stiffness(pts, springs, np.asarray(stiffness, dtype=np.float64),
-                                     volume, tets=body.tets)
-    return youngs_from_stiffness(C)
+    if not relax:
+        return youngs_from_stiffness(virial_stiffness(pts, springs, k, volume))
+    if body.tets is not None and len(body.tets):
+        upper = kinematic_stiffness(pts, springs, k, body.tets, volume)
+        lower = np.linalg.inv(static_compliance(pts, springs, k, body.tets))
+        return youngs_from_stiffness(0.5 * (upper + lower))
+    C = virial_stiffness(pts, springs, k, volume)
+    return youngs_from_stiffness(C - relaxation_stiffness(pts, springs, k, volume))
 
 
 def calibrate_springs(body: Body, youngs_modulus: float, *, relax: bool = True,
