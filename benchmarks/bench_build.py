@@ -1,11 +1,14 @@
 """Build benchmark: a 100k-point Delaunay body from bunny.obj, radius springs for 1M points.
 
     python -m benchmarks.bench_build [--points 100000] [--radius-points 1000000] [--repeat 3]
+                                     [--kdtree] [--calibrate] [--report-way]
 
 The Delaunay body is built by the real pipeline, ``jellysim.build.build_body(bunny.obj,
 points=N, connect="delaunay")``: the exact slicing inside test (``InsideQuery``), the report's
-sampling (uniform field, keep the inside points until exactly N), the surface vertices added,
-then ``delaunay_body`` (near duplicates, Qhull, slivers, carving).  The mesh load is not timed.
+sampling (uniform field, keep the inside points until exactly N), the surface sampled (its
+vertices, sharp edges and faces; ``--report-way``: its vertices only), then ``delaunay_body``
+(near duplicates, Qhull, slivers, carving).  The mesh load is not timed.  ``--calibrate`` also
+times ``calibrate_springs`` on that body (E = 10 kPa: the kinematic and static solves).
 Radius springs: the report's scene recipe at 1M edge-favouring points, r = 0.3 (600 / N)^(1/3),
 with the parallel cell grid (``method="grid"``) and, with ``--kdtree``, cKDTree.query_pairs.
 Needs ``../shared/meshes/bunny.obj`` (Stanford terms: not redistributed with jellysim).
@@ -36,6 +39,10 @@ def main(argv=None) -> None:
     ap.add_argument("--radius-points", type=int, default=1_000_000)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--kdtree", action="store_true", help="also time cKDTree.query_pairs")
+    ap.add_argument("--calibrate", action="store_true",
+                    help="also time calibrate_springs on the Delaunay body")
+    ap.add_argument("--report-way", action="store_true",
+                    help="Delaunay body from the mesh vertices only (surface_samples=False)")
     ap.add_argument("--mesh", default=str(ROOT.parent / "shared" / "meshes" / "bunny.obj"))
     args = ap.parse_args(argv)
 
@@ -47,7 +54,8 @@ def main(argv=None) -> None:
         t = time.perf_counter()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            body = build_body(mesh, points=args.points, connect="delaunay", seed=0)
+            body = build_body(mesh, points=args.points, connect="delaunay", seed=0,
+                              surface_samples=not args.report_way)
         times.append(time.perf_counter() - t)
     out["delaunay_bunny"] = {
         "mesh": Path(args.mesh).name, "requested_points": args.points,
@@ -56,7 +64,14 @@ def main(argv=None) -> None:
         "body_springs": body.spring_count, "tet_volume": body.meta["tet_volume"],
         "mesh_volume": body.volume,
         "tet_volume_rel_error": body.meta["tet_volume"] / body.volume - 1.0,
+        "surface_samples": not args.report_way,
     }
+    if args.calibrate:
+        from jellysim.physics.material import calibrate_springs
+
+        t = time.perf_counter()
+        calibrate_springs(body, 1e4)
+        out["delaunay_bunny"]["calibrate_seconds"] = time.perf_counter() - t
     print(json.dumps(out["delaunay_bunny"]), flush=True, file=__import__("sys").stderr)
 
     n = args.radius_points

@@ -32,7 +32,7 @@ BODIES = {
     "builder-marching-10": lambda: built("marching", points=1000, h=1 / 10),
     "builder-delaunay-1000": lambda: built("delaunay", points=1000),
     "builder-delaunay-4000": lambda: built("delaunay", points=4000),
-    # 1538 surface vertices around 300 points inside: the body is mostly surface (the bunny)
+    # 6146 surface vertices around 300 points inside: the body is mostly surface (the bunny)
     "builder-delaunay-dense-surface": lambda: built("delaunay", points=300, subdivide=4),
     "builder-tetgen-1000": lambda: built("tetgen", points=1000),
     "builder-tetgen-3000": lambda: built("tetgen", points=3000),

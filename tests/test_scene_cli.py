@@ -275,6 +275,29 @@ def test_mesh_scene_places_scales_builds_and_carries_the_mesh_as_skin(tmp_path, 
     assert np.allclose(traj.skin_positions(0), v, atol=1e-12)
 
 
+def test_surface_samples_option(tmp_path):
+    """[body] surface_samples: on by default for Delaunay bodies (points on the surface, the
+    tets fill the mesh), off gives the report's way; refused where it has no meaning."""
+    from conftest import mesh_path
+    from jellysim.physics.material import tet_volumes
+
+    (tmp_path / "cube.obj").write_bytes(mesh_path("cube.obj").read_bytes())
+    p = tmp_path / "cube.toml"
+    text = MESH_SCENE.format(path="cube.obj", connect="delaunay")
+    filled = {}
+    for flag in (None, "false"):
+        p.write_text(text if flag is None else text.replace(
+            'type = "mesh"', f'type = "mesh"\nsurface_samples = {flag}'))
+        body = Scene.load(p).build_body()
+        assert body.meta["surface_samples"] is (flag is None)
+        filled[flag] = np.abs(tet_volumes(body.points, body.tets)).sum() / body.volume
+    assert filled[None] > 0.999 > filled["false"]
+    p.write_text(MESH_SCENE.format(path="cube.obj", connect="radius").replace(
+        'type = "mesh"', 'type = "mesh"\nsurface_samples = true'))
+    with pytest.raises(SceneError, match="surface_samples is used only by"):
+        Scene.load(p)
+
+
 def test_file_scene_and_missing_paths(tmp_path):
     from jellysim.body import Body
     from jellysim.geometry.jellyfile import write_body

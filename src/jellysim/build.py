@@ -179,8 +179,9 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
 
         spacing = (volume / points) ** (1.0 / 3.0)
         skin = sample_surface(m.vertices, m.faces, spacing, seed=seed)
-        inner = pts[surface_distance(pts, m.vertices, m.faces, spacing, seed=seed)
-                    > SURFACE_GAP * spacing]
+        gap = SURFACE_GAP * spacing
+        inner = pts[surface_distance(pts, m.vertices, m.faces, spacing, seed=seed,
+                                     upper=2.0 * gap) > gap]
         pts = np.concatenate([skin, inner])
     elif add_surface:
         pts = _add_surface_vertices(pts, m.vertices)

@@ -83,11 +83,14 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
               help="Cube edge [m] of the marching grid.")
 @click.option("--surface-vertices/--no-surface-vertices", default=None,
               help="Add the mesh vertices to the points (default: on for delaunay).")
+@click.option("--surface-samples/--no-surface-samples", default=None,
+              help="delaunay: also sample the surface's sharp edges and faces at the point "
+                   "spacing (default: on; off is the report's way, mesh vertices only).")
 @click.option("--density", type=click.FloatRange(min=0, min_open=True), default=1141.0,
               show_default=True, help="Density [kg/m^3].")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
-          surface_vertices, density, seed) -> None:
+          surface_vertices, surface_samples, density, seed) -> None:
     """Build a jello body from MESH_FILE and write it to a .jello or .npz file."""
     import warnings
 
@@ -99,7 +102,8 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
             warnings.simplefilter("always")
             body = build_body(mesh_file, points=points, connect=connect, sampling=sampling,
                               radius=radius, neighbours=neighbours, h=h,
-                              surface_vertices=surface_vertices, density=density, seed=seed)
+                              surface_vertices=surface_vertices,
+                              surface_samples=surface_samples, density=density, seed=seed)
         write_body(out_file, body)
     except JellysimError as exc:
         _fail(str(exc))

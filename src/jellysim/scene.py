@@ -54,6 +54,10 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                        lambda v: v >= 2, "an integer >= 2"),
         "sampling": Spec("str", "uniform", "Type 'mesh': how points are placed inside.",
                          choices=("uniform", "edge", "grid", "poisson")),
+        "surface_samples": Spec("bool", True, "Type 'mesh', connect 'delaunay': also put points "
+                                "on the surface (sharp edges, faces) a spacing apart, so the "
+                                "body's surface lies on the mesh; false is the report's way "
+                                "(the mesh's vertices only)."),
         "size": Spec("float", None, "Type 'mesh': scale the mesh so its largest extent is this "
                      "[m].", lambda v: v > 0, "a number > 0 (m)"),
         "base": Spec("vec3", None, "Types 'mesh'/'file': move the body so the bottom centre of "
@@ -354,6 +358,10 @@ class Scene:
                                  f"{kind!r}): the {'mesh' if kind == 'mesh' else 'body'} file")
             if kind == "mesh" and b["points"] is None:
                 b["points"] = 2000
+            if "surface_samples" in raw.get("body", {}) and (
+                    kind != "mesh" or sp["connect"] != "delaunay"):
+                raise SceneError(f"{name}: [body] surface_samples is used only by type = 'mesh' "
+                                 "with [springs] connect = 'delaunay'; remove it")
             if kind == "file" and b["size"] is not None:
                 raise SceneError(f"{name}: [body] size is not used for type = 'file' (a body "
                                  "file has its own units); use base to place it")
@@ -465,7 +473,9 @@ class Scene:
             return build_body(placed, points=b["points"], connect=s["connect"],
                               sampling=b["sampling"], radius=s["radius"],
                               neighbours=s["neighbours"], h=s["h"], density=density,
-                              seed=b["seed"])
+                              seed=b["seed"],
+                              surface_samples=(b["surface_samples"] if s["connect"] == "delaunay"
+                                               else None))
         if b["distribution"] == "grid":
             from .geometry.lattice import grid_points
 

@@ -231,10 +231,12 @@ def _thin(points: np.ndarray, radius: float) -> np.ndarray:
     return points[keep]
 
 
-def surface_distance(points, vertices, faces, spacing: float, *, seed: int = 0) -> np.ndarray:
+def surface_distance(points, vertices, faces, spacing: float, *, seed: int = 0,
+                     upper: float = np.inf) -> np.ndarray:
     """Approximate distance [m], shape (n,), from ``points`` to a triangle surface: to the
     nearest of dense surface samples (16 per ``spacing``^2, plus the vertices), so within about
-    ``spacing`` / 8 of the exact distance where it matters (near the surface)."""
+    ``spacing`` / 8 of the exact distance where it matters (near the surface).  Points farther
+    than ``upper`` [m] get ``inf`` (a much faster search when only near points matter)."""
     import trimesh
     from scipy.spatial import cKDTree
 
@@ -242,5 +244,6 @@ def surface_distance(points, vertices, faces, spacing: float, *, seed: int = 0) 
     tm = trimesh.Trimesh(v, np.asarray(faces, dtype=np.int64), process=False, validate=False)
     count = int(min(max(16.0 * float(tm.area) / spacing**2, 1000), 10_000_000))
     dense, _ = trimesh.sample.sample_surface(tm, count, seed=seed)
-    d, _ = cKDTree(np.concatenate([v, dense])).query(np.asarray(points, dtype=np.float64))
+    d, _ = cKDTree(np.concatenate([v, dense])).query(np.asarray(points, dtype=np.float64),
+                                                     distance_upper_bound=upper)
     return d

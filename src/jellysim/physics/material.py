@@ -20,14 +20,17 @@ dynamics, Born & Huang 1954):
 2. **Scale.**  Under a small uniform strain ``eps`` the network's elastic energy per volume, if
    every point follows the strain (affine), is ``1/2 eps : C : eps`` with the *virial* (Born)
    stiffness ``C_abcd = (1/V) sum_s k_s L_s^2 n_a n_b n_c n_d``.  Points of a disordered network
-   relax away from the affine positions, which softens it: the relaxed stiffness is
-   ``C = C_affine - (1/V) Xi^T K^-1 Xi`` (Lemaitre & Maloney 2006; ``Xi``: the forces the
-   affine strain leaves on the points, ``K``: the network's stiffness matrix).  Both are linear
-   in the springs' common scale ``c`` (``k_s = c w_s``), so ``c`` follows from one evaluation:
-   ``E_network(c) = c E_network(1) = E``.  The relaxation term is solved with the surface points
-   held affine and every other point free (one sparse LU solve with 6 right-hand sides).
-   Young's modulus of the anisotropic tensor is taken as the
-   mean of ``1 / S_aa`` over the three axes (``S = C^-1`` in Voigt notation).
+   relax away from the affine positions, which softens it by ``(1/V) Xi^T K^-1 Xi``
+   (Lemaitre & Maloney 2006; ``Xi``: the forces the affine strain leaves on the points, ``K``:
+   the network's stiffness matrix).  How much a finite body relaxes depends on how its surface
+   is loaded; the kinematic (boundary points affine) and static (uniform stress on the boundary)
+   apparent stiffnesses bound it from above and below (Hill 1963, Huet 1990).  Bodies with
+   tets use their mean (:func:`kinematic_stiffness`, :func:`static_compliance`, the
+   Voigt-Reuss-Hill estimate); point clouds the affine stiffness minus the relaxation of the
+   inner points per inner volume (:func:`relaxation_stiffness`).  Everything is linear in the
+   springs' common scale ``c`` (``k_s = c w_s``), so ``c`` follows from one evaluation:
+   ``E_network(c) = c E_network(1) = E``.  Young's modulus of the anisotropic tensor is taken
+   as the mean of ``1 / S_aa`` over the three axes (``S = C^-1`` in Voigt notation).
 
 Limits (documented in docs/physics.md): a central-force network obeys the Cauchy relation
 ``C_12 = C_44``, so it cannot represent an arbitrary Poisson's ratio: an isotropic network has
@@ -40,7 +43,8 @@ import numpy as np
 
 from ..body import Body
 
-__all__ = ["spring_weights", "virial_stiffness", "relaxation_stiffness",
+__all__ = ["spring_weights", "virial_stiffness", "relaxation_stiffness", "kinematic_stiffness",
+           "static_compliance",
            "youngs_from_stiffness", "network_youngs_modulus", "calibrate_springs",
            "point_masses", "point_volumes", "surface_points", "tet_volumes"]
 
@@ -213,34 +217,69 @@ def _strain_forces(points, springs, stiffness):
     return xi
 
 
-def _solve(K, rhs, *, rtol: float = 1e-10) -> np.ndarray:
-    """``K^-1 rhs`` for a symmetric positive (semi-)definite sparse ``K`` and a few right-hand
-    sides: Jacobi-preconditioned conjugate gradients (tens of iterations per thousand points,
-    where a sparse LU's fill-in grows too fast past ~10^4 points); a column that does not
-    converge is solved by sparse LU, regularised (1e-9 of the mean diagonal) if singular."""
-    from scipy.sparse import diags, identity
-    from scipy.sparse.linalg import cg, splu
+def _solve(K, rhs, *, rtol: float = 1e-5) -> np.ndarray:
+    """``K^-1 rhs`` for a symmetric positive (semi-)definite sparse ``K`` (rows in point
+    triples) and a few right-hand sides (columns): block-Jacobi preconditioned conjugate
+    gradients on all columns at once, one sparse-matrix x block product per iteration
+    (:func:`jellysim.kernels.numba_backend.csr_matmat`; a sparse LU's fill-in grows too fast
+    past ~10^4 points).  A singular ``K`` is fine when the right-hand sides are in its range
+    (balanced loads).  The results enter energies
+    (``rhs^T K^-1 rhs``), whose error is of second order in the solution's.  Columns that stall
+    are solved by sparse LU, regularised (1e-9 of the mean diagonal) if singular."""
+    from scipy.sparse import identity
+    from scipy.sparse.linalg import splu
+
+    from ..kernels.numba_backend import csr_matmat
 
     K = K.tocsr()
+    K.sort_indices()
+    b = np.ascontiguousarray(rhs, dtype=np.float64)
+    indptr, indices = K.indptr.astype(np.int64), K.indices.astype(np.int64)
+    data = np.ascontiguousarray(K.data, dtype=np.float64)
+    q = np.empty_like(b)
     diag = K.diagonal()
-    if np.any(diag <= 0):
-        diag = np.where(diag > 0, diag, max(float(diag.max()), 1e-300))
-    pre = diags(1.0 / diag)
-    out = np.zeros_like(rhs)
-    failed = []
-    for j in range(rhs.shape[1]):
-        out[:, j], info = cg(K, rhs[:, j], rtol=rtol, atol=0.0, M=pre,
-                             maxiter=max(2000, 10 * K.shape[0]))
-        if info != 0:
-            failed.append(j)
-    if failed:
+    # block-Jacobi preconditioner: the inverse of each point's 3 x 3 diagonal block
+    coo = K.tocoo()
+    same = coo.row // 3 == coo.col // 3
+    blocks = np.zeros((K.shape[0] // 3, 3, 3))
+    np.add.at(blocks, (coo.row[same] // 3, coo.row[same] % 3, coo.col[same] % 3),
+              coo.data[same])
+    blocks += 1e-12 * np.abs(blocks).max() * np.eye(3)
+    inv_blocks = np.linalg.inv(blocks)
+
+    def precondition(res):
+        return np.einsum("pab,pbm->pam", inv_blocks,
+                         res.reshape(-1, 3, res.shape[1])).reshape(res.shape)
+
+    x = np.zeros_like(b)
+    r = b.copy()
+    z = precondition(r)
+    p = z.copy()
+    rz = np.einsum("ij,ij->j", r, z)
+    goal = rtol * np.linalg.norm(b, axis=0)
+    active = np.linalg.norm(r, axis=0) > goal
+    for _ in range(max(2000, 4 * K.shape[0])):
+        if not active.any():
+            break
+        csr_matmat(indptr, indices, data, p, q)
+        pq = np.einsum("ij,ij->j", p, q)
+        alpha = np.where(active & (pq > 0), rz / np.where(pq > 0, pq, 1.0), 0.0)
+        x += alpha * p
+        r -= alpha * q
+        z = precondition(r)
+        rz_new = np.einsum("ij,ij->j", r, z)
+        beta = np.where(active, rz_new / np.where(rz != 0, rz, 1.0), 0.0)
+        p = z + beta * p
+        rz = rz_new
+        active &= np.linalg.norm(r, axis=0) > goal
+    if active.any():
         A = K.tocsc()
         try:
             lu = splu(A)
         except RuntimeError:
             lu = splu((A + 1e-9 * float(diag.mean()) * identity(A.shape[0])).tocsc())
-        out[:, failed] = lu.solve(rhs[:, failed])
-    return out
+        x[:, active] = lu.solve(b[:, active])
+    return x
 
 
 def _relaxation(points, springs, stiffness, held) -> np.ndarray:
@@ -288,8 +327,8 @@ def static_compliance(points, springs, stiffness, tets) -> np.ndarray:
     """Apparent compliance [1/Pa], 6 x 6 Voigt, of a tet body loaded by a uniform stress on
     its boundary (static boundary conditions): each boundary face carries ``sigma n A`` split
     over its corners; the mean strain is ``(1/V) integral sym(u n) dA`` over the boundary (the
-    divergence theorem, exact for the tets' linear interpolation).  Its inverse is a lower bound
-    of the body's stiffness."""
+    divergence theorem, exact for the tets' linear interpolation), computed as the load's work
+    ``f . u = V sigma : mean strain``.  Its inverse is a lower bound of the body's stiffness."""
     from ..geometry.tetra import boundary_faces, orient_tets
 
     points = np.asarray(points, dtype=np.float64)
@@ -311,12 +350,9 @@ def static_compliance(points, springs, stiffness, tets) -> np.ndarray:
     # closed boundary), so conjugate gradients converge; rigid motions of u do not change the
     # symmetric mean strain.
     u = _solve(_stiffness_matrix(points, springs, stiffness, n), load)
-    S = np.zeros((6, 6))
-    for v in range(6):
-        mean_u = u[:, v].reshape(n, 3)[faces].mean(axis=1)
-        G = mean_u.T @ an / volume
-        G = 0.5 * (G + G.T)
-        S[:, v] = [G[0, 0], G[1, 1], G[2, 2], 2 * G[1, 2], 2 * G[0, 2], 2 * G[0, 1]]
+    # the work of the load is V sigma : mean strain (Hill-Mandel; exact for the faces' linear
+    # interpolation), so S = load^T u / V: an energy, accurate to second order in u
+    S = load.T @ u / volume
     return 0.5 * (S + S.T)
 
 
