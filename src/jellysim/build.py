@@ -7,8 +7,8 @@ connects them with one of four spring builders:
 ``radius``     the report's "implicit" builder: every pair closer than ``r``; ``r`` chosen for
                a target mean neighbour count when not given (reported in ``body.meta``)
 ``marching``   the report's marching-tetrahedra grid: cubes of size ``h``, 6 Kuhn tets each
-``delaunay``   Qhull Delaunay of the sampled points (+ surface vertices), carved by the inside
-               test, slivers dropped
+``delaunay``   Qhull Delaunay of the sampled points + surface samples (vertices, sharp edges,
+               faces), carved by the inside test, slivers dropped
 ``tetgen``     TetGen's constrained tetrahedralization of the surface itself (closed meshes)
 =============  ==============================================================================
 
@@ -104,7 +104,7 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     ----------
     mesh: a path (any format :func:`~jellysim.geometry.load_mesh` reads) or a loaded mesh.
     points: number of points to sample inside (``radius``/``delaunay``: exactly this many
-        before surface vertices are added; ``marching``/``tetgen``: a target that sets the
+        before surface points are added; ``marching``/``tetgen``: a target that sets the
         grid size ``h`` / the maximum tet volume).
     connect: spring builder, see :class:`Connect`.
     sampling: how to place points (:class:`~jellysim.geometry.sampling.Sampling`).

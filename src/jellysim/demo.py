@@ -16,7 +16,7 @@ __all__ = ["DEMO_SCENE", "DEMO_SHAPE", "build_demo_body", "demo_mesh", "run_demo
 DEMO_SHAPE = {
     "length": 0.10,        # [m] longest side of the cow: dessert size
     "drop_height": 0.02,   # [m] gap between the hooves and the table at t = 0
-    "points": 1500,        # points sampled inside (the surface vertices are added)
+    "points": 1500,        # points sampled inside (surface points are added)
     "connect": "delaunay",
     "seed": 7,
 }
