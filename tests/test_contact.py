@@ -128,19 +128,21 @@ def test_contact_kernels_agree():
     assert not np.allclose(out[0][1], v)
 
 
-def _implicit_sim(backend, threads=None, n=300):
+def _implicit_sim(backend, threads=None, n=300, scheme="theta"):
     m = make_box_model(n, stiffness=40.0, damping=0.01, point_mass=0.02,
                        lower=(0, 0.03, 0), upper=(1, 1.03, 1))
     return Simulator(m, dt=1 / 60, integrator="implicit", backend=backend, threads=threads,
-                     ground=contact_ground(0.3, 0.6), implicit=ImplicitParams(theta=0.7),
+                     ground=contact_ground(0.3, 0.6),
+                     implicit=ImplicitParams(theta=0.7, scheme=scheme),
                      obstacles=[Sphere(center=(0.5, -0.3, 0.5), radius=0.45)])
 
 
-def test_implicit_steps_agree():
+@pytest.mark.parametrize("scheme", ["theta", "bdf2"])
+def test_implicit_steps_agree(scheme):
     # contact decisions (v_n <= 0, phi <= margin) are discontinuous, so round-off differences
     # between the backends would grow over many steps: compare one step at a time from the
     # same state
-    ref, fast = _implicit_sim("numpy"), _implicit_sim("numba")
+    ref, fast = _implicit_sim("numpy", scheme=scheme), _implicit_sim("numba", scheme=scheme)
     landed = False
     for _ in range(30):
         ref.advance(1)
@@ -149,19 +151,22 @@ def test_implicit_steps_agree():
         assert np.allclose(ref.state.v, fast.state.v, rtol=0, atol=1e-10)
         assert np.array_equal(ref._cobs, fast._cobs)
         landed |= bool((ref._cobs >= 0).any())
+        assert np.array_equal(ref._fresh, fast._fresh)
         for dst, src in zip([fast.state.x, fast.state.v, fast.state.a, *fast._cg,
-                             fast._cobs, fast._contact_state],
+                             fast._cobs, fast._contact_state, fast._hist, fast._fresh],
                             [ref.state.x, ref.state.v, ref.state.a, *ref._cg, ref._cobs,
-                             ref._contact_state]):
+                             ref._contact_state, ref._hist, ref._fresh]):
             dst[...] = src
+        fast._last = ref._last
     assert landed
 
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 numba threads")
-def test_implicit_one_and_two_threads_bitwise_equal():
+@pytest.mark.parametrize("scheme", ["theta", "bdf2"])
+def test_implicit_one_and_two_threads_bitwise_equal(scheme):
     results = []
     for threads in (1, 2):
-        sim = _implicit_sim("numba", threads=threads, n=2000)
+        sim = _implicit_sim("numba", threads=threads, n=2000, scheme=scheme)
         sim.advance(20)
         results.append(sim.state)
     assert np.array_equal(results[0].x, results[1].x)

@@ -141,6 +141,10 @@ class Simulator:
             self._cg.append(np.zeros((n, 6)))  # normal, target speed, impact speed, stuck
             self._cobs = np.full(n, -1, dtype=np.int64)
             self._contact_state = np.zeros(n, dtype=np.int8)
+            # BDF2: previous x and v, two scratch arrays; points whose history restarts
+            self._hist = np.zeros((4, n, 3))
+            self._fresh = np.ones(n, dtype=np.uint8)
+            self._last = None  # (x, v) at the end of the last advance
         self.stability: StabilityEstimate | None = None
         if check_stability:
             self.check_stability()
@@ -194,6 +198,10 @@ class Simulator:
         paper = g.enabled and GroundModel(g.model) is GroundModel.PAPER
         dv, r, z, p, ap, diag, b, cnrm = self._cg
         sub = self.substeps
+        bdf2 = im.scheme == "bdf2"
+        if bdf2 and self._last is not None and not (
+                np.array_equal(self._last[0], s.x) and np.array_equal(self._last[1], s.v)):
+            self._fresh[:] = 1  # the state was changed from outside: restart the history
         done, status, iters, worst = self._k.implicit_steps(
             steps * sub, self.dt_step, float(im.theta), float(im.tolerance),
             int(im.max_iterations),
@@ -203,7 +211,9 @@ class Simulator:
             float(g.nu), self._obstacle_kind, self._obstacle_data, self.rest_speed,
             self.center, self.runaway_distance**2, self._scalar, self._frame,
             self._spring_vec, dv, r, z, p, ap, diag, b, cnrm, m.particle_mass, self._cobs,
-            self._contact_state)
+            self._contact_state, bdf2, self._hist, self._fresh)
+        if bdf2:
+            self._last = (s.x.copy(), s.v.copy())
         self.cg_iterations += int(iters)
         self.cg_worst_residual = max(self.cg_worst_residual, float(worst))
         return (done + sub - 1) // sub, status

@@ -545,7 +545,7 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
 
 # -- linearly implicit theta-method (stiff-stable integrator) --------------------------------
 @njit(**_opts)
-def spring_frames(x, spring_ij, rest, stiff, frame):
+def spring_frames(x, spring_ij, rest, stiff, frame, clip):
     for s in prange(spring_ij.shape[0]):
         i = spring_ij[s, 0]
         j = spring_ij[s, 1]
@@ -558,7 +558,8 @@ def spring_frames(x, spring_ij, rest, stiff, frame):
             frame[s, 0] = dx / length
             frame[s, 1] = dy / length
             frame[s, 2] = dz / length
-            frame[s, 4] = stiff[s] * max(1.0 - rest[s] / length, 0.0)
+            geo = stiff[s] * (1.0 - rest[s] / length)
+            frame[s, 4] = max(geo, 0.0) if clip else geo
         else:
             frame[s, 0] = 0.0
             frame[s, 1] = 0.0
@@ -800,13 +801,58 @@ def _implicit_update(x, v, a, dv, dt, theta):
             a[q, c] = dv[q, c] / dt
 
 
+@njit(**_opts)
+def _bdf2_start(x, v, x_prev, v_prev, fresh, w, dt, beta):
+    # restart the history where marked, then w = (x - x_prev) / 3 + beta v
+    for q in prange(x.shape[0]):
+        if fresh[q]:
+            for c in range(3):
+                x_prev[q, c] = x[q, c] - dt * v[q, c]
+                v_prev[q, c] = v[q, c]
+        for c in range(3):
+            w[q, c] = (x[q, c] - x_prev[q, c]) / 3.0 + beta * v[q, c]
+
+
+@njit(**_opts)
+def _bdf2_rhs(b, ap, mass, a, v, v_prev, w, beta):
+    # ap holds (m w + K w) on entry
+    for q in prange(b.shape[0]):
+        for c in range(3):
+            kw = ap[q, c] - mass[q] * w[q, c]
+            b[q, c] = beta * (mass[q] * a[q, c] - kw) + mass[q] * (v[q, c] - v_prev[q, c]) / 3.0
+
+
+@njit(**_opts)
+def _bdf2_update(x, v, a, dv, x_prev, v_prev, x_int, v_int, dt, beta):
+    for q in prange(x.shape[0]):
+        for c in range(3):
+            xn = x[q, c] + (x[q, c] - x_prev[q, c]) / 3.0 + beta * (v[q, c] + dv[q, c])
+            x_prev[q, c] = x[q, c]
+            v_prev[q, c] = v[q, c]
+            x[q, c] = xn
+            v[q, c] += dv[q, c]
+            a[q, c] = dv[q, c] / dt
+            x_int[q, c] = x[q, c]
+            v_int[q, c] = v[q, c]
+
+
+@njit(**_opts)
+def _bdf2_mark(fresh, cobs, x, v, x_int, v_int):
+    for q in prange(x.shape[0]):
+        moved = cobs[q] >= 0
+        for c in range(3):
+            if x[q, c] != x_int[q, c] or v[q, c] != v_int[q, c]:
+                moved = True
+        fresh[q] = 1 if moved else 0
+
+
 @njit(cache=True)
 def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping, gravity,
                    spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other,
                    ground, height, mu, nu, obstacle_kind, obstacle_data, rest_speed,
                    center, bound2, spring_scalar, frame, spring_vec, dv, r, z, p, ap, diag,
-                   b, cnrm, mass, cobs, contact_state):
-    h = theta * dt
+                   b, cnrm, mass, cobs, contact_state, bdf2, hist, fresh):
+    h = 2.0 * dt / 3.0 if bdf2 else theta * dt
     h2 = h * h
     n = mass.shape[0]
     shift = np.full(n, h * damping)
@@ -816,42 +862,66 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
     for step in range(nsteps):
         accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff, first_ptr,
                       second_ptr, second_slot, second_other, spring_scalar, a)
-        spring_frames(x, spring_ij, rest, stiff, frame)
-        system_diagonal(mass, shift, h2, spring_ij, frame, diag)
-        system_matvec(v, mass, zero, 1.0, spring_ij, frame, first_ptr, second_ptr,
-                      second_slot, second_other, spring_vec, ap)
-        _implicit_rhs(b, ap, mass, a, v, dt, h)
-        contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state, dt,
-                        rest_speed, first_ptr, second_ptr, cnrm, cobs)
-        constrain_start(dv, v, cnrm)
-        bnorm = np.sqrt(_dot(b, b))
-        system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
-                      second_slot, second_other, spring_vec, ap)
-        _residual(r, b, ap)
-        filter_constrained(r, cnrm)
-        _precondition(z, r, diag)
-        filter_constrained(z, cnrm)
-        _copy(p, z)
-        rz = _dot(r, z)
-        res = np.sqrt(_dot(r, r))
-        it = 0
-        while it < max_iter and res > tol * bnorm:
-            system_matvec(p, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
+        bnorm = 0.0
+        res = 0.0
+        for attempt in range(2):
+            clip = attempt == 1
+            spring_frames(x, spring_ij, rest, stiff, frame, clip)
+            system_diagonal(mass, shift, h2, spring_ij, frame, diag)
+            if not clip and diag.min() <= 0.0:
+                continue
+            if bdf2:
+                _bdf2_start(x, v, hist[0], hist[1], fresh, hist[2], dt, h)
+                system_matvec(hist[2], mass, zero, 1.0, spring_ij, frame, first_ptr,
+                              second_ptr, second_slot, second_other, spring_vec, ap)
+                _bdf2_rhs(b, ap, mass, a, v, hist[1], hist[2], h)
+            else:
+                system_matvec(v, mass, zero, 1.0, spring_ij, frame, first_ptr, second_ptr,
+                              second_slot, second_other, spring_vec, ap)
+                _implicit_rhs(b, ap, mass, a, v, dt, h)
+            contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state, dt,
+                            rest_speed, first_ptr, second_ptr, cnrm, cobs)
+            if clip:
+                dv[:] = 0.0
+            constrain_start(dv, v, cnrm)
+            bnorm = np.sqrt(_dot(b, b))
+            system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
                           second_slot, second_other, spring_vec, ap)
-            filter_constrained(ap, cnrm)
-            alpha = rz / _dot(p, ap)
-            _axpy_pair(dv, r, p, ap, alpha)
+            _residual(r, b, ap)
+            filter_constrained(r, cnrm)
             _precondition(z, r, diag)
             filter_constrained(z, cnrm)
-            rz_new = _dot(r, z)
-            _update_direction(p, z, rz_new / rz)
-            rz = rz_new
+            _copy(p, z)
+            rz = _dot(r, z)
             res = np.sqrt(_dot(r, r))
-            it += 1
-        iters += it
+            it = 0
+            broke = False
+            while it < max_iter and res > tol * bnorm:
+                system_matvec(p, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
+                              second_slot, second_other, spring_vec, ap)
+                filter_constrained(ap, cnrm)
+                pap = _dot(p, ap)
+                if pap <= 0.0:
+                    broke = True
+                    break
+                alpha = rz / pap
+                _axpy_pair(dv, r, p, ap, alpha)
+                _precondition(z, r, diag)
+                filter_constrained(z, cnrm)
+                rz_new = _dot(r, z)
+                _update_direction(p, z, rz_new / rz)
+                rz = rz_new
+                res = np.sqrt(_dot(r, r))
+                it += 1
+            iters += it
+            if not broke:
+                break
         if bnorm > 0.0:
             worst = max(worst, res / bnorm)
-        _implicit_update(x, v, a, dv, dt, theta)
+        if bdf2:
+            _bdf2_update(x, v, a, dv, hist[0], hist[1], hist[2], hist[3], dt, h)
+        else:
+            _implicit_update(x, v, a, dv, dt, theta)
         if obstacle_kind.shape[0] > 0:
             system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
                           second_slot, second_other, spring_vec, ap)
@@ -859,6 +929,8 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
                                 contact_state)
             contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
         status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)
+        if bdf2:
+            _bdf2_mark(fresh, cobs, x, v, hist[2], hist[3])
         if status != STATUS_OK:
             return step + 1, status, iters, worst
     return nsteps, STATUS_OK, iters, worst

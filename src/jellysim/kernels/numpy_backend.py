@@ -241,16 +241,19 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
 
 
 # -- linearly implicit theta-method (stiff-stable integrator) --------------------------------
-def spring_frames(x, spring_ij, rest, stiff, frame):
+def spring_frames(x, spring_ij, rest, stiff, frame, clip=False):
     """Per-spring tangent data, ``frame`` (k, 5): unit direction n (3), ``k`` [N/m] and the
-    clamped geometric stiffness ``k max(1 - L0 / L, 0)`` [N/m] (the compressive part is dropped
-    so the tangent stiffness stays positive semi-definite, as in Choi & Ko 2002)."""
+    geometric stiffness ``k (1 - L0 / L)`` [N/m]: the exact tangent.  With ``clip`` its
+    compressive (negative) part is dropped so the tangent stiffness stays positive
+    semi-definite (Choi & Ko 2002); the exact tangent is what keeps a pre-stressed body's
+    vibration from being damped at first order in dt (a body resting under its own weight)."""
     d = x[spring_ij[:, 1]] - x[spring_ij[:, 0]]
     length = np.sqrt(np.einsum("ij,ij->i", d, d))
     safe = np.where(length > 0.0, length, 1.0)
     frame[:, 0:3] = np.where(length[:, None] > 0.0, d / safe[:, None], 0.0)
     frame[:, 3] = stiff
-    frame[:, 4] = np.where(length > 0.0, stiff * np.maximum(1.0 - rest / safe, 0.0), 0.0)
+    geo = stiff * (1.0 - rest / safe)
+    frame[:, 4] = np.where(length > 0.0, np.maximum(geo, 0.0) if clip else geo, 0.0)
 
 
 def system_matvec(u, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr, second_slot,
@@ -386,7 +389,7 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
                    spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other,
                    ground, height, mu, nu, obstacle_kind, obstacle_data, rest_speed,
                    center, bound2, spring_scalar, frame, spring_vec, dv, r, z, p, ap, diag,
-                   b, cnrm, mass, cobs, contact_state):
+                   b, cnrm, mass, cobs, contact_state, bdf2=False, hist=None, fresh=None):
     """Advance ``nsteps`` steps of the linearly implicit theta-method, in place on x, v, a.
 
     One step (Baraff & Witkin 1998 for theta = 1; theta = 1/2 is the linearised implicit
@@ -408,8 +411,15 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
     ``cobs`` (n,) int64 and ``contact_state`` (n,) int8 carry the contact state; the other
     trailing arrays are scratch ((k,), (k, 5), (k, 3), (n, 3) each, ``cnrm`` (n, 6)).
     Returns ``(steps_done, status, total CG iterations, largest relative residual left)``.
+
+    With ``bdf2`` the step is the linearised BDF2 (see :class:`jellysim.params.ImplicitParams`)
+    with ``beta = 2 dt / 3`` in place of ``theta dt``; ``hist`` (4, n, 3) holds the previous
+    positions and velocities (and two scratch arrays), ``fresh`` (n,) uint8 marks the points
+    whose history is restarted at the next step as ``x_n-1 = x_n - dt v_n, v_n-1 = v_n``: all
+    of them at first, then those an obstacle or the ground constrained or moved (a projection
+    is not part of the multistep history).
     """
-    h = theta * dt
+    h = 2.0 * dt / 3.0 if bdf2 else theta * dt
     h2 = h * h
     shift = np.full(mass.shape[0], h * damping)
     iters = 0
@@ -417,49 +427,84 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
     for step in range(nsteps):
         accelerations(x, v, inv_mass, damping, gravity, spring_ij, rest, stiff, first_ptr,
                       second_ptr, second_slot, second_other, spring_scalar, a)
-        spring_frames(x, spring_ij, rest, stiff, frame)
-        system_diagonal(mass, shift, h2, spring_ij, frame, diag)
-        # rhs = dt (m a - h K v) = dt m a - dt h K v; K v = (A v - (m + shift) v) / h2
-        system_matvec(v, mass, shift * 0.0, 1.0, spring_ij, frame, first_ptr, second_ptr,
-                      second_slot, second_other, spring_vec, ap)
-        ap -= mass[:, None] * v  # = K v
-        b[:] = dt * (mass[:, None] * a - h * ap)
-        contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state, dt,
-                        rest_speed, first_ptr, second_ptr, cnrm, cobs)
-        constrain_start(dv, v, cnrm)
-        # the scale of the stopping test: the whole right-hand side, constraint components
-        # included (at rest the free part of b vanishes, the weight on the supports does not)
-        bnorm = np.sqrt(_dot(b, b))
-        system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
-                      second_slot, second_other, spring_vec, ap)
-        r[:] = b - ap
-        filter_constrained(r, cnrm)
-        z[:] = r / diag
-        filter_constrained(z, cnrm)
-        p[:] = z
-        rz = _dot(r, z)
-        res = np.sqrt(_dot(r, r))
-        it = 0
-        while it < max_iter and res > tol * bnorm:
-            system_matvec(p, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
+        if bdf2:
+            x_prev, v_prev = hist[0], hist[1]
+            restart = fresh.astype(bool)
+            x_prev[restart] = x[restart] - dt * v[restart]
+            v_prev[restart] = v[restart]
+        # the exact tangent first; if compression makes the system indefinite (CG breaks
+        # down or the preconditioner is not positive), again with the compressive part dropped
+        for clip in (False, True):
+            spring_frames(x, spring_ij, rest, stiff, frame, clip)
+            system_diagonal(mass, shift, h2, spring_ij, frame, diag)
+            if not clip and np.any(diag <= 0.0):
+                continue
+            if bdf2:
+                w = (x - x_prev) / 3.0 + h * v
+                system_matvec(w, mass, shift * 0.0, 1.0, spring_ij, frame, first_ptr,
+                              second_ptr, second_slot, second_other, spring_vec, ap)
+                ap -= mass[:, None] * w  # = K w
+                b[:] = h * (mass[:, None] * a - ap) + mass[:, None] * (v - v_prev) / 3.0
+            else:
+                # rhs = dt (m a - h K v); K v = A v - m v with A = m + K (no shift, h2 = 1)
+                system_matvec(v, mass, shift * 0.0, 1.0, spring_ij, frame, first_ptr,
+                              second_ptr, second_slot, second_other, spring_vec, ap)
+                ap -= mass[:, None] * v  # = K v
+                b[:] = dt * (mass[:, None] * a - h * ap)
+            contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state, dt,
+                            rest_speed, first_ptr, second_ptr, cnrm, cobs)
+            if clip:
+                dv[:] = 0.0  # the failed solve's iterate is no warm start
+            constrain_start(dv, v, cnrm)
+            # the scale of the stopping test: the whole right-hand side, constraint components
+            # included (at rest the free part of b vanishes, the weight on the supports does not)
+            bnorm = np.sqrt(_dot(b, b))
+            system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
                           second_slot, second_other, spring_vec, ap)
-            filter_constrained(ap, cnrm)
-            alpha = rz / _dot(p, ap)
-            dv += alpha * p
-            r -= alpha * ap
+            r[:] = b - ap
+            filter_constrained(r, cnrm)
             z[:] = r / diag
             filter_constrained(z, cnrm)
-            rz_new = _dot(r, z)
-            p[:] = z + (rz_new / rz) * p
-            rz = rz_new
+            p[:] = z
+            rz = _dot(r, z)
             res = np.sqrt(_dot(r, r))
-            it += 1
-        iters += it
+            it = 0
+            broke = False
+            while it < max_iter and res > tol * bnorm:
+                system_matvec(p, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
+                              second_slot, second_other, spring_vec, ap)
+                filter_constrained(ap, cnrm)
+                pap = _dot(p, ap)
+                if pap <= 0.0:
+                    broke = True
+                    break
+                alpha = rz / pap
+                dv += alpha * p
+                r -= alpha * ap
+                z[:] = r / diag
+                filter_constrained(z, cnrm)
+                rz_new = _dot(r, z)
+                p[:] = z + (rz_new / rz) * p
+                rz = rz_new
+                res = np.sqrt(_dot(r, r))
+                it += 1
+            iters += it
+            if not broke:
+                break
         if bnorm > 0.0:
             worst = max(worst, res / bnorm)
-        x += dt * (v + theta * dv)
+        if bdf2:
+            x_new = x + (x - hist[0]) / 3.0 + h * (v + dv)
+            hist[0][:] = x
+            hist[1][:] = v
+            x[:] = x_new
+        else:
+            x += dt * (v + theta * dv)
         v += dv
         a[:] = dv / dt
+        if bdf2:
+            hist[2][:] = x
+            hist[3][:] = v
         if obstacle_kind.shape[0] > 0:
             system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
                           second_slot, second_other, spring_vec, ap)
@@ -467,6 +512,9 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
                                 contact_state)
             contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
         status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)
+        if bdf2:
+            fresh[:] = ((cobs >= 0) | np.any(x != hist[2], axis=1)
+                        | np.any(v != hist[3], axis=1))
         if status != STATUS_OK:
             return step + 1, status, iters, worst
     return nsteps, STATUS_OK, iters, worst
