@@ -118,6 +118,10 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         lambda v: v >= 1, "an integer >= 1"),
         "substeps": Spec("int", 1, "Steps of dt / substeps per step.", lambda v: v >= 1,
                          "an integer >= 1"),
+        "scheme": Spec("str", "theta", "Implicit: 'theta' (one step, see theta) or 'bdf2' "
+                       "(two-step, second order: keeps a frame-rate wobble, ~0.93 of its "
+                       "energy per period at 2.8 Hz and dt = 1/60 s).",
+                       choices=("theta", "bdf2")),
         "theta": Spec("float", 1.0, "Implicit: 1 = backward Euler (robust, damps), 0.5 = "
                       "midpoint (no damping of linear vibrations).", lambda v: 0.5 <= v <= 1,
                       "a number in [0.5, 1]"),
@@ -543,7 +547,8 @@ class Scene:
         kw = dict(dt=it["dt"], integrator=it["name"], provot=self.provot_params(),
                   ground=self.ground_params(), backend=it["backend"], threads=it["threads"],
                   substeps=it["substeps"],
-                  implicit=ImplicitParams(theta=it["theta"], tolerance=it["cg_tolerance"],
+                  implicit=ImplicitParams(scheme=it["scheme"], theta=it["theta"],
+                                          tolerance=it["cg_tolerance"],
                                           max_iterations=it["cg_max_iterations"]),
                   obstacles=self.obstacles())
         kw.update(overrides)

@@ -643,7 +643,7 @@ _STUCK = 2
 
 @njit(**_opts)
 def contact_normals(x, v, obstacle_kind, obstacle_data, margin, contact_state, dt, rest_speed,
-                    first_ptr, second_ptr, cnrm, cobs):
+                    first_ptr, second_ptr, cnrm, cobs, offset):
     for q in prange(x.shape[0]):
         for c in range(6):
             cnrm[q, c] = 0.0
@@ -654,7 +654,8 @@ def contact_normals(x, v, obstacle_kind, obstacle_data, margin, contact_state, d
             phi, nx, ny, nz = _contact_point(obstacle_kind[o], obstacle_data[o], x[q, 0],
                                              x[q, 1], x[q, 2])
             vn = v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz
-            if vn <= 0.0 and phi + dt * min(vn, 0.0) <= margin:
+            gap = phi + offset[q, 0] * nx + offset[q, 1] * ny + offset[q, 2] * nz
+            if vn <= 0.0 and gap + dt * min(vn, 0.0) <= margin:
                 cnrm[q, 0] = nx
                 cnrm[q, 1] = ny
                 cnrm[q, 2] = nz
@@ -664,7 +665,7 @@ def contact_normals(x, v, obstacle_kind, obstacle_data, margin, contact_state, d
                 if impact > 0.0 and free:
                     cnrm[q, 3] = obstacle_data[o, 6] * impact
                 else:
-                    cnrm[q, 3] = -max(phi, 0.0) / dt
+                    cnrm[q, 3] = -(max(phi, 0.0) + gap - phi) / dt
                 cnrm[q, 4] = impact
                 cnrm[q, 5] = 1.0 if contact_state[q] == _STUCK else 0.0
                 cobs[q] = o
@@ -814,6 +815,13 @@ def _bdf2_start(x, v, x_prev, v_prev, fresh, w, dt, beta):
 
 
 @njit(**_opts)
+def _bdf2_offset(offset, x, x_prev):
+    for q in prange(x.shape[0]):
+        for c in range(3):
+            offset[q, c] = (x[q, c] - x_prev[q, c]) / 3.0
+
+
+@njit(**_opts)
 def _bdf2_rhs(b, ap, mass, a, v, v_prev, w, beta):
     # ap holds (m w + K w) on entry
     for q in prange(b.shape[0]):
@@ -834,6 +842,24 @@ def _bdf2_update(x, v, a, dv, x_prev, v_prev, x_int, v_int, dt, beta):
             a[q, c] = dv[q, c] / dt
             x_int[q, c] = x[q, c]
             v_int[q, c] = v[q, c]
+
+
+@njit(**_opts)
+def _bdf2_contact_velocity(v, x, x_old, cnrm, cobs, dt):
+    # a constrained point's normal velocity is the one its step took: the BDF2 velocity that
+    # lands it on the surface also cancels its history, and would launch it at the next step
+    for q in prange(x.shape[0]):
+        if cobs[q] < 0:
+            continue
+        nx = cnrm[q, 0]
+        ny = cnrm[q, 1]
+        nz = cnrm[q, 2]
+        moved = ((x[q, 0] - x_old[q, 0]) * nx + (x[q, 1] - x_old[q, 1]) * ny
+                 + (x[q, 2] - x_old[q, 2]) * nz) / dt
+        d = moved - (v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz)
+        v[q, 0] += d * nx
+        v[q, 1] += d * ny
+        v[q, 2] += d * nz
 
 
 @njit(**_opts)
@@ -879,8 +905,11 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
                 system_matvec(v, mass, zero, 1.0, spring_ij, frame, first_ptr, second_ptr,
                               second_slot, second_other, spring_vec, ap)
                 _implicit_rhs(b, ap, mass, a, v, dt, h)
-            contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state, dt,
-                            rest_speed, first_ptr, second_ptr, cnrm, cobs)
+            if bdf2:
+                _bdf2_offset(hist[3], x, hist[0])
+            contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state,
+                            h if bdf2 else dt, rest_speed, first_ptr, second_ptr, cnrm, cobs,
+                            hist[3])
             if clip:
                 dv[:] = 0.0
             constrain_start(dv, v, cnrm)
@@ -920,13 +949,15 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
             worst = max(worst, res / bnorm)
         if bdf2:
             _bdf2_update(x, v, a, dv, hist[0], hist[1], hist[2], hist[3], dt, h)
+            _bdf2_contact_velocity(v, x, hist[0], cnrm, cobs, dt)
+            _copy(hist[3], v)
         else:
             _implicit_update(x, v, a, dv, dt, theta)
         if obstacle_kind.shape[0] > 0:
             system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
                           second_slot, second_other, spring_vec, ap)
-            constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt,
-                                contact_state)
+            constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data,
+                                h if bdf2 else dt, contact_state)
             contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
         status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)
         if bdf2:

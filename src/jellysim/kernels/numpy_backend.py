@@ -289,7 +289,7 @@ CONTACT_STUCK = 2
 
 
 def contact_normals(x, v, obstacle_kind, obstacle_data, margin, contact_state, dt, rest_speed,
-                    first_ptr, second_ptr, cnrm, cobs):
+                    first_ptr, second_ptr, cnrm, cobs, offset):
     """Contact constraints for an implicit step (speculative contacts).
 
     A point is constrained by the first obstacle it touches or would reach during the step at
@@ -304,19 +304,26 @@ def contact_normals(x, v, obstacle_kind, obstacle_data, margin, contact_state, d
     early).  Prescribing a bounce to the surface points of a body at a frame-rate dt would
     drive the layer above through them in one step, so the solve treats body points as
     inelastic.  ``cobs`` (n,): obstacle index or -1.
+
+    ``dt`` here is the step's position coefficient and ``offset`` (n, 3) [m] the part of the
+    position change that does not depend on the new velocity: the step moves a point by
+    ``offset + dt v_new`` (theta-method: offset 0 and dt; BDF2: ``(x_n - x_n-1) / 3`` and
+    ``2 dt / 3``), so the gap test is ``phi + offset_n + dt min(v_n, 0)`` and the target closes
+    ``phi + offset_n``.
     """
     cnrm[:] = 0.0
     cobs[:] = -1
     for o in range(obstacle_kind.shape[0]):
         phi, nrm = _contact_geometry(obstacle_kind[o], obstacle_data[o], x)
         vn = np.einsum("ij,ij->i", v, nrm)
-        hit = ((cobs < 0) & (phi + dt * np.minimum(vn, 0.0) <= margin) & (vn <= 0.0)
+        gap = phi + np.einsum("ij,ij->i", offset, nrm)
+        hit = ((cobs < 0) & (gap + dt * np.minimum(vn, 0.0) <= margin) & (vn <= 0.0)
                & (contact_state != CONTACT_RELEASED))
         cnrm[hit, 0:3] = nrm[hit]
         impact = np.where(-vn[hit] > rest_speed, -vn[hit], 0.0)
         free = (np.diff(first_ptr) + np.diff(second_ptr))[hit] == 0
         cnrm[hit, 3] = np.where((impact > 0.0) & free, obstacle_data[o, 6] * impact,
-                                -np.maximum(phi[hit], 0.0) / dt)
+                                -(np.maximum(phi[hit], 0.0) + gap[hit] - phi[hit]) / dt)
         cnrm[hit, 4] = impact
         cnrm[hit, 5] = np.where(contact_state[hit] == CONTACT_STUCK, 1.0, 0.0)
         cobs[hit] = o
@@ -451,8 +458,13 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
                               second_ptr, second_slot, second_other, spring_vec, ap)
                 ap -= mass[:, None] * v  # = K v
                 b[:] = dt * (mass[:, None] * a - h * ap)
-            contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state, dt,
-                            rest_speed, first_ptr, second_ptr, cnrm, cobs)
+            if bdf2:
+                offset = (x - x_prev) / 3.0
+            else:
+                offset = np.zeros_like(x)
+            contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state,
+                            h if bdf2 else dt, rest_speed, first_ptr, second_ptr, cnrm, cobs,
+                            offset)
             if clip:
                 dv[:] = 0.0  # the failed solve's iterate is no warm start
             constrain_start(dv, v, cnrm)
@@ -503,13 +515,19 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
         v += dv
         a[:] = dv / dt
         if bdf2:
+            # a constrained point's normal velocity is the one its step took: the BDF2 velocity
+            # that lands it on the surface also cancels its history, and would launch it
+            on = cobs >= 0
+            nrm = cnrm[on, 0:3]
+            moved = np.einsum("ij,ij->i", x[on] - hist[0][on], nrm) / dt
+            v[on] += (moved - np.einsum("ij,ij->i", v[on], nrm))[:, None] * nrm
             hist[2][:] = x
             hist[3][:] = v
         if obstacle_kind.shape[0] > 0:
             system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
                           second_slot, second_other, spring_vec, ap)
-            constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt,
-                                contact_state)
+            constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data,
+                                h if bdf2 else dt, contact_state)
             contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
         status = finish_step(x, v, a, ground, height, mu, nu, center, bound2)
         if bdf2:
