@@ -4,7 +4,7 @@ Prints JSON: build time, simulated seconds, wall seconds per simulated second (m
 ``--repeats`` runs), CG iterations per step, realtime factor.  Run from the repository root:
 
     PYTHONPATH=src python benchmarks/bench_physical.py [--points-per-side 20] [--seconds 5]
-        [--repeats 3] [--threads 1] [--substeps 1] [--youngs-modulus 1e4]
+        [--repeats 3] [--threads 1] [--substeps 1] [--youngs-modulus 1e4] [--scheme theta|bdf2]
 
 The cube starts 2 cm above the plate: it falls, lands, wobbles and settles.  One thread is the
 default (and what the Simulator picks for 8000 points): on a shared 2-core machine a second
@@ -42,13 +42,13 @@ def build(points_per_side: int, youngs_modulus: float):
     return finalize(body, gravity=(0.0, -9.8, 0.0))
 
 
-def run_once(model, seconds: float, threads: int, substeps: int = 1):
-    from jellysim.params import GroundModel, GroundParams
+def run_once(model, seconds: float, threads: int, substeps: int = 1, scheme: str = "theta"):
+    from jellysim.params import GroundModel, GroundParams, ImplicitParams
     from jellysim.simulator import Simulator
 
     ground = GroundParams(model=GroundModel.CONTACT, restitution=0.3, friction=0.6)
     sim = Simulator(model, dt=1 / 60, integrator="implicit", ground=ground, threads=threads,
-                    substeps=substeps)
+                    substeps=substeps, implicit=ImplicitParams(scheme=scheme))
     sim.advance(1)  # compile / warm caches outside the timing
     steps = int(round(seconds * 60))
     t0 = time.perf_counter()
@@ -66,6 +66,8 @@ def main():
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--substeps", type=int, default=1,
                     help="implicit steps per 1/60 s frame (4: livelier wobble)")
+    ap.add_argument("--scheme", default="theta", choices=("theta", "bdf2"),
+                    help="implicit scheme (theta = backward Euler)")
     ap.add_argument("--youngs-modulus", type=float, default=None,
                     help="[Pa], default: the gelatin preset's")
     args = ap.parse_args()
@@ -78,7 +80,8 @@ def main():
     build_s = time.perf_counter() - t0
     walls, iters, tops = [], [], []
     for _ in range(args.repeats):
-        wall, it, top = run_once(model, args.seconds, args.threads, args.substeps)
+        wall, it, top = run_once(model, args.seconds, args.threads, args.substeps,
+                                 args.scheme)
         walls.append(wall)
         iters.append(it)
         tops.append(top)
@@ -87,7 +90,7 @@ def main():
         "benchmark": "gelatin cube, implicit, dt=1/60",
         "points": model.particle_count, "springs": model.spring_count,
         "youngs_modulus_pa": args.youngs_modulus, "threads": args.threads,
-        "substeps": args.substeps,
+        "substeps": args.substeps, "scheme": args.scheme,
         "build_s": round(build_s, 3), "simulated_s": args.seconds,
         "wall_s_runs": [round(w, 3) for w in walls], "wall_s_median": round(med, 3),
         "realtime_factor": round(args.seconds / med, 2),

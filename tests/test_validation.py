@@ -141,6 +141,7 @@ def test_bdf2_energy_loss_per_step_matches_closed_form(omega_dt):
 
     sim = Simulator(model, dt=dt, integrator="implicit", state=state,
                     implicit=ImplicitParams(scheme="bdf2", tolerance=1e-12))
+    assert sim.stability.dt_max == np.inf and "BDF2" in sim.stability.reason
     sim.advance(30)
     e1 = energy(sim.state)
     steps = int(round(4 * np.pi / omega_dt))  # about two periods

@@ -119,8 +119,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "substeps": Spec("int", 1, "Steps of dt / substeps per step.", lambda v: v >= 1,
                          "an integer >= 1"),
         "scheme": Spec("str", "theta", "Implicit: 'theta' (one step, see theta) or 'bdf2' "
-                       "(two-step, second order: keeps a frame-rate wobble, ~0.93 of its "
-                       "energy per period at 2.8 Hz and dt = 1/60 s).",
+                       "(two-step, second order: keeps a frame-rate wobble, 0.90 of its "
+                       "energy per period at 2.8 Hz and dt = 1/60 s; less robust through "
+                       "impacts).",
                        choices=("theta", "bdf2")),
         "theta": Spec("float", 1.0, "Implicit: 1 = backward Euler (robust, damps), 0.5 = "
                       "midpoint (no damping of linear vibrations).", lambda v: 0.5 <= v <= 1,

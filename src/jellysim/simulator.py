@@ -152,7 +152,8 @@ class Simulator:
     def check_stability(self) -> StabilityEstimate:
         """Estimate the largest stable dt; warn when ``dt`` exceeds it."""
         est = estimate_stability(self.model, self.integrator, self.dt_step,
-                                 theta=self.implicit.theta)
+                                 theta=self.implicit.theta,
+                                 scheme=self.implicit.scheme)
         self.stability = est
         if self.dt_step > est.dt_max:
             hint = (f"use dt <= {0.9 * est.dt_max:.3g} s" if est.dt_max > 0
@@ -245,7 +246,8 @@ class Simulator:
                 if status == STATUS_NONFINITE else
                 f"a point flew more than {self.runaway_distance:g} m from the start")
         est = self.stability or estimate_stability(m, self.integrator, self.dt_step,
-                                                   theta=self.implicit.theta)
+                                                   theta=self.implicit.theta,
+                                                   scheme=self.implicit.scheme)
         if self.integrator is Integrator.IMPLICIT:
             hint = ("the implicit step is linearised: try a smaller dt, theta closer to 1 "
                     "or a tighter CG tolerance")

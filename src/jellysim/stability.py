@@ -15,7 +15,8 @@ damping rate ``c = delta / m`` the update matrices give (Jury's criterion):
 
 * the implicit theta-method (``Integrator.IMPLICIT``): for one mode the amplification factor
   has ``|A|^2 = (1 + (1 - theta)^2 z^2) / (1 + theta^2 z^2)`` (``z = omega dt``, undamped),
-  which is <= 1 at every dt iff ``theta >= 1/2``: unconditionally stable for the linearised system.  The
+  which is <= 1 at every dt iff ``theta >= 1/2``: unconditionally stable for the linearised
+  system; the implicit BDF2 scheme is A-stable (its principal root has modulus < 1).  The
   nonlinear step (rotating springs, contact) is guarded at run time by the non-finite/runaway
   check, and the simulator records how far each conjugate-gradient solve converged.
 """
@@ -101,10 +102,13 @@ def max_eigenvalue(model, *, iterations: int = 60, seed: int = 0) -> tuple[float
 
 
 def estimate_stability(model, integrator: Integrator, dt: float, *,
-                       theta: float = 0.5) -> StabilityEstimate:
+                       theta: float = 0.5, scheme: str = "theta") -> StabilityEstimate:
     """Largest stable dt for ``integrator`` on ``model`` (see module docstring)."""
     integrator = Integrator(integrator)
     lam, method = max_eigenvalue(model)
+    if integrator is Integrator.IMPLICIT and scheme == "bdf2":
+        return StabilityEstimate(lam, method, np.inf, "implicit BDF2: A-stable, unconditionally "
+                                 "stable (linearised)")
     if integrator is Integrator.IMPLICIT:
         if theta >= 0.5:
             return StabilityEstimate(lam, method, np.inf,
