@@ -803,13 +803,15 @@ def _implicit_update(x, v, a, dv, dt, theta):
 
 
 @njit(**_opts)
-def _bdf2_start(x, v, x_prev, v_prev, fresh, w, dt, beta):
-    # restart the history where marked, then w = (x - x_prev) / 3 + beta v
+def _bdf2_start(x, v, a, x_prev, v_prev, fresh, w, dt, beta):
+    # restart the history where marked (as if the point had come with its present
+    # acceleration: the step is then a backward-Euler-like one), then
+    # w = (x - x_prev) / 3 + beta v
     for q in prange(x.shape[0]):
         if fresh[q]:
             for c in range(3):
                 x_prev[q, c] = x[q, c] - dt * v[q, c]
-                v_prev[q, c] = v[q, c]
+                v_prev[q, c] = v[q, c] - dt * a[q, c]
         for c in range(3):
             w[q, c] = (x[q, c] - x_prev[q, c]) / 3.0 + beta * v[q, c]
 
@@ -845,11 +847,13 @@ def _bdf2_update(x, v, a, dv, x_prev, v_prev, x_int, v_int, dt, beta):
 
 
 @njit(**_opts)
-def _bdf2_contact_velocity(v, x, x_old, cnrm, cobs, dt):
-    # a constrained point's normal velocity is the one its step took: the BDF2 velocity that
-    # lands it on the surface also cancels its history, and would launch it at the next step
+def _bdf2_contact_velocity(v, x, x_old, cnrm, cobs, dt, first_ptr, second_ptr):
+    # a constrained body point's normal velocity is the one its step took: the BDF2 velocity
+    # that lands it on the surface also cancels its history, and would launch it at the next
+    # step (a free particle keeps its prescribed bounce)
     for q in prange(x.shape[0]):
-        if cobs[q] < 0:
+        free = (first_ptr[q + 1] - first_ptr[q] + second_ptr[q + 1] - second_ptr[q]) == 0
+        if cobs[q] < 0 or free:
             continue
         nx = cnrm[q, 0]
         ny = cnrm[q, 1]
@@ -897,7 +901,7 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
             if not clip and diag.min() <= 0.0:
                 continue
             if bdf2:
-                _bdf2_start(x, v, hist[0], hist[1], fresh, hist[2], dt, h)
+                _bdf2_start(x, v, a, hist[0], hist[1], fresh, hist[2], dt, h)
                 system_matvec(hist[2], mass, zero, 1.0, spring_ij, frame, first_ptr,
                               second_ptr, second_slot, second_other, spring_vec, ap)
                 _bdf2_rhs(b, ap, mass, a, v, hist[1], hist[2], h)
@@ -949,7 +953,7 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
             worst = max(worst, res / bnorm)
         if bdf2:
             _bdf2_update(x, v, a, dv, hist[0], hist[1], hist[2], hist[3], dt, h)
-            _bdf2_contact_velocity(v, x, hist[0], cnrm, cobs, dt)
+            _bdf2_contact_velocity(v, x, hist[0], cnrm, cobs, dt, first_ptr, second_ptr)
             _copy(hist[3], v)
         else:
             _implicit_update(x, v, a, dv, dt, theta)

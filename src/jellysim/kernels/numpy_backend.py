@@ -422,7 +422,8 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
     With ``bdf2`` the step is the linearised BDF2 (see :class:`jellysim.params.ImplicitParams`)
     with ``beta = 2 dt / 3`` in place of ``theta dt``; ``hist`` (4, n, 3) holds the previous
     positions and velocities (and two scratch arrays), ``fresh`` (n,) uint8 marks the points
-    whose history is restarted at the next step as ``x_n-1 = x_n - dt v_n, v_n-1 = v_n``: all
+    whose history is restarted at the next step as ``x_n-1 = x_n - dt v_n``,
+    ``v_n-1 = v_n - dt a_n`` (a backward-Euler-like step): all
     of them at first, then those an obstacle or the ground constrained or moved (a projection
     is not part of the multistep history).
     """
@@ -438,7 +439,7 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
             x_prev, v_prev = hist[0], hist[1]
             restart = fresh.astype(bool)
             x_prev[restart] = x[restart] - dt * v[restart]
-            v_prev[restart] = v[restart]
+            v_prev[restart] = v[restart] - dt * a[restart]
         # the exact tangent first; if compression makes the system indefinite (CG breaks
         # down or the preconditioner is not positive), again with the compressive part dropped
         for clip in (False, True):
@@ -515,9 +516,10 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
         v += dv
         a[:] = dv / dt
         if bdf2:
-            # a constrained point's normal velocity is the one its step took: the BDF2 velocity
-            # that lands it on the surface also cancels its history, and would launch it
-            on = cobs >= 0
+            # a constrained body point's normal velocity is the one its step took: the BDF2
+            # velocity that lands it on the surface also cancels its history, and would launch
+            # it (a free particle keeps its prescribed bounce)
+            on = (cobs >= 0) & ((np.diff(first_ptr) + np.diff(second_ptr)) > 0)
             nrm = cnrm[on, 0:3]
             moved = np.einsum("ij,ij->i", x[on] - hist[0][on], nrm) / dt
             v[on] += (moved - np.einsum("ij,ij->i", v[on], nrm))[:, None] * nrm
