@@ -113,9 +113,10 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     h: cube edge [m] for ``marching`` (default: (volume / points)^(1/3)).
     surface_vertices: add the mesh's vertices to the points so the faces are well defined
         (default: on for ``delaunay``, off for ``radius``).
-    surface_samples: ``delaunay``: also put points on the surface about one spacing
+    surface_samples: ``delaunay``: put points on the surface about one spacing
         ``(volume / points)^(1/3)`` apart (its vertices, its sharp edges, its faces: see
-        :func:`~jellysim.geometry.sampling.sample_surface`) and drop the sampled points closer
+        :func:`~jellysim.geometry.sampling.sample_surface`; the vertices are always among them,
+        whatever ``surface_vertices`` says) and drop the sampled points closer
         than half a spacing to it, so the body's surface lies on the mesh with well-shaped tets
         (default: on; ``False`` is the report's way, mesh vertices only, whose near-surface
         tets are slivers fanning out from a few vertices on coarse meshes such as a cube).

@@ -833,7 +833,7 @@ def _bdf2_rhs(b, ap, mass, a, v, v_prev, w, beta):
 
 
 @njit(**_opts)
-def _bdf2_update(x, v, a, dv, x_prev, v_prev, x_int, v_int, dt, beta):
+def _bdf2_update(x, v, a, dv, x_prev, v_prev, x_int, dt, beta):
     for q in prange(x.shape[0]):
         for c in range(3):
             xn = x[q, c] + (x[q, c] - x_prev[q, c]) / 3.0 + beta * (v[q, c] + dv[q, c])
@@ -843,7 +843,6 @@ def _bdf2_update(x, v, a, dv, x_prev, v_prev, x_int, v_int, dt, beta):
             v[q, c] += dv[q, c]
             a[q, c] = dv[q, c] / dt
             x_int[q, c] = x[q, c]
-            v_int[q, c] = v[q, c]
 
 
 @njit(**_opts)
@@ -952,9 +951,9 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
         if bnorm > 0.0:
             worst = max(worst, res / bnorm)
         if bdf2:
-            _bdf2_update(x, v, a, dv, hist[0], hist[1], hist[2], hist[3], dt, h)
+            _bdf2_update(x, v, a, dv, hist[0], hist[1], hist[2], dt, h)
             _bdf2_contact_velocity(v, x, hist[0], cnrm, cobs, dt, first_ptr, second_ptr)
-            _copy(hist[3], v)
+            _copy(hist[3], v)  # the velocity the obstacles and the ground will be judged from
         else:
             _implicit_update(x, v, a, dv, dt, theta)
         if obstacle_kind.shape[0] > 0:

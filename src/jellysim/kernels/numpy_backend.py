@@ -430,6 +430,7 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
     h = 2.0 * dt / 3.0 if bdf2 else theta * dt
     h2 = h * h
     shift = np.full(mass.shape[0], h * damping)
+    no_offset = np.zeros_like(x)  # theta-method: the step moves a point by dt v_new only
     iters = 0
     worst = 0.0
     for step in range(nsteps):
@@ -459,10 +460,7 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
                               second_ptr, second_slot, second_other, spring_vec, ap)
                 ap -= mass[:, None] * v  # = K v
                 b[:] = dt * (mass[:, None] * a - h * ap)
-            if bdf2:
-                offset = (x - x_prev) / 3.0
-            else:
-                offset = np.zeros_like(x)
+            offset = (x - x_prev) / 3.0 if bdf2 else no_offset
             contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state,
                             h if bdf2 else dt, rest_speed, first_ptr, second_ptr, cnrm, cobs,
                             offset)

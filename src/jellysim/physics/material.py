@@ -161,22 +161,19 @@ def surface_points(points, springs, tets=None) -> np.ndarray:
     whose springs cannot hold them in every direction (fewer than 4, or all in a plane).
     """
     n = points.shape[0]
-    mask = np.zeros(n, dtype=bool)
-    if tets is not None and len(tets):
-        tets = np.asarray(tets, dtype=np.int64)
-        faces = np.sort(tets[:, [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]]].reshape(-1, 3),
-                        axis=1)
-        uniq, count = np.unique(faces, axis=0, return_counts=True)
-        mask[uniq[count == 1].ravel()] = True
     nrm, _ = _directions(points, springs)
-    total = np.zeros((n, 3))
-    for c in range(3):
-        total[:, c] = (np.bincount(springs[:, 0], nrm[:, c], n)
-                       - np.bincount(springs[:, 1], nrm[:, c], n))
     z = np.bincount(springs.ravel(), minlength=n)
-    lopsided = np.linalg.norm(total, axis=1) > 0.35 * np.maximum(z, 1)
     if tets is not None and len(tets):
-        lopsided[:] = False
+        from ..geometry.tetra import boundary_faces
+
+        mask = np.zeros(n, dtype=bool)
+        mask[boundary_faces(tets, n).ravel()] = True
+    else:
+        total = np.zeros((n, 3))
+        for c in range(3):
+            total[:, c] = (np.bincount(springs[:, 0], nrm[:, c], n)
+                           - np.bincount(springs[:, 1], nrm[:, c], n))
+        mask = np.linalg.norm(total, axis=1) > 0.35 * np.maximum(z, 1)  # lopsided
     # springs that do not span 3D (a point on a thin sheet or strand) cannot hold the point in
     # every direction: treat it as surface (held), or the relaxation solve would be singular
     scatter = np.zeros((n, 3, 3))
@@ -186,7 +183,7 @@ def surface_points(points, springs, tets=None) -> np.ndarray:
             scatter[:, a, b] = scatter[:, b, a] = (np.bincount(springs[:, 0], w, n)
                                                    + np.bincount(springs[:, 1], w, n))
     flat = np.linalg.eigvalsh(scatter)[:, 0] < 0.05 * np.maximum(z, 1)
-    return mask | lopsided | flat | (z < 4)
+    return mask | flat | (z < 4)
 
 
 def inner_points(points, surface, skin: float) -> np.ndarray:
