@@ -97,7 +97,8 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
                surface_vertices: bool | None = None, surface_samples: bool | None = None,
                density: float = REPORT_DENSITY,
                seed: int = 0, rule: str = "auto", epsilon: float | None = None,
-               min_quality: float | None = None, max_volume: float | None = None) -> Body:
+               min_quality: float | None = None, max_volume: float | None = None,
+               snap: bool = True) -> Body:
     """A jello :class:`~jellysim.body.Body` from a surface mesh.
 
     Parameters
@@ -125,6 +126,9 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     rule: inside rule (``auto``, ``parity``, ``winding``), see :func:`jellysim.geometry.inside`.
     epsilon, min_quality: Delaunay near-duplicate distance [m] and sliver threshold.
     max_volume: TetGen maximum tet volume [m^3] (default: volume / points).
+    snap: ``marching``: move the grid body's boundary nodes onto the surface where that keeps
+        its tets well shaped (:func:`~jellysim.geometry.snap.snap_to_surface`); ``False``
+        keeps the report's staircase.
     """
     from .geometry.connect import choose_radius, radius_springs
     from .geometry.inside import InsideQuery
@@ -164,7 +168,16 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
         if h is None:
             h = (volume / points) ** (1.0 / 3.0)
         body = marching_grid(m.vertices, m.faces, query.query, h=h, density=density)
-        body.meta.update(source=name, connect="marching", h=float(h))
+        body.meta.update(source=name, connect="marching", h=float(h), snapped=bool(snap))
+        if snap:
+            from .geometry.snap import snap_to_surface
+            from .geometry.tetra import lump_tet_masses
+
+            body.points = snap_to_surface(body.points, body.tets, m.vertices, m.faces, h,
+                                          seed=seed)
+            body.masses = lump_tet_masses(body.points, body.tets, density)
+            body.volume = float(body.masses.sum() / density)
+            body.rest_length = None
         return _rescale_masses(body, density, volume)
     try:
         pts = sample_inside(query.query, lo, hi, points, method=sampling, seed=seed,

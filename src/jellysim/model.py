@@ -63,6 +63,9 @@ class Model:
     """Gravitational acceleration [m/s^2], shape (3,), float64."""
     body: Body
     """The body this model was built from (tets, triangles, provenance)."""
+    fem: object = None
+    """:class:`~jellysim.physics.fem.FemArrays` of the physical material (tet elasticity and
+    damping), or ``None`` for a springs-only body."""
 
     @property
     def particle_count(self) -> int:

@@ -14,6 +14,8 @@ __all__ = [
     "ImplicitParams",
     "MAX_ALL_PAIRS_POINTS",
     "REPORT_DENSITY",
+    "Material",
+    "MaterialModel",
 ]
 
 REPORT_DENSITY = 1141.0
@@ -165,3 +167,51 @@ class ImplicitParams:
             raise ValueError(f"implicit tolerance must be > 0, got {self.tolerance}")
         if not self.max_iterations >= 1:
             raise ValueError(f"implicit max_iterations must be >= 1, got {self.max_iterations}")
+
+
+class MaterialModel(str, Enum):
+    """How a body's elasticity is modelled on the physical path."""
+
+    FEM = "fem"
+    """Stable Neo-Hookean tetrahedra (:mod:`jellysim.physics.fem`): E and Poisson's ratio
+    exact at small strain, resists inversion, keeps volume.  Needs tets."""
+    SPRINGS = "springs"
+    """The report's springs, each k derived from E (:mod:`jellysim.physics.material`):
+    Poisson's ratio fixed at 1/4 by the Cauchy relation, nothing resists inversion."""
+
+
+@dataclass(frozen=True)
+class Material:
+    """A real material for the physical path (SI units).
+
+    ``damping_ratio`` is the fraction of critical damping of a vibration at
+    ``damping_frequency`` (a standard linear solid, :func:`jellysim.physics.fem.
+    damping_parameters`); vibrations at other frequencies see the solid's loss factor there
+    (within 20 % of the peak between half and twice the frequency).
+    """
+
+    density: float = REPORT_DENSITY
+    """[kg/m^3]."""
+    youngs_modulus: float = 1.0e4
+    """E [Pa]."""
+    poisson_ratio: float = 0.4
+    """nu [-], in (-0.5, 0.5) (FEM only; springs are 1/4)."""
+    damping_ratio: float = 0.0
+    """zeta [-] at ``damping_frequency`` (FEM only)."""
+    damping_frequency: float = 5.0
+    """[Hz]."""
+    model: MaterialModel = MaterialModel.FEM
+
+    def __post_init__(self):
+        import math
+
+        checks = (("density", self.density > 0, "a positive number of kg/m^3"),
+                  ("youngs_modulus", self.youngs_modulus > 0, "a positive number of Pa"),
+                  ("poisson_ratio", -0.5 < self.poisson_ratio < 0.5, "in (-0.5, 0.5)"),
+                  ("damping_ratio", 0 <= self.damping_ratio < 1, "in [0, 1)"),
+                  ("damping_frequency", self.damping_frequency > 0, "a positive number of Hz"))
+        for name, ok, allowed in checks:
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and ok):
+                raise ValueError(f"material {name} must be {allowed}, got {value!r}")
+        object.__setattr__(self, "model", MaterialModel(self.model))

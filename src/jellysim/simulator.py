@@ -71,7 +71,7 @@ class Simulator:
                  ground: GroundParams = GroundParams(enabled=False),
                  backend: Backend | str = Backend.NUMBA, threads: int | None = None,
                  runaway_distance: float | None = None, check_stability: bool = True,
-                 state=None, substeps: int = 1, implicit: ImplicitParams = ImplicitParams(),
+                 state=None, substeps: int | str = "auto", implicit: ImplicitParams = ImplicitParams(),
                  obstacles=(), rest_speed: float | None = None):
         if not (np.isfinite(dt) and dt > 0):
             raise SceneError(f"time step dt must be a positive number of seconds, got {dt}")
@@ -80,9 +80,20 @@ class Simulator:
         self.integrator = Integrator(integrator)
         self.provot = provot
         self.ground = ground
-        self.substeps = int(substeps)
+        self.physical = getattr(model, "fem", None) is not None
+        if self.physical and self.integrator is not Integrator.SYMPLECTIC:
+            raise SceneError(
+                f"a body with a physical (FEM) material is integrated by symplectic substeps "
+                f"(integrator = 'symplectic', the default); got '{self.integrator.value}'")
+        if substeps == "auto":
+            substeps = self._auto_substeps(model, dt) if self.physical else 1
+        try:
+            self.substeps = int(substeps)
+        except (TypeError, ValueError):
+            raise SceneError(f"substeps must be an integer >= 1 or 'auto', got {substeps!r}") \
+                from None
         if self.substeps < 1:
-            raise SceneError(f"substeps must be an integer >= 1, got {substeps}")
+            raise SceneError(f"substeps must be an integer >= 1 or 'auto', got {substeps}")
         self.implicit = implicit
         if self.integrator is Integrator.IMPLICIT:
             if provot.enabled:
@@ -145,9 +156,137 @@ class Simulator:
             self._hist = np.zeros((4, n, 3))
             self._fresh = np.ones(n, dtype=np.uint8)
             self._last = None  # (x, v) at the end of the last advance
+        from .handles import Handles
+
+        self.handles = Handles.empty(n)
+        """Pins, point forces, gravity scale and drag (physical path; :mod:`jellysim.handles`)."""
+        if self.physical:
+            self._setup_physical()
         self.stability: StabilityEstimate | None = None
-        if check_stability:
+        if check_stability and not self.physical:
             self.check_stability()
+
+    # -- physical path (FEM, symplectic substeps) ------------------------------------------
+    SUBSTEP_SAFETY = 0.5
+    """Fraction of the linear stability limit ``2 / omega_max`` used as the substep: large
+    compression stiffens the material above its rest stiffness (measured: docs/physics.md)."""
+
+    @classmethod
+    def _auto_substeps(cls, model, dt) -> int:
+        from .physics.stability_fem import fem_omega_max
+
+        h = cls.SUBSTEP_SAFETY * 2.0 / fem_omega_max(model)
+        return max(1, int(np.ceil(float(dt) / h)))
+
+    def _setup_physical(self):
+        from .physics.fem import FemArrays
+
+        m, fem = self.model, self.model.fem
+        assert isinstance(fem, FemArrays)
+        t = fem.tet_count
+        n = m.particle_count
+        self._q = np.zeros((t, 6))
+        self._tet_force = np.zeros((4 * t, 3))
+        self._tet_j = np.ones(t)
+        self._fsum = np.zeros((n, 3))
+        self._min_j = np.ones(1)
+        self.min_tet_volume_ratio = 1.0
+        """Smallest ``J = det F`` (deformed / rest volume) of any tet at any substep so far
+        [-]; <= 0 means a tet was inverted."""
+
+    def _physical_tuples(self, h):
+        m, fem = self.model, self.model.fem
+        g, tau = fem.branch_ratio, fem.branch_time
+        decay = float(np.exp(-h / tau)) if tau > 0 else 0.0
+        ft = (fem.tets, fem.rest_inverse, fem.rest_volume, fem.mu, fem.lam, fem.alpha,
+              fem.mu_lame, fem.lam_lame, float(g), decay, self._q, fem.point_tet_ptr,
+              fem.point_tet_slot)
+        use_springs = bool(m.spring_count and np.any(m.spring_stiffness != 0))
+        springs = (m.spring_ij, m.spring_rest_length, m.spring_stiffness, m.point_first_ptr,
+                   m.point_second_ptr, m.spring_second_slot, m.point_second_other, use_springs)
+        model_arrays = (m.particle_inv_mass, float(m.damping), m.gravity, springs)
+        contact = (self._obstacle_kind, self._obstacle_data, float(self.rest_speed),
+                   self.center, float(self.runaway_distance**2))
+        scratch = (self._tet_force, self._tet_j, self._fsum, self._scalar, self._min_j)
+        return model_arrays, ft, contact, scratch
+
+    def _advance_physical(self, steps):
+        from .kernels import fem_numba, fem_numpy
+
+        kern = fem_numpy if self.backend is Backend.NUMPY else fem_numba
+        s, hd, sub = self.state, self.handles, self.substeps
+        h = self.dt_step
+        model_arrays, ft, contact, scratch = self._physical_tuples(h)
+        # one kernel call per frame when pins follow a path (targets per frame), else one batch
+        chunk = 1 if hd.paths else steps
+        done = 0
+        status = STATUS_OK
+        while done < steps and status == STATUS_OK:
+            n = min(chunk, steps - done)
+            t0 = s.t + done * self.dt
+            hd.targets(t0, hd.pin_from)
+            hd.targets(t0 + n * self.dt, hd.pin_to)
+            k, status = kern.physical_steps(n * sub, h, s.x, s.v, s.a, model_arrays, ft,
+                                            hd.tuple(), contact, scratch)
+            done += (k + sub - 1) // sub
+        self.min_tet_volume_ratio = float(self._min_j[0])
+        return done, status
+
+    # -- handles --------------------------------------------------------------------------
+    def _require_physical(self, what):
+        if not self.physical:
+            raise SceneError(f"{what} needs the physical path (a body with a FEM material: "
+                             "jellysim.physics.policy.physical_model)")
+
+    def pin(self, indices, path=None) -> None:
+        """Pin points (indices into the body) where they are now; with ``path`` (rows
+        ``[t, dx, dy, dz]``, s and m, or a :class:`~jellysim.handles.PinPath`) they follow
+        the offsets from there, linearly between keyframes (absolute simulation times)."""
+        from .handles import PinPath
+
+        self._require_physical("pinning points")
+        idx = np.unique(np.asarray(indices, dtype=np.int64))
+        hd = self.handles
+        hd.pinned[idx] = 1
+        hd.pin_anchor[idx] = self.state.x[idx]
+        self.state.v[idx] = 0.0
+        hd.paths = [(i, p) for i, p in hd.paths if not np.isin(i, idx).any()]
+        if path is not None:
+            hd.paths.append((idx, path if isinstance(path, PinPath) else PinPath.of(path)))
+
+    def unpin(self, indices=None) -> None:
+        """Release pinned points (all when ``indices`` is None)."""
+        hd = self.handles
+        idx = np.flatnonzero(hd.pinned) if indices is None else np.asarray(indices)
+        hd.pinned[idx] = 0
+        hd.paths = [(i, p) for i, p in hd.paths if not np.isin(i, idx).any()]
+
+    def apply_force(self, indices, force, *, total: bool = True) -> None:
+        """Constant force [N], shape (3,), on the points (replacing an earlier one there):
+        split evenly with ``total`` (default), else on each point."""
+        self._require_physical("point forces")
+        idx = np.unique(np.asarray(indices, dtype=np.int64))
+        f = np.asarray(force, dtype=np.float64).reshape(3)
+        self.handles.point_force[idx] = f / len(idx) if total else f
+
+    def set_gravity_scale(self, indices, scale: float) -> None:
+        """Gravity on the points is multiplied by ``scale`` [-]."""
+        self._require_physical("a gravity scale")
+        self.handles.gravity_scale[np.asarray(indices, dtype=np.int64)] = float(scale)
+
+    def drag(self, point: int | None, target=None, stiffness: float | None = None) -> None:
+        """Pull ``point`` towards ``target`` [m] with a spring of ``stiffness`` [N/m]
+        (default: strong enough to move the whole body's weight by 1 cm); ``None`` releases."""
+        self._require_physical("dragging")
+        d = self.handles.drag
+        if point is None:
+            d[0] = -1.0
+            return
+        if stiffness is None:
+            stiffness = self.model.total_mass * float(np.linalg.norm(self.model.gravity)) / 0.01
+        d[0] = float(int(point))
+        d[1:4] = np.asarray(target, dtype=np.float64).reshape(3)
+        d[4] = float(stiffness)
 
     def check_stability(self) -> StabilityEstimate:
         """Estimate the largest stable dt; warn when ``dt`` exceeds it."""
@@ -183,7 +322,9 @@ class Simulator:
         previous = numba.get_num_threads()
         numba.set_num_threads(max(1, min(self.threads, numba.config.NUMBA_NUM_THREADS)))
         try:
-            if self.integrator is Integrator.IMPLICIT:
+            if self.physical:
+                done, status = self._advance_physical(int(steps))
+            elif self.integrator is Integrator.IMPLICIT:
                 done, status = self._advance_implicit(int(steps))
             else:
                 done, status = self._advance_explicit(int(steps))

@@ -1,0 +1,133 @@
+"""Handles: ways to hold and push a jello (physical path).
+
+* **pins**: points fixed where they are, or moved along a path of keyframes (kinematic
+  targets, linear between keyframes, relative to where the points were when pinned);
+* **point forces**: a constant force [N] on chosen points (a total split evenly);
+* **gravity scale**: per-point factor on gravity (0: weightless, e.g. a buoyant part);
+* **drag**: one point pulled towards a target by a spring (the viewer's mouse).
+
+Points are chosen with :func:`select_points` (box, sphere or index list).  The arrays live in a
+:class:`Handles` record the :class:`~jellysim.simulator.Simulator` owns; the kernels read them
+every step.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import SceneError
+
+__all__ = ["Handles", "PinPath", "select_points"]
+
+
+def select_points(points: np.ndarray, *, box=None, sphere=None, indices=None,
+                  what: str = "selection") -> np.ndarray:
+    """Indices (int64, sorted) of ``points`` [m], shape (n, 3), inside an axis-aligned
+    ``box = (lower, upper)`` [m], a ``sphere = (center, radius)`` [m], or given as
+    ``indices``.  Exactly one of the three; an empty selection is an error naming ``what``."""
+    given = [name for name, val in (("box", box), ("sphere", sphere), ("indices", indices))
+             if val is not None]
+    if len(given) != 1:
+        raise SceneError(f"{what}: give exactly one of box, sphere or indices "
+                         f"(got {', '.join(given) or 'none'})")
+    p = np.asarray(points, dtype=np.float64)
+    n = p.shape[0]
+    if indices is not None:
+        idx = np.asarray(indices)
+        if idx.ndim != 1 or not np.issubdtype(idx.dtype, np.integer):
+            raise SceneError(f"{what}: indices must be a list of integers")
+        if idx.size and (idx.min() < 0 or idx.max() >= n):
+            raise SceneError(f"{what}: indices must lie in [0, {n - 1}]")
+        out = np.unique(idx.astype(np.int64))
+    elif box is not None:
+        try:
+            lo, hi = (np.asarray(b, dtype=np.float64).reshape(3) for b in box)
+        except (TypeError, ValueError):
+            raise SceneError(f"{what}: box must be [[x0, y0, z0], [x1, y1, z1]] in metres") \
+                from None
+        out = np.flatnonzero(np.all((p >= lo) & (p <= hi), axis=1))
+    else:
+        try:
+            center = np.asarray(sphere[0], dtype=np.float64).reshape(3)
+            radius = float(sphere[1])
+        except (TypeError, ValueError, IndexError):
+            raise SceneError(f"{what}: sphere must be ([x, y, z], radius) in metres") from None
+        out = np.flatnonzero(np.sum((p - center) ** 2, axis=1) <= radius * radius)
+    if out.size == 0:
+        raise SceneError(f"{what} holds no point of the body; widen it "
+                         f"(body spans {p.min(axis=0).round(4).tolist()} to "
+                         f"{p.max(axis=0).round(4).tolist()} m)")
+    return out
+
+
+@dataclass
+class PinPath:
+    """Keyframes of a kinematic pin: times [s], shape (k,), increasing, and offsets [m],
+    shape (k, 3), from the pinned points' positions at pinning time.  Before the first time
+    the first offset holds, after the last the last one."""
+
+    times: np.ndarray
+    offsets: np.ndarray
+
+    @classmethod
+    def of(cls, path, what: str = "pin path") -> "PinPath":
+        try:
+            arr = np.asarray(path, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise SceneError(f"{what}: give rows [t, dx, dy, dz] (s, m)") from None
+        if arr.ndim != 2 or arr.shape[1] != 4 or arr.shape[0] < 1:
+            raise SceneError(f"{what}: give rows [t, dx, dy, dz] (s, m), got shape "
+                             f"{arr.shape}")
+        if not np.all(np.isfinite(arr)):
+            raise SceneError(f"{what}: every number must be finite")
+        if np.any(np.diff(arr[:, 0]) <= 0):
+            raise SceneError(f"{what}: times must increase strictly")
+        return cls(arr[:, 0].copy(), arr[:, 1:].copy())
+
+    def offset(self, t: float) -> np.ndarray:
+        """Offset [m], shape (3,), at time t [s] (linear between keyframes)."""
+        return np.array([np.interp(t, self.times, self.offsets[:, c]) for c in range(3)])
+
+
+@dataclass
+class Handles:
+    """Per-point handle arrays read by the physical kernels (n points)."""
+
+    gravity_scale: np.ndarray
+    """Factor on gravity [-], shape (n,)."""
+    point_force: np.ndarray
+    """External force [N], shape (n, 3)."""
+    pinned: np.ndarray
+    """1 where a point is pinned, shape (n,), int8."""
+    pin_anchor: np.ndarray
+    """Where each pinned point was when pinned [m], shape (n, 3)."""
+    pin_from: np.ndarray
+    """Pin targets at the start of the current batch [m], shape (n, 3)."""
+    pin_to: np.ndarray
+    """Pin targets at its end [m], shape (n, 3)."""
+    drag: np.ndarray
+    """``[point, tx, ty, tz, k]``: point (-1: none) pulled to the target [m] by k [N/m]."""
+    paths: list = field(default_factory=list)
+    """``(indices, PinPath)`` of the moving pins."""
+
+    @classmethod
+    def empty(cls, n: int) -> "Handles":
+        return cls(np.ones(n), np.zeros((n, 3)), np.zeros(n, dtype=np.int8), np.zeros((n, 3)),
+                   np.zeros((n, 3)), np.zeros((n, 3)), np.array([-1.0, 0, 0, 0, 0]))
+
+    @property
+    def active(self) -> bool:
+        return bool(self.pinned.any() or self.point_force.any() or self.drag[0] >= 0
+                    or np.any(self.gravity_scale != 1.0))
+
+    def targets(self, t: float, out: np.ndarray) -> None:
+        """Pin targets at time t [s] into ``out`` (pinned rows only)."""
+        pinned = self.pinned != 0
+        out[pinned] = self.pin_anchor[pinned]
+        for idx, path in self.paths:
+            out[idx] = self.pin_anchor[idx] + path.offset(t)
+
+    def tuple(self):
+        return (self.gravity_scale, self.point_force, self.pinned, self.pin_from, self.pin_to,
+                self.drag)

@@ -1,0 +1,195 @@
+"""Tetrahedral finite elements for the physical path: a material that does not invert.
+
+A spring network lets points pass through their neighbours (nothing in it resists a tet turning
+inside out), which is why soft spring bodies fold on impact.  Bodies with tets (Delaunay,
+marching, TetGen and radius bodies) get, per tet, the **Stable Neo-Hookean** energy of
+B. Smith, F. de Goes, T. Kim, "Stable Neo-Hookean Flesh Simulation", ACM TOG 37(2), 2018::
+
+    Psi(F) = mu/2 (I_C - 3) + lam/2 (J - alpha)^2 - mu/2 log(I_C + 1),   alpha = 1 + 3 mu / (4 lam)
+
+(``F``: deformation gradient, ``I_C = |F|^2``, ``J = det F``), which is defined and pushes back
+for inverted tets (``J <= 0``) and whose volume term keeps volume.  Its parameters come from
+Young's modulus and Poisson's ratio through the Lame constants with the paper's re-mapping
+(section 3.4) ``mu = 4/3 mu_L``, ``lam = lam_L + 5/6 mu_L``, so that its linearisation at rest
+*is* linear elasticity with (E, nu): tested against finite differences in tests/test_fem.py.
+
+**Material damping** (:func:`damping_parameters`) is a standard linear solid: a Maxwell branch
+in parallel with the elastic law, its stress ``g C : (E_G - Q)`` a fraction ``g`` of the linear
+elastic law applied to the Green strain ``E_G`` minus an internal strain ``Q`` per tet that
+relaxes towards ``E_G`` with time ``tau``.  Every vibration of any shape then sees the same
+complex modulus ``C (1 + g i w tau / (1 + i w tau))``: the loss factor
+``tan d = g w tau / (1 + (1 + g) w^2 tau^2)``, the damping ratio of a mode ``zeta = tan d / 2``.
+``g`` and ``tau`` are chosen so that the loss factor peaks at the requested frequency with
+``zeta`` there.  The branch is integrated exactly (``Q`` decays as ``exp(-dt / tau)``), so it
+costs no stability; it is rotation invariant (Green strain), so rigid motion is never damped.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["FemArrays", "fem_arrays", "lame_parameters", "snh_parameters",
+           "damping_parameters"]
+
+
+def lame_parameters(youngs_modulus: float, poisson_ratio: float) -> tuple[float, float]:
+    """Lame constants ``(mu_L, lam_L)`` [Pa] of an isotropic linear material."""
+    E, nu = float(youngs_modulus), float(poisson_ratio)
+    return E / (2.0 * (1.0 + nu)), E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+
+
+def snh_parameters(youngs_modulus: float, poisson_ratio: float) -> tuple[float, float, float]:
+    """Stable Neo-Hookean ``(mu, lam, alpha)`` [Pa, Pa, -] whose linearisation at rest is the
+    linear material with Young's modulus E [Pa] and Poisson's ratio nu (Smith et al. 2018,
+    section 3.4)."""
+    mu_l, lam_l = lame_parameters(youngs_modulus, poisson_ratio)
+    mu = 4.0 / 3.0 * mu_l
+    lam = lam_l + 5.0 / 6.0 * mu_l
+    return mu, lam, 1.0 + 0.75 * mu / lam
+
+
+def damping_parameters(zeta: float, frequency: float) -> tuple[float, float]:
+    """Standard-linear-solid branch ``(g, tau)`` [-, s] whose damping ratio peaks at
+    ``frequency`` [Hz] with the value ``zeta``.
+
+    With ``s = sqrt(1 + g)`` the loss factor ``g w tau / (1 + s^2 w^2 tau^2)`` peaks at
+    ``w tau = 1 / s`` with ``(s^2 - 1) / (2 s)``; setting that to ``2 zeta`` gives
+    ``s = 2 zeta + sqrt(4 zeta^2 + 1)``.  ``zeta = 0`` gives ``(0, 0)`` (no branch).
+    """
+    zeta, frequency = float(zeta), float(frequency)
+    if zeta == 0.0:
+        return 0.0, 0.0
+    s = 2.0 * zeta + math.sqrt(4.0 * zeta * zeta + 1.0)
+    return s * s - 1.0, 1.0 / (2.0 * math.pi * frequency * s)
+
+
+def loss_factor(frequency, g: float, tau: float):
+    """Loss factor ``tan d`` [-] of the damping branch at ``frequency`` [Hz] (array or float);
+    the damping ratio of a vibration at that frequency is half of it."""
+    wt = 2.0 * np.pi * np.asarray(frequency, dtype=np.float64) * tau
+    return g * wt / (1.0 + (1.0 + g) * wt * wt)
+
+
+def storage_factor(frequency, g: float, tau: float):
+    """Storage modulus at ``frequency`` [Hz] over the static modulus [-]: the branch stiffens
+    fast vibrations by ``1 + g w^2 tau^2 / (1 + w^2 tau^2)``."""
+    wt2 = (2.0 * np.pi * np.asarray(frequency, dtype=np.float64) * tau) ** 2
+    return 1.0 + g * wt2 / (1.0 + wt2)
+
+
+@dataclass(frozen=True, eq=False)
+class FemArrays:
+    """Per-tet data of the physical material, built once (read-only arrays, SI units).
+
+    Each tet's force on its four corners is computed once into a per-tet buffer; every point
+    then gathers its corners' entries through ``point_tet_ptr``/``point_tet_slot`` (a CSR list
+    in tet order), so sums are race-free and in a fixed order.
+    """
+
+    tets: np.ndarray
+    """Corner indices, shape (t, 4), int32, positively oriented at rest."""
+    rest_inverse: np.ndarray
+    """Inverse of the rest edge matrix ``[x1-x0, x2-x0, x3-x0]`` [1/m], shape (t, 3, 3)."""
+    rest_volume: np.ndarray
+    """Rest volumes [m^3], shape (t,), all > 0."""
+    mu: np.ndarray
+    """Stable Neo-Hookean mu [Pa], shape (t,)."""
+    lam: np.ndarray
+    """Stable Neo-Hookean lambda [Pa], shape (t,)."""
+    alpha: np.ndarray
+    """Rest-stability offset ``1 + 3 mu / (4 lam)`` [-], shape (t,)."""
+    mu_lame: np.ndarray
+    """Linear shear modulus [Pa], shape (t,): the damping branch's law."""
+    lam_lame: np.ndarray
+    """Linear Lame lambda [Pa], shape (t,)."""
+    point_tet_ptr: np.ndarray
+    """CSR offsets [-], shape (n + 1,), int64: the corner slots of point p are
+    ``point_tet_slot[point_tet_ptr[p]:point_tet_ptr[p+1]]``."""
+    point_tet_slot: np.ndarray
+    """Corner slots ``4 t + c`` [-], shape (4 t,), int64, grouped by point, in tet order."""
+    youngs_modulus: float
+    """E [Pa]."""
+    poisson_ratio: float
+    """nu [-]."""
+    damping_ratio: float
+    """zeta [-] at ``damping_frequency``."""
+    damping_frequency: float
+    """Frequency [Hz] at which the damping ratio is ``damping_ratio``."""
+    branch_ratio: float
+    """Damping branch stiffness over the elastic stiffness ``g`` [-]."""
+    branch_time: float
+    """Damping branch relaxation time ``tau`` [s] (0: no branch)."""
+
+    @property
+    def tet_count(self) -> int:
+        return int(self.tets.shape[0])
+
+
+def _frozen(a, dtype):
+    a = np.ascontiguousarray(a, dtype=dtype)
+    a.setflags(write=False)
+    return a
+
+
+def fem_arrays(points: np.ndarray, tets: np.ndarray, *, youngs_modulus: float,
+               poisson_ratio: float, damping_ratio: float = 0.0,
+               damping_frequency: float = 5.0) -> FemArrays:
+    """Per-tet arrays for ``tets`` (shape (t, 4)) over rest ``points`` [m], shape (n, 3).
+
+    Tets are oriented positively; degenerate ones (volume below 1e-12 of the mean) are refused.
+    """
+    p = np.asarray(points, dtype=np.float64)
+    n = p.shape[0]
+    t = np.asarray(tets, dtype=np.int64).reshape(-1, 4)
+    if t.shape[0] == 0:
+        raise ValueError("the physical material needs tetrahedra; this body has none")
+    if t.min() < 0 or t.max() >= n:
+        raise ValueError(f"tet indices must lie in [0, {n - 1}]")
+    E, nu = float(youngs_modulus), float(poisson_ratio)
+    if not (math.isfinite(E) and E > 0):
+        raise ValueError(f"youngs_modulus must be a positive number of Pa, got {youngs_modulus}")
+    if not (-0.5 < nu < 0.5):
+        raise ValueError(f"poisson_ratio must lie in (-0.5, 0.5), got {poisson_ratio}")
+    if not (math.isfinite(damping_ratio) and 0.0 <= damping_ratio < 1.0):
+        raise ValueError(f"damping_ratio must lie in [0, 1), got {damping_ratio}")
+    if not (math.isfinite(damping_frequency) and damping_frequency > 0):
+        raise ValueError(f"damping_frequency must be a positive number of Hz, got "
+                         f"{damping_frequency}")
+    d = np.stack([p[t[:, c]] - p[t[:, 0]] for c in (1, 2, 3)], axis=2)  # columns: edges
+    det = np.linalg.det(d)
+    flip = det < 0
+    t = t.copy()
+    t[flip, 2], t[flip, 3] = t[flip, 3], t[flip, 2].copy()
+    d[flip, :, 1], d[flip, :, 2] = d[flip, :, 2], d[flip, :, 1].copy()
+    det = np.abs(det)
+    if np.any(det <= 1e-12 * det.mean()):
+        bad = int(np.argmin(det))
+        raise ValueError(f"tet {bad} is degenerate (volume {det[bad] / 6:.3g} m^3); rebuild "
+                         "the body or drop slivers")
+    inv = np.linalg.inv(d)
+    vol = det / 6.0
+    mu, lam, alpha = snh_parameters(E, nu)
+    mu_l, lam_l = lame_parameters(E, nu)
+    g, tau = damping_parameters(damping_ratio, damping_frequency)
+    m = t.shape[0]
+    corner = t.ravel()
+    order = np.argsort(corner, kind="stable")
+    ptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(corner, minlength=n), out=ptr[1:])
+    full = lambda value: np.full(m, value)  # noqa: E731
+    return FemArrays(
+        tets=_frozen(t, np.int32), rest_inverse=_frozen(inv, np.float64),
+        rest_volume=_frozen(vol, np.float64), mu=_frozen(full(mu), np.float64),
+        lam=_frozen(full(lam), np.float64), alpha=_frozen(full(alpha), np.float64),
+        mu_lame=_frozen(full(mu_l), np.float64), lam_lame=_frozen(full(lam_l), np.float64),
+        point_tet_ptr=_frozen(ptr, np.int64), point_tet_slot=_frozen(order, np.int64),
+        youngs_modulus=E, poisson_ratio=nu, damping_ratio=float(damping_ratio),
+        damping_frequency=float(damping_frequency), branch_ratio=g, branch_time=tau)
+
+
+def lumped_masses(points: np.ndarray, fem: FemArrays, density: float) -> np.ndarray:
+    """Point masses [kg], shape (n,): a quarter of each incident tet's mass."""
+    w = np.repeat(float(density) * fem.rest_volume / 4.0, 4)
+    return np.bincount(fem.tets.ravel(), weights=w, minlength=len(points)).astype(np.float64)
