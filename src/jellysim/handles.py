@@ -131,3 +131,81 @@ class Handles:
     def tuple(self):
         return (self.gravity_scale, self.point_force, self.pinned, self.pin_from, self.pin_to,
                 self.drag)
+
+
+HANDLE_KINDS = {"pin": "fix points, or move them along 'path'",
+                "force": "a constant total 'force' [N] split over the points",
+                "gravity": "multiply gravity on the points by 'scale'"}
+_HANDLE_KEYS = {"kind", "box", "sphere", "indices", "path", "force", "scale"}
+
+
+def validate_handle_tables(entries, name: str) -> list[dict]:
+    """Check ``[[handle]]`` tables of a scene: ``kind`` ('pin', 'force', 'gravity'), one
+    selection (``box = [[x0, y0, z0], [x1, y1, z1]]``, ``sphere = {center = [...], radius =
+    r}``, ``indices = [...]``), and ``path`` (pin, optional: rows [t, dx, dy, dz]), ``force``
+    ([fx, fy, fz] N, total), ``scale`` (gravity factor)."""
+    if isinstance(entries, dict):
+        entries = [entries]
+    if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+        raise SceneError(f"{name}: handles are tables: write [[handle]] (double brackets) "
+                         "before each one")
+    out = []
+    for k, entry in enumerate(entries, start=1):
+        where = f"{name}: [[handle]] #{k}"
+        extra = sorted(set(entry) - _HANDLE_KEYS)
+        if extra:
+            raise SceneError(f"{where}: unknown key '{extra[0]}'; allowed: "
+                             + ", ".join(sorted(_HANDLE_KEYS)))
+        kind = entry.get("kind")
+        if kind not in HANDLE_KINDS:
+            raise SceneError(f"{where} kind = {kind!r}: expected one of "
+                             + "; ".join(f"'{k}' ({v})" for k, v in HANDLE_KINDS.items()))
+        chosen = [key for key in ("box", "sphere", "indices") if key in entry]
+        if len(chosen) != 1:
+            raise SceneError(f"{where}: give exactly one selection: box = [[x0, y0, z0], "
+                             "[x1, y1, z1]], sphere = {center = [x, y, z], radius = r} or "
+                             "indices = [i, j, ...]")
+        sphere = entry.get("sphere")
+        if sphere is not None and not (isinstance(sphere, dict)
+                                       and set(sphere) == {"center", "radius"}):
+            raise SceneError(f"{where}: sphere must be {{center = [x, y, z], radius = r}} (m)")
+        needs = {"pin": (), "force": ("force",), "gravity": ("scale",)}[kind]
+        for key in needs:
+            if key not in entry:
+                raise SceneError(f"{where}: kind = '{kind}' needs '{key}'")
+        allowed = {"pin": {"path"}, "force": {"force"}, "gravity": {"scale"}}[kind]
+        stray = [key for key in ("path", "force", "scale") if key in entry and key not in allowed]
+        if stray:
+            raise SceneError(f"{where}: '{stray[0]}' is not used by kind = '{kind}'")
+        if "path" in entry:
+            PinPath.of(entry["path"], what=f"{where} path")
+        if "force" in entry:
+            try:
+                f = np.asarray(entry["force"], dtype=np.float64).reshape(3)
+            except (TypeError, ValueError):
+                raise SceneError(f"{where}: force must be [fx, fy, fz] (N)") from None
+            if not np.all(np.isfinite(f)):
+                raise SceneError(f"{where}: force must be finite")
+        if "scale" in entry and not (isinstance(entry["scale"], (int, float))
+                                     and np.isfinite(entry["scale"])):
+            raise SceneError(f"{where}: scale must be a finite number")
+        out.append(dict(entry, _where=f"[[handle]] #{k}"))
+    return out
+
+
+def apply_handle_tables(sim, tables) -> None:
+    """Apply validated ``[[handle]]`` tables to a :class:`~jellysim.simulator.Simulator`;
+    points are selected at their positions when the run starts."""
+    x = sim.state.x
+    for entry in tables:
+        sphere = entry.get("sphere")
+        idx = select_points(x, box=entry.get("box"),
+                            sphere=None if sphere is None else (sphere["center"],
+                                                                sphere["radius"]),
+                            indices=entry.get("indices"), what=entry["_where"])
+        if entry["kind"] == "pin":
+            sim.pin(idx, path=entry.get("path"))
+        elif entry["kind"] == "force":
+            sim.apply_force(idx, entry["force"])
+        else:
+            sim.set_gravity_scale(idx, entry["scale"])

@@ -182,7 +182,8 @@ class MaterialModel(str, Enum):
 
 @dataclass(frozen=True)
 class Material:
-    """A real material for the physical path (SI units).
+    """A real material for the physical path (SI units).  The defaults are the gelatin preset
+    (:mod:`jellysim.presets`).
 
     ``damping_ratio`` is the fraction of critical damping of a vibration at
     ``damping_frequency`` (a standard linear solid, :func:`jellysim.physics.fem.
@@ -194,9 +195,11 @@ class Material:
     """[kg/m^3]."""
     youngs_modulus: float = 1.0e4
     """E [Pa]."""
-    poisson_ratio: float = 0.4
-    """nu [-], in (-0.5, 0.5) (FEM only; springs are 1/4)."""
-    damping_ratio: float = 0.0
+    poisson_ratio: float = 0.48
+    """nu [-], in (-0.5, 0.5) (FEM only; springs are 1/4).  Gelatin is nearly incompressible
+    (~0.5); 0.48 is the lowest value measured that keeps a 5 kPa ball dropped 50 cm from
+    inverting a tet (docs/physics.md) without locking the linear tets badly."""
+    damping_ratio: float = 0.02
     """zeta [-] at ``damping_frequency`` (FEM only)."""
     damping_frequency: float = 5.0
     """[Hz]."""

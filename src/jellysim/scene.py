@@ -91,8 +91,21 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                        "constants and hacks).", choices=("gelatin", "paper-2010")),
         "density": _pos("Density [kg/m^3]; point masses = density x the volume each point "
                         "owns (overrides [mass] density).", None, " (kg/m^3)"),
-        "youngs_modulus": _pos("Young's modulus E [Pa]: every spring's stiffness is derived so "
-                               "the network's modulus is E (docs/physics.md).", None, " (Pa)"),
+        "youngs_modulus": _pos("Young's modulus E [Pa] of a physical material: Stable "
+                               "Neo-Hookean tets (model 'fem') or calibrated springs (model "
+                               "'springs'), docs/physics.md.", None, " (Pa)"),
+        "model": Spec("str", "auto", "Physical material model: 'fem' (tets that resist "
+                      "inversion and keep volume; needs a tet body), 'springs' (the report's "
+                      "springs, each k derived from E) or 'auto' (fem when the body has tets).",
+                      choices=("auto", "fem", "springs")),
+        "poisson_ratio": Spec("float", 0.48, "Poisson's ratio nu of the fem model (gelatin: "
+                              "nearly incompressible).", lambda v: -0.5 < v < 0.5,
+                              "a number in (-0.5, 0.5)"),
+        "damping_ratio": Spec("float", 0.0, "Fem model: fraction of critical damping zeta of a "
+                              "vibration at damping_frequency (a standard linear solid).",
+                              lambda v: 0 <= v < 1, "a number in [0, 1)"),
+        "damping_frequency": _pos("Fem model: frequency [Hz] at which the damping ratio "
+                                  "holds (the loss peak).", 5.0, " (Hz)"),
     },
     "mass": {
         "density": _pos("Density [kg/m^3]; total mass = density x volume, split evenly.",
@@ -116,8 +129,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         choices=("numba", "numpy")),
         "threads": Spec("int", None, "Numba threads (default: by problem size).",
                         lambda v: v >= 1, "an integer >= 1"),
-        "substeps": Spec("int", 1, "Steps of dt / substeps per step.", lambda v: v >= 1,
-                         "an integer >= 1"),
+        "substeps": Spec("int", None, "Steps of dt / substeps per step (default: 1, or for "
+                         "a fem material as many as its stability estimate needs).",
+                         lambda v: v >= 1, "an integer >= 1"),
         "scheme": Spec("str", "theta", "Implicit: 'theta' (one step, see theta) or 'bdf2' "
                        "(two-step, second order: keeps a frame-rate wobble, 0.90 of its "
                        "energy per period at 2.8 Hz and dt = 1/60 s; less robust through "
@@ -319,6 +333,9 @@ class Scene:
         out: dict[str, dict] = {}
         raw = dict(raw)
         obstacles = Scene._validate_obstacles(raw.pop("obstacle", []), name)
+        from .handles import validate_handle_tables
+
+        handles = validate_handle_tables(raw.pop("handle", []), name)
         for section in raw:
             if section not in SCHEMA:
                 near = difflib.get_close_matches(section, SCHEMA, n=1)
@@ -374,6 +391,7 @@ class Scene:
             raise SceneError(f"{name}: [body] upper = {b['upper']} must exceed lower = "
                              f"{b['lower']} in every coordinate")
         out["obstacle"] = obstacles
+        out["handle"] = handles
         return out
 
     @staticmethod
@@ -490,7 +508,12 @@ class Scene:
                                distribution=b["distribution"], seed=b["seed"])
         springs = radius_springs(points, s["radius"])
         volume = float(np.prod(np.subtract(b["upper"], b["lower"])))
-        return Body(points=points, springs=springs, volume=volume,
+        tets = None
+        if b["distribution"] == "grid":
+            from .geometry.lattice import grid_tets
+
+            tets = grid_tets(points)
+        return Body(points=points, springs=springs, volume=volume, tets=tets,
                     meta={"builder": "box", "distribution": b["distribution"],
                           "seed": b["seed"], "connect": "radius", "radius": s["radius"]})
 
@@ -502,6 +525,9 @@ class Scene:
         mat = self.params["material"]
         density = mat["density"] if mat["density"] is not None else m["density"]
         try:
+            model = self._material_model(body)
+            if model is not None:
+                return model
             if mat["youngs_modulus"] is not None:
                 from dataclasses import replace
 
@@ -521,6 +547,34 @@ class Scene:
                             damping=ph["damping"], gravity=ph["gravity"])
         except ValueError as exc:
             raise SceneError(f"{self.name}: {exc}") from None
+
+    def material(self):
+        """The scene's :class:`~jellysim.params.Material` (``None`` without youngs_modulus)."""
+        from .params import Material
+
+        mat = self.params["material"]
+        if mat["youngs_modulus"] is None:
+            return None
+        density = mat["density"] if mat["density"] is not None else (
+            self.params["mass"]["density"])
+        return Material(density=density, youngs_modulus=mat["youngs_modulus"],
+                        poisson_ratio=mat["poisson_ratio"], damping_ratio=mat["damping_ratio"],
+                        damping_frequency=mat["damping_frequency"],
+                        model="springs" if mat["model"] == "springs" else "fem")
+
+    def _material_model(self, body):
+        """The fem model of the body (``[material] model`` 'fem', or 'auto' with tets), else
+        ``None`` (the springs path below)."""
+        mat = self.params["material"]
+        material = self.material()
+        if material is None or mat["model"] == "springs":
+            return None
+        if mat["model"] == "auto" and (body.tets is None or len(body.tets) == 0):
+            return None
+        from .physics.policy import physical_model
+
+        ph = self.params["physics"]
+        return physical_model(body, material, gravity=ph["gravity"], damping=ph["damping"])
 
     def provot_params(self):
         from .params import ProvotOrder, ProvotPairs, ProvotParams
@@ -547,13 +601,28 @@ class Scene:
 
         kw = dict(dt=it["dt"], integrator=it["name"], provot=self.provot_params(),
                   ground=self.ground_params(), backend=it["backend"], threads=it["threads"],
-                  substeps=it["substeps"],
+                  substeps=it["substeps"] if it["substeps"] is not None else "auto",
                   implicit=ImplicitParams(scheme=it["scheme"], theta=it["theta"],
                                           tolerance=it["cg_tolerance"],
                                           max_iterations=it["cg_max_iterations"]),
                   obstacles=self.obstacles())
+        if getattr(model, "fem", None) is not None:
+            if it["name"] != "symplectic":
+                raise SceneError(
+                    f"{self.name}: [integrator] name = {it['name']!r}: a fem material is "
+                    "integrated by symplectic substeps; set name = 'symplectic' (or [material] "
+                    "model = 'springs' for the springs path)")
+            kw["provot"] = self.provot_params().__class__(enabled=False)
         kw.update(overrides)
-        return Simulator(model, **kw)
+        sim = Simulator(model, **kw)
+        if self.params.get("handle"):
+            from .handles import apply_handle_tables
+
+            try:
+                apply_handle_tables(sim, self.params["handle"])
+            except SceneError as exc:
+                raise SceneError(f"{self.name}: {exc}") from None
+        return sim
 
     @property
     def steps(self) -> int:

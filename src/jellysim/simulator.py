@@ -85,8 +85,13 @@ class Simulator:
             raise SceneError(
                 f"a body with a physical (FEM) material is integrated by symplectic substeps "
                 f"(integrator = 'symplectic', the default); got '{self.integrator.value}'")
+        if self.physical and provot.enabled:
+            raise SceneError("Provot strain limiting is not used by the physical (FEM) path: "
+                             "its tets keep their shape; disable it")
+        self.needed_substeps = self._auto_substeps(model, dt) if self.physical else 1
+        """Substeps the stability estimate asks for (physical path)."""
         if substeps == "auto":
-            substeps = self._auto_substeps(model, dt) if self.physical else 1
+            substeps = self.needed_substeps
         try:
             self.substeps = int(substeps)
         except (TypeError, ValueError):
@@ -94,6 +99,12 @@ class Simulator:
                 from None
         if self.substeps < 1:
             raise SceneError(f"substeps must be an integer >= 1 or 'auto', got {substeps}")
+        if self.physical and self.substeps < self.needed_substeps:
+            warnings.warn(
+                f"substeps = {self.substeps} gives a substep of {dt / self.substeps:.3g} s, above "
+                f"the physical path's stable substep {dt / self.needed_substeps:.3g} s for this "
+                f"material and mesh: use substeps >= {self.needed_substeps} (or 'auto')",
+                StabilityWarning, stacklevel=2)
         self.implicit = implicit
         if self.integrator is Integrator.IMPLICIT:
             if provot.enabled:

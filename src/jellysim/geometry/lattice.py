@@ -41,3 +41,33 @@ def grid_point_volumes(points: np.ndarray) -> np.ndarray:
         on_face = np.isclose(points[:, c], coords[0]) | np.isclose(points[:, c], coords[-1])
         vol *= np.where(on_face, 0.5 * h, h)
     return vol
+
+
+def grid_tets(points: np.ndarray) -> np.ndarray:
+    """Kuhn tetrahedra (6 per cell, around each cell's main diagonal; conforming) of a full box
+    grid in :func:`grid_points` order.  Returns indices, shape (6 cells, 4), int64, positively
+    oriented."""
+    import itertools
+
+    points = np.asarray(points, dtype=np.float64)
+    counts = [len(np.unique(points[:, c])) for c in range(3)]
+    if int(np.prod(counts)) != points.shape[0]:
+        raise ValueError("grid_tets needs a full box grid (grid_points)")
+    idx = np.arange(points.shape[0]).reshape(counts)
+    nx, ny, nz = (c - 1 for c in counts)
+    tets = []
+    for perm in itertools.permutations(range(3)):
+        corner = [np.zeros(3, dtype=int)]
+        for a in perm:
+            c = corner[-1].copy()
+            c[a] = 1
+            corner.append(c)
+        cols = [idx[c[0]:c[0] + nx, c[1]:c[1] + ny, c[2]:c[2] + nz].ravel() for c in corner]
+        tets.append(np.stack(cols, axis=1))
+    tets = np.concatenate(tets).astype(np.int64)
+    a = points[tets[:, 0]]
+    vol = np.einsum("ij,ij->i", points[tets[:, 1]] - a,
+                    np.cross(points[tets[:, 2]] - a, points[tets[:, 3]] - a))
+    neg = vol < 0
+    tets[neg, 2], tets[neg, 3] = tets[neg, 3], tets[neg, 2].copy()
+    return tets

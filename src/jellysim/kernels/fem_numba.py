@@ -94,7 +94,7 @@ def _one_tet(t, x, fem, g, decay, q, tet_force):
         dxx = exx - qq[0]
         dyy = eyy - qq[1]
         dzz = ezz - qq[2]
-        tr = lam_l[t] * (dxx + dyy + dzz)
+        tr = -2.0 * mu_l[t] * (dxx + dyy + dzz) / 3.0  # deviatoric branch
         two = 2.0 * mu_l[t]
         sxx = g * (two * dxx + tr)
         syy = g * (two * dyy + tr)

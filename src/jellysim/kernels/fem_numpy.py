@@ -7,7 +7,7 @@ Per tet (``F = Ds Dm^-1``, ``Ds = [x1 - x0, x2 - x0, x3 - x0]``)::
 
     P = mu (1 - 1 / (I_C + 1)) F + lam (J - alpha) cof(F)            Stable Neo-Hookean
     E_G = (F^T F - I) / 2;  Q <- E_G + (Q - E_G) exp(-dt / tau)          damping branch state
-    P += F g (lam_L tr(E_G - Q) I + 2 mu_L (E_G - Q))                    its stress
+    P += F g 2 mu_L dev(E_G - Q)                                         its stress
     H = -V P Dm^-T;  f1, f2, f3 = columns of H;  f0 = -(f1 + f2 + f3)
 
 ``cof(F) = dJ/dF`` has the columns ``F1 x F2, F2 x F0, F0 x F1``.  The forces of tet t on its
@@ -50,7 +50,7 @@ def tet_forces(x, fem, g, decay, q, tet_force, tet_j):
             S[:, i, j] = 2.0 * mu_l * d[:, a]
             S[:, j, i] = S[:, i, j]
         for i in range(3):
-            S[:, i, i] += lam_l * tr
+            S[:, i, i] -= 2.0 * mu_l * tr / 3.0  # deviatoric: 2 mu_L dev(E_G - Q)
         P = P + g * (F @ S)
     H = -vol[:, None, None] * (P @ np.transpose(dm_inv, (0, 2, 1)))
     f = tet_force.reshape(-1, 4, 3)

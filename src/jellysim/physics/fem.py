@@ -13,12 +13,14 @@ Young's modulus and Poisson's ratio through the Lame constants with the paper's 
 (section 3.4) ``mu = 4/3 mu_L``, ``lam = lam_L + 5/6 mu_L``, so that its linearisation at rest
 *is* linear elasticity with (E, nu): tested against finite differences in tests/test_fem.py.
 
-**Material damping** (:func:`damping_parameters`) is a standard linear solid: a Maxwell branch
-in parallel with the elastic law, its stress ``g C : (E_G - Q)`` a fraction ``g`` of the linear
-elastic law applied to the Green strain ``E_G`` minus an internal strain ``Q`` per tet that
-relaxes towards ``E_G`` with time ``tau``.  Every vibration of any shape then sees the same
-complex modulus ``C (1 + g i w tau / (1 + i w tau))``: the loss factor
-``tan d = g w tau / (1 + (1 + g) w^2 tau^2)``, the damping ratio of a mode ``zeta = tan d / 2``.
+**Material damping** (:func:`damping_parameters`) is a standard linear solid in shear: a
+Maxwell branch in parallel with the elastic law, its stress ``2 g mu_L dev(E_G - Q)`` a fraction
+``g`` of the shear part of the linear law applied to the Green strain ``E_G`` minus an internal
+strain ``Q`` per tet that relaxes towards ``E_G`` with time ``tau``.  A shear vibration then sees
+the complex shear modulus ``mu_L (1 + g i w tau / (1 + i w tau))``: the loss factor
+``tan d = g w tau / (1 + (1 + g) w^2 tau^2)``, the damping ratio of a mode ``zeta = tan d / 2``
+(exactly so for a nearly incompressible body, whose vibrations store almost all their energy in
+shear; volume changes are not damped).
 ``g`` and ``tau`` are chosen so that the loss factor peaks at the requested frequency with
 ``zeta`` there.  The branch is integrated exactly (``Q`` decays as ``exp(-dt / tau)``), so it
 costs no stability; it is rotation invariant (Green strain), so rigid motion is never damped.
@@ -193,3 +195,18 @@ def lumped_masses(points: np.ndarray, fem: FemArrays, density: float) -> np.ndar
     """Point masses [kg], shape (n,): a quarter of each incident tet's mass."""
     w = np.repeat(float(density) * fem.rest_volume / 4.0, 4)
     return np.bincount(fem.tets.ravel(), weights=w, minlength=len(points)).astype(np.float64)
+
+
+def elastic_energy(fem: FemArrays, x: np.ndarray) -> float:
+    """Stored Stable Neo-Hookean energy [J] of the tets at positions ``x`` [m], shape (n, 3)
+    (zero at rest; the damping branch's energy is not included)."""
+    t = fem.tets
+    x0 = x[t[:, 0]]
+    ds = np.stack([x[t[:, c]] - x0 for c in (1, 2, 3)], axis=2)
+    F = ds @ fem.rest_inverse
+    ic = np.einsum("tij,tij->t", F, F)
+    J = np.linalg.det(F)
+    mu, lam, alpha = fem.mu, fem.lam, fem.alpha
+    psi = (0.5 * mu * (ic - 3.0) + 0.5 * lam * (J - alpha) ** 2
+           - 0.5 * mu * np.log(ic + 1.0) + 0.5 * mu * np.log(4.0) - 0.5 * lam * (1.0 - alpha) ** 2)
+    return float(np.sum(fem.rest_volume * psi))
