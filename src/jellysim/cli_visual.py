@@ -89,13 +89,17 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
 @_size_opt
 @click.option("--no-usd", is_flag=True, help="Skip demo.usdc.")
 @click.option("--quiet", is_flag=True, help="No progress bars.")
-def demo(out_dir, frames, size, no_usd, quiet):
-    """A jello cow dropped on a table: writes OUT/demo.mp4 and OUT/demo.usdc."""
+@click.option("--scene", type=click.Choice(["jelly", "cow"]), default="jelly",
+              show_default=True,
+              help="jelly: a fluted gelatin mould tossed onto a plate; cow: Spot dropped on it "
+                   "(writes demo_cow.*).")
+def demo(out_dir, frames, size, no_usd, quiet, scene):
+    """Real gelatin on a plate: writes OUT/demo.mp4 and OUT/demo.usdc."""
     from .demo import run_demo
 
     try:
         r = run_demo(out_dir, frames=frames, size=_size(size), usd=not no_usd,
-                     progress=not quiet)
+                     progress=not quiet, scene=scene)
     except JellysimError as exc:
         _fail(str(exc))
     s = r["seconds"]

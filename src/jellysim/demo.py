@@ -1,8 +1,9 @@
-"""``jellysim demo``: a jello cow (Spot, shipped in ``jellysim/data``) dropped on a table.
+"""``jellysim demo``: a fluted gelatin jelly tossed onto a plate (``--scene cow``: Spot the
+cow, shipped in ``jellysim/data``, dropped on it).
 
 Everything physical about the demo lives in :data:`DEMO_SCENE` (a scene dictionary in the
 format of :mod:`jellysim.scene`; its ``[body]`` table is unused because the body comes from
-:func:`build_demo_body`).  Switching to another material preset or integrator is one edit there.
+:func:`build_demo_body`) and the shapes in :data:`DEMO_SHAPES`.
 """
 from __future__ import annotations
 
@@ -11,74 +12,94 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["DEMO_SCENE", "DEMO_SHAPE", "build_demo_body", "demo_mesh", "run_demo"]
+__all__ = ["DEMO_SCENE", "DEMO_SHAPE", "DEMO_SHAPES", "build_demo_body", "demo_mesh",
+           "run_demo"]
 
-DEMO_SHAPE = {
-    "length": 0.10,        # [m] longest side of the cow: dessert size
-    "drop_height": 0.02,   # [m] gap between the hooves and the table at t = 0
-    "points": 1500,        # points sampled inside (surface points are added)
-    "connect": "delaunay",
-    "seed": 7,
+DEMO_SHAPES = {
+    "jelly": {
+        "mesh": "mould",        # jellysim.geometry.shapes.jelly_mould: 8.7 cm wide, 5 cm tall
+        "length": 0.087,        # [m] largest extent
+        "drop_height": 0.03,    # [m] gap between the jello and the plate at t = 0
+        "velocity": [0.35, 0.0, 0.0],  # [m/s] tossed sideways: it lands, slides, sways
+        "points": 2500,         # grid nodes inside (marching grid snapped to the surface)
+        "connect": "marching",
+        "seed": 7,
+    },
+    "cow": {
+        "mesh": "spot",         # Spot the cow (public domain, Keenan Crane), data/spot.obj
+        "length": 0.10,
+        "drop_height": 0.02,
+        "velocity": [0.0, 0.0, 0.0],
+        "points": 3000,
+        "connect": "marching",
+        "seed": 7,
+    },
 }
-"""Geometry of the demo body (built by :func:`jellysim.build.build_body`)."""
+"""Geometry of the demo bodies (built by :func:`jellysim.build.build_body`)."""
+DEMO_SHAPE = DEMO_SHAPES["jelly"]
 
 DEMO_SCENE = {
     # unused by the demo (its body comes from build_demo_body), required by the scene format
     "body": {"type": "box", "points": 2},
     "springs": {"radius": 1.0},
-    # real gelatin: density 1141 kg/m^3, springs calibrated to Young's modulus E, the physical
-    # contact ground (restitution 0.3, Coulomb friction 0.6), the implicit integrator at a
-    # frame-rate step.  E = 100 kPa is a firm gelatin (about 4:1 water:gelatin in the source
-    # the preset cites, docs/physics.md): a cow's legs are slender columns, and at the
-    # preset's dessert-soft 10 kPa a 10 cm cow buckles onto its belly, as a real one would.
-    "material": {"preset": "gelatin", "youngs_modulus": 1.0e5},
-    "integrator": {"name": "implicit", "dt": 1.0 / 60.0, "substeps": 2, "steps": 180},
+    # real dessert gelatin (the preset: 1141 kg/m^3, E = 10 kPa, Poisson's ratio 0.48, damping
+    # ratio 0.02 at 5 Hz; Stable Neo-Hookean tets), the contact ground (restitution 0.3,
+    # Coulomb friction 0.6), symplectic substeps chosen from the stability estimate
+    "material": {"preset": "gelatin"},
+    "integrator": {"dt": 1.0 / 60.0, "steps": 180},
     "output": {"every": 2, "vtu": False},
 }
 """Physical settings of the demo (scene format): 3 s simulated, 30 frames per second."""
 
 
-def demo_mesh():
-    """Spot the cow (public domain, Keenan Crane): vertices [m] (m, 3), faces (f, 3), scaled to
-    ``DEMO_SHAPE['length']``, standing on y = ``drop_height``, centred in x and z."""
-    import trimesh
+def demo_mesh(name: str = "jelly"):
+    """The demo's surface: vertices [m] (m, 3), faces (f, 3), scaled to the shape's
+    ``length``, standing ``drop_height`` above y = 0, centred in x and z."""
+    shape = DEMO_SHAPES[name]
+    if shape["mesh"] == "mould":
+        from .geometry.shapes import jelly_mould
 
-    with resources.as_file(resources.files("jellysim") / "data" / "spot.obj") as p:
-        mesh = trimesh.load(p, process=False, force="mesh")
-    mesh.merge_vertices(merge_tex=True, merge_norm=True)
-    v = np.asarray(mesh.vertices, dtype=np.float64)
-    v = v * (DEMO_SHAPE["length"] / np.ptp(v, axis=0).max())
+        v, f = jelly_mould()
+    else:
+        import trimesh
+
+        with resources.as_file(resources.files("jellysim") / "data" / "spot.obj") as p:
+            mesh = trimesh.load(p, process=False, force="mesh")
+        mesh.merge_vertices(merge_tex=True, merge_norm=True)
+        v, f = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)
+    v = v * (shape["length"] / np.ptp(v, axis=0).max())
     lo, hi = v.min(axis=0), v.max(axis=0)
-    v -= [0.5 * (lo[0] + hi[0]), lo[1] - DEMO_SHAPE["drop_height"], 0.5 * (lo[2] + hi[2])]
-    return v, np.asarray(mesh.faces, dtype=np.int64)
+    v = v - [0.5 * (lo[0] + hi[0]), lo[1] - shape["drop_height"], 0.5 * (lo[2] + hi[2])]
+    return v, np.asarray(f, dtype=np.int64)
 
 
-def build_demo_body():
-    """The demo's jello body and its skin: ``(Body, Skin)``: Spot sampled and tetrahedralized
-    by :func:`jellysim.build.build_body` (Delaunay, tets carved by the exact inside test), the
-    skin Spot itself bound to the body's tets."""
+def build_demo_body(name: str = "jelly"):
+    """The demo's jello body and its skin: ``(Body, Skin)``: the surface filled with a
+    marching grid (its boundary snapped onto the surface) by :func:`jellysim.build.build_body`,
+    the skin the surface itself bound to the body's tets."""
     import warnings
 
     from .build import build_body
     from .geometry.mesh import Mesh
     from .skin import bind_body_skin
 
-    verts, faces = demo_mesh()
+    shape = DEMO_SHAPES[name]
+    verts, faces = demo_mesh(name)
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # Spot is clean; nothing to report
-        body = build_body(Mesh.from_arrays(verts, faces, name="spot.obj"),
-                          points=DEMO_SHAPE["points"], connect=DEMO_SHAPE["connect"],
-                          density=DEMO_SCENE["material"].get("density", 1141.0),
-                          seed=DEMO_SHAPE["seed"])
-    body.meta.update(builder="demo-spot", **DEMO_SHAPE)
+        warnings.simplefilter("ignore")  # both surfaces are clean; nothing to report
+        body = build_body(Mesh.from_arrays(verts, faces, name=f"{name}.obj"),
+                          points=shape["points"], connect=shape["connect"],
+                          seed=shape["seed"])
+    body.meta.update(builder=f"demo-{name}", **{k: v for k, v in shape.items()})
     return body, bind_body_skin(body, verts, faces)
 
 
 def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: bool = True,
-             progress: bool = True, vtu: bool = False) -> dict:
-    """Simulate the demo and write ``<out_dir>/demo.mp4`` (+ ``demo.usdc``); the run itself
-    goes to ``<out_dir>/demo/``.  ``frames`` limits the number of saved frames (CI).
-    Returns the paths written and timings [s]."""
+             progress: bool = True, vtu: bool = False, scene: str = "jelly") -> dict:
+    """Simulate a demo scene (``"jelly"``: a fluted gelatin mould tossed onto a plate;
+    ``"cow"``: Spot dropped on it) and write ``<out_dir>/demo.mp4`` (+ ``demo.usdc``; the cow:
+    ``demo_cow.*``); the run itself goes to ``<out_dir>/demo/`` (``demo_cow/``).  ``frames``
+    limits the number of saved frames (CI).  Returns the paths written and timings [s]."""
     import time
 
     from .io.trajectory import load_trajectory
@@ -89,21 +110,29 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
 
     t0 = time.perf_counter()
     out_dir = Path(out_dir)
-    scene = Scene.from_dict(DEMO_SCENE, name="demo")
-    body, skin = build_demo_body()
-    steps = scene.steps if frames is None else max(1, int(frames) - 1) * scene.frame_every
-    result = run_scene(scene, out_dir / "demo", progress=progress, vtu=vtu, steps=steps,
+    if scene not in DEMO_SHAPES:
+        from .errors import JellysimError
+
+        raise JellysimError(f"unknown demo scene {scene!r}; choose one of "
+                            + ", ".join(DEMO_SHAPES))
+    stem = "demo" if scene == "jelly" else f"demo_{scene}"
+    raw = dict(DEMO_SCENE, body=dict(DEMO_SCENE["body"], velocity=DEMO_SHAPES[scene]["velocity"]))
+    sc = Scene.from_dict(raw, name="demo")
+    body, skin = build_demo_body(scene)
+    steps = sc.steps if frames is None else max(1, int(frames) - 1) * sc.frame_every
+    result = run_scene(sc, out_dir / stem, progress=progress, vtu=vtu, steps=steps,
                        skin=skin, body=body)
     t_sim = time.perf_counter()
     traj = load_trajectory(result.trajectory)
-    video = render_trajectory(traj, out_dir / "demo.mp4", RenderOptions(size=size),
+    video = render_trajectory(traj, out_dir / f"{stem}.mp4",
+                              RenderOptions(size=size, plate=True, opacity=0.85),
                               progress=progress)
     t_render = time.perf_counter()
     written = {"trajectory": result.trajectory, "video": video}
     if usd:
         from .io.usd import export_usd
 
-        written["usd"] = export_usd(traj, out_dir / "demo.usdc")
+        written["usd"] = export_usd(traj, out_dir / f"{stem}.usdc")
     written["seconds"] = {"simulate": t_sim - t0, "render": t_render - t_sim,
                           "total": time.perf_counter() - t0}
     written["points"] = body.point_count

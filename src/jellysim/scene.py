@@ -70,6 +70,7 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "upper": Spec("vec3", [1.0, 1.0, 1.0], "Upper box corner [m]."),
         "seed": Spec("int", 0, "Random seed (same seed, same points).", lambda v: v >= 0,
                      "an integer >= 0"),
+        "velocity": Spec("vec3", [0.0, 0.0, 0.0], "Initial velocity of every point [m/s]."),
     },
     "springs": {
         "connect": Spec("str", "radius", "Spring builder: 'radius' (report: implicit); for "
@@ -615,6 +616,7 @@ class Scene:
             kw["provot"] = self.provot_params().__class__(enabled=False)
         kw.update(overrides)
         sim = Simulator(model, **kw)
+        sim.state.v[:] = np.asarray(self.params["body"]["velocity"], dtype=np.float64)
         if self.params.get("handle"):
             from .handles import apply_handle_tables
 

@@ -31,6 +31,10 @@ class RenderOptions:
     """Draw the skin (or the body's surface triangles when it has no skin)."""
     floor: bool = True
     """Draw the floor at the ground height."""
+    shadow: bool = True
+    """Draw a contact shadow: the skin's silhouette on the floor, straight below it."""
+    plate: bool = False
+    """Draw a round white plate on the floor under the body's starting position."""
     background: str = "#f4f1ec"
     """Background colour."""
 
@@ -131,7 +135,23 @@ class Renderer:
             p.add_mesh(floor, color="#cfc8bd", ambient=0.35, diffuse=0.7, specular=0.0,
                        name="floor")
             extra = np.array([[lo[0], floor_y, lo[2]], [hi[0], floor_y, hi[2]]])
+            if o.plate:
+                x0 = np.asarray(traj.positions[0])
+                mid = 0.5 * (x0.min(axis=0) + x0.max(axis=0))
+                radius = 0.8 * float(np.max(np.ptp(x0[:, [0, 2]], axis=0)))
+                plate = pv.Cylinder(center=(mid[0], floor_y + 0.002 * ext, mid[2]),
+                                    direction=(0, 1, 0), radius=radius, height=0.004 * ext,
+                                    resolution=96)
+                p.add_mesh(plate, color="#fbfaf7", ambient=0.4, diffuse=0.7, specular=0.2,
+                           name="plate")
+                self._floor_y = floor_y + 0.0045 * ext
+            else:
+                self._floor_y = floor_y + 0.0005 * ext
         self.camera = frame_motion(motion, self.size, extra_points=extra)
+        self.shadow = None
+        if o.floor and o.shadow and self._surface_frames is not None:
+            self.shadow = pv.PolyData(self._shadow_points(0), _faces(faces))
+            p.add_mesh(self.shadow, color="#6f685f", lighting=False, name="shadow")
 
         self.surface = self.points = self.springs = None
         if self._surface_frames is not None:
@@ -151,9 +171,16 @@ class Renderer:
                        name="springs")
         self.camera.apply(p)
 
+    def _shadow_points(self, f: int) -> np.ndarray:
+        pts = np.array(self._surface_frames(f), dtype=np.float64)
+        pts[:, 1] = self._floor_y
+        return pts
+
     def set_frame(self, f: int) -> None:
         """Move every drawn mesh to frame ``f``."""
         x = self.traj.positions[f]
+        if self.shadow is not None:
+            self.shadow.points = self._shadow_points(f)
         if self.surface is not None:
             self.surface.points = np.asarray(self._surface_frames(f))
             self.surface.compute_normals(inplace=True, cell_normals=False, split_vertices=False)
