@@ -227,3 +227,28 @@ def test_pinned_points_moved_along_a_path_drag_the_body():
     c = m @ sim.state.x / m.sum()
     assert c[0] - c0[0] == pytest.approx(0.05, abs=0.002)
     assert c[2] - c0[2] == pytest.approx(0.0, abs=0.002)
+
+
+def test_mouse_drag_pulls_the_jello():
+    """The viewer's mouse spring (DragController, no window): pressing on the ray through a
+    corner grabs the nearest point; moving the cursor 3 cm sideways pulls the body after it;
+    releasing lets go."""
+    from jellysim.live import DragController
+
+    body = _box((3, 3, 3), (0.03, 0.03, 0.03))
+    model = physical_model(body, gelatin(damping_ratio=0.3, damping_frequency=8.0))
+    sim = Simulator(model, dt=1 / 60, ground=_ground())
+    ctl = DragController(sim)
+    corner = np.array([0.03, 0.03, 0.03])
+    origin = corner + [0.0, 0.0, 1.0]  # a camera looking along -z at the corner
+    grabbed = ctl.press(origin, [0.0, 0.0, -1.0])
+    assert np.allclose(model.particle_x0[grabbed], corner)
+    target = ctl.move(origin + [0.03, 0.0, 0.0], [0.0, 0.0, -1.0])
+    assert np.allclose(target, corner + [0.03, 0.0, 0.0])
+    m = model.particle_mass
+    c0 = m @ sim.state.x[:, 0] / m.sum()
+    sim.advance(60)
+    assert m @ sim.state.x[:, 0] / m.sum() - c0 > 0.005  # the body followed
+    assert abs(sim.state.x[grabbed, 0] - target[0]) < 0.01
+    ctl.release()
+    assert sim.handles.drag[0] == -1

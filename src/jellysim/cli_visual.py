@@ -211,9 +211,22 @@ def export(trajectory, output, sequence, fps, max_frames):
               help="Draw the window, save it to this PNG and close (no interaction).")
 def view(trajectory, show, size, color, opacity, no_floor, fps, screenshot):
     """Interactive window over TRAJECTORY: play/pause (check box or space), scrub (slider),
-    orbit (mouse)."""
+    orbit (mouse).  Given a scene file (.toml) instead, it simulates live and the right mouse
+    button pulls the jello (a spring to the cursor)."""
     from .viewer import view_trajectory
 
+    if str(trajectory).endswith(".toml"):
+        from .live import view_live
+        from .scene import Scene
+
+        try:
+            view_live(Scene.load(trajectory), size=_size(size), screenshot=screenshot,
+                      frames=30 if screenshot else 0)
+        except JellysimError as exc:
+            _fail(str(exc))
+        if screenshot:
+            click.echo(f"wrote {screenshot}")
+        return
     try:
         traj = _load(trajectory)
         view_trajectory(traj, _options(size, color, opacity, show, no_floor), fps=fps,

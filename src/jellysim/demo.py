@@ -21,7 +21,7 @@ DEMO_SHAPES = {
         "length": 0.087,        # [m] largest extent
         "drop_height": 0.03,    # [m] gap between the jello and the plate at t = 0
         "velocity": [0.35, 0.0, 0.0],  # [m/s] tossed sideways: it lands, slides, sways
-        "points": 2500,         # grid nodes inside (marching grid snapped to the surface)
+        "points": 1500,         # grid nodes inside (marching grid snapped to the surface)
         "connect": "marching",
         "seed": 7,
     },
