@@ -542,6 +542,10 @@ class Scene:
         from .simulator import Simulator
 
         model = self.build_model() if model is None else model
+        return Simulator(model, **self.simulator_kwargs(**overrides))
+
+    def simulator_kwargs(self, **overrides) -> dict:
+        """The keyword arguments :meth:`simulator` passes to the Simulator."""
         it = self.params["integrator"]
         from .params import ImplicitParams
 
@@ -553,7 +557,7 @@ class Scene:
                                           max_iterations=it["cg_max_iterations"]),
                   obstacles=self.obstacles())
         kw.update(overrides)
-        return Simulator(model, **kw)
+        return kw
 
     @property
     def steps(self) -> int:
