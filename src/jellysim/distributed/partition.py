@@ -64,7 +64,8 @@ def partition_points(points: np.ndarray, spring_ij: np.ndarray, parts: int, *,
                               "pip install 'jellysim[mpi]'") from None
         xadj, adjncy = point_graph(n, spring_ij)
         opts = pymetis.Options(seed=0)
-        _, membership = pymetis.part_graph(parts, xadj=xadj, adjncy=adjncy, options=opts)
+        adjacency = pymetis.CSRAdjacency(adj_starts=xadj, adjacent=adjncy)
+        _, membership = pymetis.part_graph(parts, adjacency=adjacency, options=opts)
         owner = np.asarray(membership, dtype=np.int32)
         if np.unique(owner).size != parts:
             raise ValueError(f"METIS left a rank without points ({n} points, {parts} ranks)")
