@@ -14,7 +14,11 @@ scaling, N proportional to P for weak scaling)::
 
     mpiexec -n 2 python -m benchmarks.bench_mpi step --points 100000 --threads 1
 
-It reports steps/s (median of the timed windows, each window ``--steps`` steps), per rank the
+Bitwise equality with the serial Simulator on rank 0 (one JSON line)::
+
+    mpiexec -n 3 python -m benchmarks.bench_mpi check --points 100000 --steps 20
+
+``step`` reports steps/s (median of the timed windows, each window ``--steps`` steps), per rank the
 seconds spent in the ghost exchange and the status agreement vs in the local step, ghost
 points and halo bytes sent per step, and the load average (other processes share the cores).
 """
@@ -94,6 +98,33 @@ def step(args) -> None:
                           "per_rank": ranks, "loadavg_1min": os.getloadavg()[0]}))
 
 
+def check(args) -> None:
+    """Distributed run vs the serial Simulator on rank 0: bitwise equal positions?"""
+    from mpi4py import MPI
+
+    from jellysim.distributed import DistributedSimulator
+    from jellysim.params import GroundParams, ProvotParams
+    from jellysim.simulator import Simulator
+
+    comm = MPI.COMM_WORLD
+    model = comm.bcast(make_model(args.points) if comm.Get_rank() == 0 else None, root=0)
+    kw = dict(dt=1e-3, integrator=args.integrator, provot=ProvotParams(loops=args.loops,
+              tau=0.001), ground=GroundParams(), check_stability=False)
+    sim = DistributedSimulator(model, comm=comm, threads=1, partition=args.partition, **kw)
+    sim.advance(args.steps)
+    state = sim.gather(0)
+    if comm.Get_rank() == 0:
+        serial = Simulator(model, threads=1, **kw)
+        serial.advance(args.steps)
+        print(json.dumps({"bench": "mpi_check", "ranks": comm.Get_size(),
+                          "points": model.particle_count, "steps": args.steps,
+                          "integrator": args.integrator, "provot_loops": args.loops,
+                          "partition": args.partition,
+                          "x_bitwise_equal": bool(np.array_equal(state.x, serial.state.x)),
+                          "v_bitwise_equal": bool(np.array_equal(state.v, serial.state.v)),
+                          "moved_m": float(np.abs(state.x - model.particle_x0).max())}))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="what", required=True)
@@ -105,8 +136,14 @@ def main() -> None:
     s.add_argument("--repeats", type=int, default=5)
     s.add_argument("--threads", type=int, default=1)
     s.add_argument("--partition", default="morton", choices=["morton", "metis"])
+    c = sub.add_parser("check")
+    c.add_argument("--points", type=int, default=100000)
+    c.add_argument("--steps", type=int, default=20)
+    c.add_argument("--loops", type=int, default=2)
+    c.add_argument("--integrator", default="paper", choices=["paper", "symplectic"])
+    c.add_argument("--partition", default="morton", choices=["morton", "metis"])
     args = ap.parse_args()
-    halo(args) if args.what == "halo" else step(args)
+    {"halo": halo, "step": step, "check": check}[args.what](args)
 
 
 if __name__ == "__main__":

@@ -237,3 +237,13 @@ def test_a_failing_rank_ends_the_job_with_a_clear_error_not_a_hang(tmp_path, mod
     assert len(frames) >= 2
     for f in frames:
         assert ET.parse(out / f.get("file")).getroot().tag == "VTKFile"
+
+
+@needs_mpi
+def test_a_bad_scene_under_mpiexec_is_one_clear_error(tmp_path):
+    scene = tmp_path / "bad.toml"
+    scene.write_text((DATA / "paper_springs.toml").read_text().replace("loops = 3",
+                                                                        "loopz = 3"))
+    proc, _ = _mpirun(2, "-m", "jellysim.cli", "run", str(scene), "--out", str(tmp_path / "o"))
+    assert proc.returncode == 2
+    assert proc.stderr.count("error:") == 1 and "[provot] unknown key 'loopz'" in proc.stderr

@@ -22,21 +22,6 @@ from ..runner import RunResult
 __all__ = ["run_scene_distributed", "cli_run"]
 
 
-def _bcast_or_raise(comm, fn):
-    """Run ``fn`` on rank 0 and broadcast its result; a JellysimError there is re-raised on
-    every rank (as the same type and message) instead of leaving the others waiting."""
-    payload = None
-    if comm.Get_rank() == 0:
-        try:
-            payload = ("ok", fn())
-        except JellysimError as exc:
-            payload = ("error", exc)
-    kind, value = comm.bcast(payload, root=0)
-    if kind == "error":
-        raise value
-    return value
-
-
 def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
                           vtu: bool | None = None, steps: int | None = None,
                           partition: str = "morton", skin="auto") -> RunResult | None:
@@ -45,7 +30,7 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
     from ..io.trajectory import Recorder
     from ..io.vtk import PVDSeries
     from .partition import partition_points
-    from .simulator import DistributedSimulator, world
+    from .simulator import DistributedSimulator, on_root, world
 
     comm = world() if comm is None else comm
     rank, size = comm.Get_rank(), comm.Get_size()
@@ -57,7 +42,7 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
             model = scene.build_model()
         return model, [str(w.message) for w in caught]
 
-    model, messages = _bcast_or_raise(comm, build)
+    model, messages = on_root(comm, build)
 
     def split():
         from .local import replicated_reason
@@ -67,7 +52,7 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
         return partition_points(model.particle_x0, model.spring_ij, min(parts,
                                 model.particle_count), method=partition)
 
-    owner = _bcast_or_raise(comm, split)
+    owner = on_root(comm, split)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         sim = DistributedSimulator(model, comm=comm, owner=owner, **scene.simulator_kwargs())

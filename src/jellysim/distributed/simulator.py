@@ -21,7 +21,7 @@ from ..state import State
 from .local import LocalPart, combine_status, halo_depth, replicated_reason
 from .partition import partition_points
 
-__all__ = ["DistributedSimulator", "world", "launched_under_mpi"]
+__all__ = ["DistributedSimulator", "on_root", "world", "launched_under_mpi"]
 
 _SIZE_VARS = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MV2_COMM_WORLD_SIZE", "PMIX_SIZE")
 
@@ -46,6 +46,21 @@ def world():
         raise SceneError("running under mpiexec needs mpi4py and an MPI library: "
                          "pip install 'jellysim[mpi]'") from None
     return MPI.COMM_WORLD
+
+
+def on_root(comm, fn):
+    """``fn()`` run on rank 0 and broadcast to every rank; an exception there is raised on
+    every rank (the same type and message) instead of leaving the others waiting."""
+    payload = None
+    if comm.Get_rank() == 0:
+        try:
+            payload = (True, fn())
+        except Exception as exc:  # noqa: BLE001 (re-raised on every rank below)
+            payload = (False, exc)
+    ok, value = comm.bcast(payload, root=0)
+    if not ok:
+        raise value
+    return value
 
 
 class DistributedSimulator:
@@ -101,9 +116,9 @@ class DistributedSimulator:
         self.replicated = replicated_reason(self.integrator, provot)
         if self.replicated is None and size > n:
             self.replicated = f"more ranks ({size}) than points ({n})"
-        if owner is None:
-            owner = partition_points(x0, model.spring_ij, 1 if self.replicated else size,
-                                     method=partition)
+        if owner is None:  # computed once, on rank 0, so every rank has the same
+            owner = on_root(self.comm, lambda: partition_points(
+                x0, model.spring_ij, 1 if self.replicated else size, method=partition))
         self.owner = np.asarray(owner, dtype=np.int32)
         if self.owner.shape != (n,) or self.owner.min() < 0 or self.owner.max() >= size:
             raise ValueError(f"owner must have shape ({n},) with values in [0, {size})")
