@@ -178,8 +178,8 @@ def _serial(scene_path, out):
 
 
 @needs_mpi
-@pytest.mark.parametrize("scene,ranks", [("paper_springs", 2), ("paper_springs", 3),
-                                         ("symplectic_contact", 3), ("paper_cube", 2)])
+@pytest.mark.parametrize("scene,ranks", [("paper_springs", 2), ("symplectic_contact", 3),
+                                         ("paper_cube", 2)])
 def test_mpiexec_run_is_bitwise_equal_to_serial(tmp_path, scene, ranks):
     path = (ROOT / "examples" / "paper_cube.toml" if scene == "paper_cube"
             else DATA / f"{scene}.toml")
