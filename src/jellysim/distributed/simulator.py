@@ -72,7 +72,7 @@ class DistributedSimulator:
     partition: ``"morton"`` (contiguous Z-order ranges) or ``"metis"`` (graph partition).
     owner: owner rank of each point, shape (n,) (overrides ``partition``); must be the same
         on every rank.
-    threads: numba threads per rank (default: the cores divided among the ranks).
+    threads: numba threads per rank (default: the cores divided among the ranks on the node).
 
     ``state`` is this rank's *local* state (owned points and ghosts, local numbering);
     :meth:`gather` assembles the global one on one rank.  Results (positions, velocities,
@@ -103,10 +103,13 @@ class DistributedSimulator:
         self.provot, self.ground, self.implicit = provot, ground, implicit
         self.dt_step = self.dt / self.substeps
         n = model.particle_count
-        if threads is None:
+        if threads is None:  # the node's cores divided among the ranks on this node
             import numba
+            from mpi4py import MPI
 
-            threads = max(1, numba.config.NUMBA_NUM_THREADS // size)
+            node = self.comm.Split_type(MPI.COMM_TYPE_SHARED)
+            threads = max(1, numba.config.NUMBA_NUM_THREADS // node.Get_size())
+            node.Free()
         x0 = model.particle_x0
         self.center = np.ascontiguousarray(x0.mean(axis=0))
         if runaway_distance is None:
