@@ -33,9 +33,21 @@ def cli() -> None:
               help="Also export the skin to this .usdc (see 'jellysim export').")
 @click.option("--glb", type=click.Path(dir_okay=False), default=None,
               help="Also export the skin to this glTF .glb.")
-def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None) -> None:
-    """Simulate SCENE_FILE (TOML) and write trajectory.npz and body.pvd."""
+@click.option("--partition", type=click.Choice(["morton", "metis"]), default="morton",
+              show_default=True, help="Under mpiexec: how points are split among ranks.")
+def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None,
+        partition="morton") -> None:
+    """Simulate SCENE_FILE (TOML) and write trajectory.npz and body.pvd (under
+    'mpiexec -n N': on N ranks, docs/mpi.md)."""
     from pathlib import Path
+
+    from .distributed.simulator import launched_under_mpi
+
+    if launched_under_mpi():
+        from .distributed.runner import cli_run
+
+        return cli_run(scene_file, out_dir, steps=steps, no_vtu=no_vtu, quiet=quiet,
+                       partition=partition, video=video, usd=usd, glb=glb)
 
     from .runner import run_scene
     from .scene import Scene

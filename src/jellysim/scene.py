@@ -594,9 +594,28 @@ class Scene:
                             friction=g["friction"], static_friction=g["static_friction"])
 
     def simulator(self, model=None, **overrides):
+        """A :class:`~jellysim.simulator.Simulator` of the scene: its options, the initial
+        velocity and the ``[[handle]]`` tables applied."""
         from .simulator import Simulator
 
         model = self.build_model() if model is None else model
+        sim = Simulator(model, **self.simulator_kwargs(model, **overrides))
+        self.prepare(sim)
+        return sim
+
+    def prepare(self, sim) -> None:
+        """Set the scene's initial velocity and handles on a new simulator."""
+        sim.state.v[:] = np.asarray(self.params["body"]["velocity"], dtype=np.float64)
+        if self.params.get("handle"):
+            from .handles import apply_handle_tables
+
+            try:
+                apply_handle_tables(sim, self.params["handle"])
+            except SceneError as exc:
+                raise SceneError(f"{self.name}: {exc}") from None
+
+    def simulator_kwargs(self, model=None, **overrides) -> dict:
+        """The keyword arguments :meth:`simulator` passes to the Simulator (for ``model``)."""
         it = self.params["integrator"]
         from .params import ImplicitParams
 
@@ -615,16 +634,7 @@ class Scene:
                     "model = 'springs' for the springs path)")
             kw["provot"] = self.provot_params().__class__(enabled=False)
         kw.update(overrides)
-        sim = Simulator(model, **kw)
-        sim.state.v[:] = np.asarray(self.params["body"]["velocity"], dtype=np.float64)
-        if self.params.get("handle"):
-            from .handles import apply_handle_tables
-
-            try:
-                apply_handle_tables(sim, self.params["handle"])
-            except SceneError as exc:
-                raise SceneError(f"{self.name}: {exc}") from None
-        return sim
+        return kw
 
     @property
     def steps(self) -> int:

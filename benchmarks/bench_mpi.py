@@ -1,0 +1,150 @@
+"""MPI: halo sizes of the two partitions, and steps/s on 1..P ranks (docs/mpi.md).
+
+Body: the bench_step recipe, N uniform points in a 1 m cube resting on the ground, radius
+springs r = 0.3 (600 / N)^(1/3) (about 33 springs per point), k = 2 N/m, delta = 0.8 kg/s,
+1141 kg/m^3; the report's integrator with one Jacobi Provot pass over the springs and the
+report's ground (one ghost layer), dt = 1 ms.
+
+Halo sizes (no MPI needed)::
+
+    python -m benchmarks.bench_mpi halo --points 10000
+
+Throughput (rank 0 prints one JSON line; run it for P = 1, 2, ... with the same N for strong
+scaling, N proportional to P for weak scaling)::
+
+    mpiexec -n 2 python -m benchmarks.bench_mpi step --points 100000 --threads 1
+
+Bitwise equality with the serial Simulator on rank 0 (one JSON line)::
+
+    mpiexec -n 3 python -m benchmarks.bench_mpi check --points 100000 --steps 20
+
+``step`` reports steps/s (median of the timed windows, each window ``--steps`` steps), per rank the
+seconds spent in the ghost exchange and the status agreement vs in the local step, ghost
+points and halo bytes sent per step, and the load average (other processes share the cores).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+import numpy as np
+
+
+def make_model(n: int, seed: int = 1):
+    from jellysim import Body, finalize
+    from jellysim.geometry import box_field, radius_springs
+
+    pts = box_field(n, [0, 0, 0], [1, 1, 1], seed=seed)
+    r = 0.3 * (600 / n) ** (1 / 3)
+    body = Body(points=pts, springs=radius_springs(pts, r), volume=1.0)
+    return finalize(body, stiffness=2.0, density=1141.0, damping=0.8)
+
+
+def halo(args) -> None:
+    from jellysim.distributed import halo_stats
+
+    m = make_model(args.points)
+    rows = []
+    for parts in (2, 3, 4, 8, 16):
+        for method in ("morton", "metis"):
+            for depth in (1, 2):
+                st = halo_stats(m.particle_x0, m.spring_ij, parts, method=method, depth=depth)
+                rows.append({k: st[k] for k in ("method", "parts", "depth", "ghosts_total",
+                                                "cut_springs")}
+                            | {"ghosts_max": max(st["ghosts"]),
+                               "ghost_fraction": st["ghosts_total"] / st["points"]})
+    print(json.dumps({"bench": "mpi_halo", "points": m.particle_count,
+                      "springs": m.spring_count, "rows": rows}))
+
+
+def step(args) -> None:
+    from mpi4py import MPI
+
+    from jellysim.distributed import DistributedSimulator
+    from jellysim.params import GroundParams, ProvotParams
+
+    comm = MPI.COMM_WORLD
+    rank, size = comm.Get_rank(), comm.Get_size()
+    t0 = time.perf_counter()
+    model = comm.bcast(make_model(args.points) if rank == 0 else None, root=0)
+    build_s = time.perf_counter() - t0
+    sim = DistributedSimulator(model, comm=comm, dt=1e-3, integrator="paper",
+                               provot=ProvotParams(loops=1, tau=0.001),
+                               ground=GroundParams(), threads=args.threads,
+                               check_stability=False, partition=args.partition)
+    sim.advance(2)  # warm up (loads the compiled kernels)
+    windows, comm_s = [], []
+    b0 = sim.halo_bytes
+    for _ in range(args.repeats):
+        comm.Barrier()
+        c0, t = sim.comm_seconds, time.perf_counter()
+        sim.advance(args.steps)
+        windows.append(time.perf_counter() - t)
+        comm_s.append(sim.comm_seconds - c0)
+    per_step_bytes = (sim.halo_bytes - b0) / (args.repeats * args.steps)
+    finite = bool(np.all(np.isfinite(sim.state.x)))
+    mine = {"comm_s": float(np.sum(comm_s)), "total_s": float(np.sum(windows)),
+            "ghosts": int((~sim.part.owned).sum()), "owned": int(sim.part.owned.sum()),
+            "halo_bytes_per_step": per_step_bytes, "finite": finite}
+    ranks = comm.gather(mine, root=0)
+    if rank == 0:
+        med = float(np.median(windows))
+        print(json.dumps({"bench": "mpi_step", "ranks": size, "threads_per_rank": args.threads,
+                          "points": model.particle_count, "springs": model.spring_count,
+                          "partition": args.partition, "steps_per_window": args.steps,
+                          "steps_per_s": args.steps / med, "build_s": build_s,
+                          "per_rank": ranks, "loadavg_1min": os.getloadavg()[0]}))
+
+
+def check(args) -> None:
+    """Distributed run vs the serial Simulator on rank 0: bitwise equal positions?"""
+    from mpi4py import MPI
+
+    from jellysim.distributed import DistributedSimulator
+    from jellysim.params import GroundParams, ProvotParams
+    from jellysim.simulator import Simulator
+
+    comm = MPI.COMM_WORLD
+    model = comm.bcast(make_model(args.points) if comm.Get_rank() == 0 else None, root=0)
+    kw = dict(dt=1e-3, integrator=args.integrator, provot=ProvotParams(loops=args.loops,
+              tau=0.001), ground=GroundParams(), check_stability=False)
+    sim = DistributedSimulator(model, comm=comm, threads=1, partition=args.partition, **kw)
+    sim.advance(args.steps)
+    state = sim.gather(0)
+    if comm.Get_rank() == 0:
+        serial = Simulator(model, threads=1, **kw)
+        serial.advance(args.steps)
+        print(json.dumps({"bench": "mpi_check", "ranks": comm.Get_size(),
+                          "points": model.particle_count, "steps": args.steps,
+                          "integrator": args.integrator, "provot_loops": args.loops,
+                          "partition": args.partition,
+                          "x_bitwise_equal": bool(np.array_equal(state.x, serial.state.x)),
+                          "v_bitwise_equal": bool(np.array_equal(state.v, serial.state.v)),
+                          "moved_m": float(np.abs(state.x - model.particle_x0).max())}))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    sub = ap.add_subparsers(dest="what", required=True)
+    h = sub.add_parser("halo")
+    h.add_argument("--points", type=int, default=10000)
+    s = sub.add_parser("step")
+    s.add_argument("--points", type=int, default=100000)
+    s.add_argument("--steps", type=int, default=20)
+    s.add_argument("--repeats", type=int, default=5)
+    s.add_argument("--threads", type=int, default=1)
+    s.add_argument("--partition", default="morton", choices=["morton", "metis"])
+    c = sub.add_parser("check")
+    c.add_argument("--points", type=int, default=100000)
+    c.add_argument("--steps", type=int, default=20)
+    c.add_argument("--loops", type=int, default=2)
+    c.add_argument("--integrator", default="paper", choices=["paper", "symplectic"])
+    c.add_argument("--partition", default="morton", choices=["morton", "metis"])
+    args = ap.parse_args()
+    {"halo": halo, "step": step, "check": check}[args.what](args)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,186 @@
+"""``mpiexec -n N jellysim run scene.toml``: the scene run of :mod:`jellysim.runner` on ranks.
+
+Rank 0 builds the body and the Model from the scene (so builders and calibration need not be
+deterministic across processes) and the partition, and broadcasts them; every rank steps its
+part (:class:`~.simulator.DistributedSimulator`); at each frame the state is gathered on rank 0,
+which records it, writes the ParaView frame and at the end the one ``trajectory.npz`` (the
+same files as a serial run; fine while one frame of the whole body fits in rank 0's memory).
+Rank 0 prints progress.  An error on one rank only is printed with the rank's number and the
+whole job is aborted (``MPI_Abort``), so the other ranks do not wait for it.
+"""
+from __future__ import annotations
+
+import sys
+import time
+import traceback
+import warnings
+from pathlib import Path
+
+from ..errors import JellysimError, SimulationError
+from ..runner import RunResult
+
+__all__ = ["run_scene_distributed", "cli_run"]
+
+
+def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
+                          vtu: bool | None = None, steps: int | None = None,
+                          partition: str = "morton", skin="auto") -> RunResult | None:
+    """:func:`jellysim.runner.run_scene` over the ranks of ``comm``; a collective call.
+    Returns the :class:`~jellysim.runner.RunResult` on rank 0, ``None`` elsewhere."""
+    from ..io.trajectory import Recorder
+    from ..io.vtk import PVDSeries
+    from .partition import partition_points
+    from .simulator import DistributedSimulator, on_root, world
+
+    comm = world() if comm is None else comm
+    rank, size = comm.Get_rank(), comm.Get_size()
+    out_dir = Path(out_dir)
+
+    def build():
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            model = scene.build_model()
+        return model, [str(w.message) for w in caught]
+
+    model, messages = on_root(comm, build)
+
+    def split():
+        from .local import replicated_reason
+
+        kw = scene.simulator_kwargs(model)
+        parts = 1 if replicated_reason(kw["integrator"], kw["provot"]) else size
+        return partition_points(model.particle_x0, model.spring_ij, min(parts,
+                                model.particle_count), method=partition)
+
+    owner = on_root(comm, split)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sim = DistributedSimulator(model, comm=comm, owner=owner, **scene.simulator_kwargs(model))
+    if rank == 0:
+        messages += [str(w.message) for w in caught]
+        if sim.replicated:
+            messages.append(f"every rank runs the whole body ({sim.replicated}): the run "
+                            "is correct but not faster than one process")
+    total = scene.steps if steps is None else int(steps)
+    every = scene.frame_every
+    recorder = series = skin_series = None
+    if rank == 0:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        if isinstance(skin, str) and skin == "auto":
+            from ..errors import BuildError
+            from ..skin import default_skin
+
+            try:
+                skin = default_skin(scene, model.body)
+            except BuildError as exc:
+                messages.append(f"no skin: {exc}")
+                skin = None
+        recorder = Recorder(model, scene_text=scene.text, params=scene.params, skin=skin)
+        write_vtu = scene.params["output"]["vtu"] if vtu is None else vtu
+        series = PVDSeries(out_dir) if write_vtu else None
+        skin_series = PVDSeries(out_dir, "skin") if write_vtu and skin is not None else None
+
+    def emit():
+        state = sim.gather(0)
+        if rank != 0:
+            return
+        recorder.record(state)
+        if series is not None:
+            series.add(state.t, state.x, model.spring_ij, velocities=state.v,
+                       triangles=model.body.triangles)
+        if skin_series is not None:
+            skin_series.add_surface(state.t, skin.deform(state.x), skin.faces)
+
+    emit()
+    bar = None
+    if progress and rank == 0:
+        from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
+                                   TimeRemainingColumn)
+
+        bar = Progress(TextColumn(f"[bold]simulating on {size} ranks"), BarColumn(),
+                       MofNCompleteColumn(), TextColumn("steps"), TimeRemainingColumn(),
+                       transient=False)
+        bar.start()
+        task = bar.add_task("run", total=total)
+    stepped = 0.0
+    try:
+        done = 0
+        while done < total:
+            n = min(every, total - done)
+            t0 = time.perf_counter()
+            try:
+                sim.advance(n)
+            finally:
+                stepped += time.perf_counter() - t0
+            done += n
+            emit()
+            if bar is not None:
+                bar.update(task, completed=done)
+    except SimulationError as exc:
+        emit()
+        if rank == 0:
+            recorder.save(out_dir / "trajectory.npz", status=f"failed: {exc}")
+        raise
+    finally:
+        if bar is not None:
+            bar.stop()
+    if rank != 0:
+        return None
+    path = recorder.save(out_dir / "trajectory.npz")
+    return RunResult(out_dir, path, series.pvd_path if series else None,
+                     len(recorder.times), total, stepped, messages)
+
+
+def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
+            partition="morton", video=None, usd=None, glb=None) -> None:
+    """The body of ``jellysim run`` under ``mpiexec``: errors agreed by all ranks (bad scene,
+    blow-up) are printed once by rank 0; any other error is printed as ``rank R: ...`` by the
+    rank that hit it, which then aborts the whole job."""
+    import click
+
+    from ..scene import Scene
+    from .simulator import world
+
+    try:
+        comm = world()
+    except JellysimError as exc:
+        click.secho(f"error: {exc}", fg="red", err=True)
+        sys.exit(2)
+    rank = comm.Get_rank()
+
+    def fail(message, code=2):
+        if rank == 0:
+            click.secho(f"error: {message}", fg="red", err=True)
+        sys.exit(code)
+
+    try:
+        scene = Scene.load(scene_file)
+        out = Path(out_dir) if out_dir else Path("out") / Path(scene_file).stem
+        result = run_scene_distributed(scene, out, comm=comm, progress=not quiet,
+                                       vtu=False if no_vtu else None, steps=steps,
+                                       partition=partition)
+    except JellysimError as exc:
+        fail(str(exc))
+    except Exception as exc:  # one rank only: say which, and do not leave the others waiting
+        sys.stderr.write(f"error: rank {rank} of {comm.Get_size()}: {type(exc).__name__}: "
+                         f"{exc}\n{traceback.format_exc()}")
+        sys.stderr.flush()
+        comm.Abort(3)
+    if rank != 0:
+        return
+    for w in result.warnings:
+        click.secho(f"warning: {w}", fg="yellow", err=True)
+    rate = result.steps / result.seconds if result.seconds > 0 else float("inf")
+    click.echo(f"{result.steps} steps, {result.frames} frames in {result.seconds:.3g} s "
+               f"({rate:,.0f} steps/s) on {comm.Get_size()} ranks")
+    click.echo(f"wrote {result.trajectory}")
+    if result.pvd:
+        click.echo(f"wrote {result.pvd} (+ {result.frames} .vtu frames)")
+    from ..cli_visual import write_run_outputs
+
+    try:
+        for p in write_run_outputs(result.trajectory, video=video, usd=usd, glb=glb,
+                                   progress=not quiet):
+            click.echo(f"wrote {p}")
+    except JellysimError as exc:
+        fail(str(exc))

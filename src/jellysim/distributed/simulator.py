@@ -1,0 +1,289 @@
+"""DistributedSimulator: the :class:`~jellysim.simulator.Simulator` API over MPI ranks.
+
+Every rank holds the global Model (rank 0 builds it and broadcasts, see :mod:`.runner`), owns
+a part of the points (:mod:`.partition`) and runs an ordinary ``Simulator`` on its local Model
+(owned points + ghost layers, :mod:`.local`) one kernel (sub)step at a time.  After each
+(sub)step: the run status is agreed by all ranks (one ``Allreduce``), then every rank sends the
+x, v, a of its owned boundary points to the ranks that hold them as ghosts (nonblocking
+``Isend``/``Irecv`` between neighbouring ranks only).  The physics does not know about ranks.
+"""
+from __future__ import annotations
+
+import os
+import types
+
+import numpy as np
+
+from ..errors import SceneError, SimulationError
+from ..kernels import STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY
+from ..params import GroundParams, ImplicitParams, Integrator, ProvotParams
+from ..state import State
+from .local import LocalPart, combine_status, halo_depth, replicated_reason
+from .partition import partition_points
+
+__all__ = ["DistributedSimulator", "on_root", "world", "launched_under_mpi"]
+
+_SIZE_VARS = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MV2_COMM_WORLD_SIZE", "PMIX_SIZE")
+
+
+def launched_under_mpi() -> bool:
+    """True when this process was started by ``mpiexec -n N`` with N > 1 (read from the
+    launcher's environment, without importing MPI)."""
+    for var in _SIZE_VARS:
+        try:
+            if int(os.environ.get(var, "1")) > 1:
+                return True
+        except ValueError:
+            pass
+    return False
+
+
+def world():
+    """``MPI.COMM_WORLD`` (imports mpi4py, the ``[mpi]`` extra)."""
+    try:
+        from mpi4py import MPI
+    except ImportError:
+        raise SceneError("running under mpiexec needs mpi4py and an MPI library: "
+                         "pip install 'jellysim[mpi]'") from None
+    return MPI.COMM_WORLD
+
+
+def on_root(comm, fn):
+    """``fn()`` run on rank 0 and broadcast to every rank; an exception there is raised on
+    every rank (the same type and message) instead of leaving the others waiting."""
+    payload = None
+    if comm.Get_rank() == 0:
+        try:
+            payload = (True, fn())
+        except Exception as exc:  # noqa: BLE001 (re-raised on every rank below)
+            payload = (False, exc)
+    ok, value = comm.bcast(payload, root=0)
+    if not ok:
+        raise value
+    return value
+
+
+class DistributedSimulator:
+    """Time-steps one global Model split among the ranks of ``comm``.
+
+    Same keyword arguments as :class:`~jellysim.simulator.Simulator`, plus:
+
+    comm: an mpi4py communicator (default ``MPI.COMM_WORLD``).
+    partition: ``"morton"`` (contiguous Z-order ranges) or ``"metis"`` (graph partition).
+    owner: owner rank of each point, shape (n,) (overrides ``partition``); must be the same
+        on every rank.
+    threads: numba threads per rank (default: the cores divided among the ranks on the node).
+
+    ``state`` is this rank's *local* state (owned points and ghosts, local numbering);
+    :meth:`gather` assembles the global one on one rank.  Results (positions, velocities,
+    status, the step of a failure) are bitwise equal to a serial run for the explicit
+    integrators with Jacobi Provot on springs; the configurations listed by
+    :func:`~.local.replicated_reason` run the whole body on every rank (equal, no speed-up).
+    """
+
+    def __init__(self, model, *, dt: float, comm=None, partition: str = "morton",
+                 owner=None, integrator=Integrator.SYMPLECTIC,
+                 provot: ProvotParams = ProvotParams(enabled=False),
+                 ground: GroundParams = GroundParams(enabled=False), backend="numba",
+                 threads: int | None = None, runaway_distance: float | None = None,
+                 check_stability: bool = True, state=None, substeps: int | str = 1,
+                 implicit: ImplicitParams = ImplicitParams(), obstacles=(),
+                 rest_speed: float | None = None):
+        from ..simulator import Simulator
+
+        self.comm = world() if comm is None else comm
+        rank, size = self.comm.Get_rank(), self.comm.Get_size()
+        self.rank, self.size = rank, size
+        self.model = model
+        if getattr(model, "fem", None) is not None:
+            raise SceneError("the physical (FEM) path is not distributed over MPI ranks yet: "
+                             "run the scene without mpiexec (or with [material] model = "
+                             "'springs')")
+        self.dt = float(dt)
+        if substeps == "auto":  # the springs path: one step per dt unless asked
+            substeps = 1
+        self.substeps = int(substeps)
+        if self.substeps < 1:
+            raise SceneError(f"substeps must be an integer >= 1, got {substeps}")
+        self.integrator = Integrator(integrator)
+        self.provot, self.ground, self.implicit = provot, ground, implicit
+        self.dt_step = self.dt / self.substeps
+        n = model.particle_count
+        if threads is None:  # the node's cores divided among the ranks on this node
+            import numba
+            from mpi4py import MPI
+
+            node = self.comm.Split_type(MPI.COMM_TYPE_SHARED)
+            threads = max(1, numba.config.NUMBA_NUM_THREADS // node.Get_size())
+            node.Free()
+        x0 = model.particle_x0
+        self.center = np.ascontiguousarray(x0.mean(axis=0))
+        if runaway_distance is None:
+            diag = float(np.linalg.norm(x0.max(axis=0) - x0.min(axis=0)))
+            runaway_distance = max(100.0 * diag, 100.0)
+        self.runaway_distance = float(runaway_distance)
+        self.replicated = replicated_reason(self.integrator, provot)
+        if self.replicated is None and size > n:
+            self.replicated = f"more ranks ({size}) than points ({n})"
+        if owner is None:  # computed once, on rank 0, so every rank has the same
+            owner = on_root(self.comm, lambda: partition_points(
+                x0, model.spring_ij, 1 if self.replicated else size, method=partition))
+        self.owner = np.asarray(owner, dtype=np.int32)
+        if self.owner.shape != (n,) or self.owner.min() < 0 or self.owner.max() >= size:
+            raise ValueError(f"owner must have shape ({n},) with values in [0, {size})")
+        if state is None:
+            state = model.state()
+        self.global_start = state
+        self.step = int(state.step)
+        self.t = float(state.t)
+        common = dict(dt=self.dt_step, integrator=self.integrator, provot=provot, ground=ground,
+                      backend=backend, threads=int(threads), check_stability=False,
+                      substeps=1, implicit=implicit, obstacles=obstacles,
+                      rest_speed=rest_speed, runaway_distance=self.runaway_distance)
+        if self.replicated:
+            # every rank steps the whole body: the serial Simulator itself
+            common.update(dt=self.dt, substeps=self.substeps)
+            self.part = LocalPart(model, self.owner, rank, None)
+            self.local = Simulator(model, state=state.copy(), **common)
+        else:
+            self.depth = halo_depth(self.integrator, provot)
+            self.part = LocalPart(model, self.owner, rank, self.depth)
+            g = self.part.glob
+            local_state = State(x=state.x[g].copy(), v=state.v[g].copy(), a=state.a[g].copy(),
+                                t=state.t, step=state.step)
+            self.local = Simulator(self.part.model, state=local_state, **common)
+            self.local.center[:] = self.center  # runaway bound about the *body's* centre
+            self._setup_exchange()
+        self.state = self.local.state
+        """This rank's local :class:`~jellysim.state.State` (owned points and ghosts)."""
+        self.stability = None
+        if check_stability and rank == 0:
+            self.check_stability()
+        self.halo_bytes = 0
+        """Bytes this rank sent to other ranks so far (ghost exchanges)."""
+        self.comm_seconds = 0.0
+        """Wall time this rank spent in the exchange and the status agreement [s]."""
+
+    # -- setup ------------------------------------------------------------------------------
+    def _setup_exchange(self):
+        needs = self.part.needs()
+        requests = self.comm.alltoall([needs.get(r) for r in range(self.size)])
+        for r, wanted in enumerate(requests):
+            if wanted is not None and len(wanted):
+                self.part.set_send(r, np.asarray(wanted, dtype=np.int64))
+        self._sendbuf = {r: np.empty((len(i), 9)) for r, i in self.part.send.items()}
+        self._recvbuf = {r: np.empty((len(i), 9)) for r, i in self.part.recv.items()}
+
+    def check_stability(self):
+        """The serial Simulator's stability estimate and warning, on the global model."""
+        from ..simulator import Simulator
+
+        view = types.SimpleNamespace(model=self.model, integrator=self.integrator,
+                                     dt_step=self.dt_step, dt=self.dt, implicit=self.implicit,
+                                     provot=self.provot, substeps=self.substeps,
+                                     stability=None)
+        est = Simulator.check_stability(view)
+        self.stability = est
+        return est
+
+    # -- stepping ---------------------------------------------------------------------------
+    def advance(self, steps: int = 1) -> None:
+        """Take ``steps`` time steps on every rank (a collective call).  Raises the same
+        :class:`SimulationError` on every rank when any rank's points blow up."""
+        if steps <= 0:
+            return
+        done, status = 0, STATUS_OK
+        if self.replicated:
+            try:
+                self.local.advance(int(steps))
+                done = int(steps)
+            except SimulationError as exc:
+                done = self.local.state.step - self.step
+                status = exc.status
+        else:
+            for _ in range(int(steps)):
+                for _ in range(self.substeps):
+                    status = self._substep()
+                    if status != STATUS_OK:
+                        break
+                done += 1
+                if status != STATUS_OK:
+                    break
+        self.step += done
+        self.t += done * self.dt
+        self.state.step, self.state.t = self.step, self.t
+        if status != STATUS_OK:
+            self._raise(status)
+
+    def _substep(self) -> int:
+        from mpi4py import MPI
+        import time
+
+        try:
+            self.local.advance(1)
+            status = STATUS_OK
+        except SimulationError:
+            status = self.part.owned_status(self.local.state, self.center,
+                                            self.runaway_distance**2)
+        t0 = time.perf_counter()
+        flags = np.array([status == STATUS_NONFINITE, status == STATUS_RUNAWAY], dtype=np.int8)
+        self.comm.Allreduce(MPI.IN_PLACE, flags, op=MPI.MAX)
+        status = combine_status(flags)
+        if status == STATUS_OK:
+            self._exchange()
+        self.comm_seconds += time.perf_counter() - t0
+        return status
+
+    def _exchange(self):
+        from mpi4py import MPI
+
+        s, part = self.local.state, self.part
+        reqs = [self.comm.Irecv(buf, source=r, tag=7) for r, buf in self._recvbuf.items()]
+        for r, idx in part.send.items():
+            buf = self._sendbuf[r]
+            part.pack(s, idx, buf)
+            reqs.append(self.comm.Isend(buf, dest=r, tag=7))
+            self.halo_bytes += buf.nbytes
+        MPI.Request.Waitall(reqs)
+        for r, idx in part.recv.items():
+            part.unpack(s, idx, self._recvbuf[r])
+
+    def _raise(self, status):
+        from ..simulator import Simulator
+
+        view = types.SimpleNamespace(
+            model=self.model, state=types.SimpleNamespace(step=self.step, t=self.t),
+            runaway_distance=self.runaway_distance, stability=self.stability,
+            integrator=self.integrator, dt_step=self.dt_step, implicit=self.implicit)
+        Simulator._raise(view, status)
+
+    # -- output ---------------------------------------------------------------------------
+    def gather(self, root: int = 0) -> State | None:
+        """The global state (x, v, a of every point, global order) on ``root``; ``None`` on
+        the other ranks.  A collective call."""
+        s, part = self.state, self.part
+        if self.replicated:
+            if self.rank != root:
+                return None
+            return State(s.x.copy(), s.v.copy(), s.a.copy(), self.t, self.step)
+        mine = np.empty((part.owned_local.size, 9))
+        part.pack(s, part.owned_local, mine)
+        counts = np.bincount(self.owner, minlength=self.size) * 9
+        if self.rank == root:
+            flat = np.empty(int(counts.sum()))
+            displs = np.concatenate([[0], np.cumsum(counts)[:-1]])
+            self.comm.Gatherv(mine.ravel(), [flat, counts, displs, _mpi_double()], root=root)
+            order = np.argsort(self.owner, kind="stable")  # rank-major, global order within
+            allv = np.empty((self.model.particle_count, 9))
+            allv[order] = flat.reshape(-1, 9)
+            return State(allv[:, 0:3].copy(), allv[:, 3:6].copy(), allv[:, 6:9].copy(),
+                         self.t, self.step)
+        self.comm.Gatherv(mine.ravel(), None, root=root)
+        return None
+
+
+def _mpi_double():
+    from mpi4py import MPI
+
+    return MPI.DOUBLE
+

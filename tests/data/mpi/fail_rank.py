@@ -1,0 +1,25 @@
+"""Test helper, run under ``mpiexec -n 2``: rank 1 fails at its third frame, by an exception
+(``raise``) or by being killed (``kill``); the job must end with a clear message, not hang."""
+import os
+import signal
+import sys
+
+from jellysim.distributed import simulator as dsim
+from jellysim.distributed.runner import cli_run
+
+mode, scene, out = sys.argv[1:4]
+original = dsim.DistributedSimulator.advance
+calls = {"n": 0}
+
+
+def advance(self, steps=1):
+    calls["n"] += 1
+    if self.rank == 1 and calls["n"] == 3:
+        if mode == "kill":
+            os.kill(os.getpid(), signal.SIGKILL)
+        raise MemoryError("injected failure")
+    return original(self, steps)
+
+
+dsim.DistributedSimulator.advance = advance
+cli_run(scene, out, quiet=True)

@@ -1,0 +1,250 @@
+"""One body across MPI ranks (jellysim.distributed, docs/mpi.md).
+
+In-process tests check the partition, the ghost layers and the local models (no MPI needed:
+the ranks are emulated in one process, exchanging ghosts by copying); the subprocess tests run
+``mpiexec -n 2`` and ``-n 3`` (the MPICH wheel of the ``[mpi]`` extra) and compare the
+trajectories with serial runs bit for bit.
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import shortest_path
+
+import jellysim
+from jellysim.distributed import (LocalPart, halo_depth, halo_layers, partition_points,
+                                  point_graph, replicated_reason)
+from jellysim.errors import SimulationError
+from jellysim.io.trajectory import load_trajectory
+from jellysim.params import GroundParams, ProvotParams
+from jellysim.physics.contact import Sphere
+from jellysim.runner import run_scene
+from jellysim.scene import Scene
+from jellysim.simulator import Simulator
+from jellysim.state import State
+
+from conftest import make_box_model
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = Path(__file__).parent / "data" / "mpi"
+MPIEXEC = Path(sys.executable).parent / "mpiexec"
+HAVE_MPI = importlib.util.find_spec("mpi4py") is not None and MPIEXEC.exists()
+needs_mpi = pytest.mark.skipif(not HAVE_MPI, reason="the [mpi] extra (mpi4py, mpich) is not "
+                               "installed; .ci/run installs it")
+
+
+# -- partition and ghost layers ----------------------------------------------------------------
+@pytest.mark.parametrize("method", ["morton", "metis"])
+def test_partition_gives_each_point_one_balanced_owner(method):
+    m = make_box_model(1000)
+    for parts in (2, 3, 5):
+        owner = partition_points(m.particle_x0, m.spring_ij, parts, method=method)
+        counts = np.bincount(owner, minlength=parts)
+        assert owner.shape == (1000,) and counts.sum() == 1000 and counts.min() > 0
+        if method == "morton":  # contiguous Z-order ranges of equal size
+            assert counts.max() - counts.min() <= 1
+        else:  # METIS' default imbalance tolerance is 3 %
+            assert counts.max() <= 1.03 * 1000 / parts + 1
+
+
+def test_halo_layers_are_the_hop_distance_shells_of_the_spring_graph():
+    m = make_box_model(400)
+    n = m.particle_count
+    owner = partition_points(m.particle_x0, m.spring_ij, 3)
+    xadj, adjncy = point_graph(n, m.spring_ij)
+    ij = m.spring_ij
+    graph = coo_matrix((np.ones(len(ij)), (ij[:, 0], ij[:, 1])), shape=(n, n))
+    for rank in range(3):
+        hops = shortest_path(graph, directed=False, unweighted=True,
+                             indices=np.flatnonzero(owner == rank)).min(axis=0)
+        for d, layer in enumerate(halo_layers(owner, rank, xadj, adjncy, 3), start=1):
+            assert np.array_equal(layer, np.flatnonzero(hops == d))
+
+
+def test_local_model_keeps_the_global_order_of_every_owned_points_springs():
+    m = make_box_model(500)
+    owner = partition_points(m.particle_x0, m.spring_ij, 3)
+    part = LocalPart(m, owner, 1, 2)
+    lm, g = part.model, part.glob
+    assert np.all(np.diff(g) > 0)  # local numbering is monotone in the global one
+    for p_local in part.owned_local[::7]:
+        p = g[p_local]
+        glob_first = m.spring_ij[m.point_first_ptr[p]:m.point_first_ptr[p + 1], 1]
+        loc_first = lm.spring_ij[lm.point_first_ptr[p_local]:lm.point_first_ptr[p_local + 1], 1]
+        assert np.array_equal(g[loc_first], glob_first)
+        glob_second = m.point_second_other[m.point_second_ptr[p]:m.point_second_ptr[p + 1]]
+        loc_second = lm.point_second_other[
+            lm.point_second_ptr[p_local]:lm.point_second_ptr[p_local + 1]]
+        assert np.array_equal(g[loc_second], glob_second)
+
+
+def test_configurations_that_cannot_be_split_are_named():
+    assert replicated_reason("implicit", ProvotParams(enabled=False)) is not None
+    assert "all" in replicated_reason("paper", ProvotParams(pairs="all"))
+    assert "gauss" in replicated_reason("paper", ProvotParams(order="gauss-seidel"))
+    assert replicated_reason("paper", ProvotParams(tolerance=1e-6)) is not None
+    assert replicated_reason("symplectic", ProvotParams(loops=4)) is None
+    assert halo_depth("paper", ProvotParams(loops=3)) == 3
+    assert halo_depth("paper", ProvotParams(enabled=False)) == 1
+    assert halo_depth("symplectic", ProvotParams(loops=3)) == 4
+
+
+def _emulated(model, parts, depth, steps, method="morton", **kw):
+    """P ranks in one process: local Simulators stepped one step at a time, ghosts copied
+    from their owners after each step (what DistributedSimulator does with Isend/Irecv)."""
+    owner = partition_points(model.particle_x0, model.spring_ij, parts, method=method)
+    start = model.state()
+    ranks = [LocalPart(model, owner, r, depth) for r in range(parts)]
+    for r, part in enumerate(ranks):
+        for q, wanted in part.needs().items():
+            ranks[q].set_send(r, wanted)
+    sims = []
+    for part in ranks:
+        g = part.glob
+        s = Simulator(part.model, state=State(start.x[g].copy(), start.v[g].copy(),
+                                              start.a[g].copy()),
+                      check_stability=False, runaway_distance=1e3, **kw)
+        s.center[:] = model.particle_x0.mean(axis=0)
+        sims.append(s)
+    for _ in range(steps):
+        for s in sims:
+            s.advance(1)
+        for r, part in enumerate(ranks):
+            for q, idx in part.recv.items():
+                buf = np.empty((len(idx), 9))
+                LocalPart.pack(sims[q].state, ranks[q].send[r], buf)
+                part.unpack(sims[r].state, idx, buf)
+    x = np.full((model.particle_count, 3), np.nan)
+    for part, s in zip(ranks, sims):
+        x[part.glob[part.owned]] = s.state.x[part.owned]
+    return x
+
+
+@pytest.mark.parametrize("integrator,loops,parts,method", [
+    ("paper", 3, 2, "morton"), ("paper", 1, 4, "metis"), ("symplectic", 2, 3, "morton"),
+    ("symplectic", 0, 5, "metis")])
+def test_emulated_ranks_equal_serial_bitwise_and_need_the_full_halo(integrator, loops, parts,
+                                                                    method):
+    m = make_box_model(500, stiffness=300.0, damping=0.8, point_mass=0.2,
+                       lower=(0, 0.2, 0), upper=(1, 1.2, 1), distribution="edge")
+    kw = dict(dt=0.002, integrator=integrator, ground=GroundParams(),
+              provot=ProvotParams(enabled=loops > 0, loops=max(loops, 1), tau=0.01),
+              obstacles=(Sphere(center=(0.5, 0.1, 0.5), radius=0.2),))
+    serial = Simulator(m, check_stability=False, runaway_distance=1e3, **kw)
+    serial.advance(60)
+    assert serial.state.x[:, 1].min() < 0.15  # it fell onto the sphere and the ground
+    depth = halo_depth(integrator, kw["provot"])
+    x = _emulated(m, parts, depth, 60, method=method, **kw)
+    assert np.array_equal(x, serial.state.x)
+    if integrator == "paper" and loops == 3:  # one ghost layer less is not enough
+        assert not np.array_equal(_emulated(m, parts, depth - 1, 60, method=method, **kw),
+                                  serial.state.x)
+
+
+def test_distributed_package_imports_without_mpi4py():
+    code = ("import sys, jellysim.distributed, jellysim.cli; "
+            "assert 'mpi4py' not in sys.modules and 'pymetis' not in sys.modules")
+    subprocess.run([sys.executable, "-c", code], check=True, env=_env())
+
+
+# -- real MPI ranks ------------------------------------------------------------------------------
+def _env():
+    env = dict(os.environ)
+    src = str(Path(jellysim.__file__).resolve().parents[1])
+    env["PYTHONPATH"] = src + os.pathsep + env.get("PYTHONPATH", "")
+    env["NUMBA_NUM_THREADS"] = "1"
+    return env
+
+
+def _mpirun(n, *args, timeout=120):
+    t0 = time.perf_counter()
+    proc = subprocess.run([str(MPIEXEC), "-n", str(n), sys.executable, *args],
+                          capture_output=True, text=True, env=_env(), timeout=timeout,
+                          cwd=ROOT)
+    return proc, time.perf_counter() - t0
+
+
+def _serial(scene_path, out, steps=None):
+    run_scene(Scene.load(scene_path), out, progress=False, vtu=False, steps=steps)
+    return load_trajectory(out / "trajectory.npz")
+
+
+@needs_mpi
+@pytest.mark.parametrize("scene,ranks", [("paper_springs", 2), ("symplectic_contact", 3),
+                                         ("paper_cube", 2)])
+def test_mpiexec_run_is_bitwise_equal_to_serial(tmp_path, scene, ranks):
+    path = (ROOT / "examples" / "paper_cube.toml" if scene == "paper_cube"
+            else DATA / f"{scene}.toml")
+    steps = ["--steps", "30"] if scene == "paper_cube" else []  # O(n^2) Provot on each rank
+    ref = _serial(path, tmp_path / "serial", 30 if steps else None)
+    proc, _ = _mpirun(ranks, "-m", "jellysim.cli", "run", str(path), "--out",
+                      str(tmp_path / "mpi"), "--quiet", "--no-vtu", *steps)
+    assert proc.returncode == 0, proc.stderr
+    assert f"on {ranks} ranks" in proc.stdout and proc.stdout.count("wrote") == 1  # rank 0
+    got = load_trajectory(tmp_path / "mpi" / "trajectory.npz")
+    assert got.positions.shape == ref.positions.shape
+    assert np.array_equal(got.positions, ref.positions)
+    assert np.array_equal(got.velocities, ref.velocities)
+    assert np.array_equal(got.times, ref.times) and np.array_equal(got.steps, ref.steps)
+
+
+@needs_mpi
+def test_mpiexec_blow_up_is_agreed_by_all_ranks_at_the_serial_step(tmp_path):
+    text = (DATA / "symplectic_contact.toml").read_text()
+    text = text.replace("dt = 0.004", "dt = 0.05").replace("substeps = 2", "substeps = 1")
+    text = text.replace("loops = 2", "loops = 1").replace("[provot]", "[provot]\nenabled = false")
+    scene = tmp_path / "blowup.toml"
+    scene.write_text(text)
+    with pytest.raises(SimulationError) as serial:
+        run_scene(Scene.load(scene), tmp_path / "serial", progress=False, vtu=False)
+    proc, _ = _mpirun(3, "-m", "jellysim.cli", "run", str(scene), "--out",
+                      str(tmp_path / "mpi"), "--quiet", "--no-vtu")
+    assert proc.returncode == 2
+    assert proc.stderr.count("error:") == 1  # printed once, by rank 0
+    assert f"went unstable at step {serial.value.step} " in proc.stderr
+    ref = load_trajectory(tmp_path / "serial" / "trajectory.npz")
+    got = load_trajectory(tmp_path / "mpi" / "trajectory.npz")
+    assert got.status.startswith("failed") and np.array_equal(got.positions, ref.positions)
+
+
+@needs_mpi
+@pytest.mark.parametrize("mode", ["raise", "kill"])
+def test_a_failing_rank_ends_the_job_with_a_clear_error_not_a_hang(tmp_path, mode):
+    import xml.etree.ElementTree as ET
+
+    scene = tmp_path / "scene.toml"
+    scene.write_text((DATA / "paper_springs.toml").read_text().replace("vtu = false",
+                                                                        "vtu = true"))
+    out = tmp_path / "out"
+    proc, seconds = _mpirun(2, str(DATA / "fail_rank.py"), mode, str(scene), str(out),
+                            timeout=60)
+    assert proc.returncode != 0
+    assert seconds < 30
+    if mode == "raise":
+        assert "rank 1 of 2: MemoryError: injected failure" in proc.stderr
+    else:
+        assert "BAD TERMINATION" in proc.stdout + proc.stderr
+    # the frames rank 0 finished before the failure (at least two: rank 1 fails at its third
+    # frame, possibly while rank 0 still writes the second) stay readable
+    frames = ET.parse(out / "body.pvd").getroot().findall(".//DataSet")
+    assert len(frames) >= 2
+    for f in frames:
+        assert ET.parse(out / f.get("file")).getroot().tag == "VTKFile"
+
+
+@needs_mpi
+def test_a_bad_scene_under_mpiexec_is_one_clear_error(tmp_path):
+    scene = tmp_path / "bad.toml"
+    scene.write_text((DATA / "paper_springs.toml").read_text().replace("loops = 3",
+                                                                        "loopz = 3"))
+    proc, _ = _mpirun(2, "-m", "jellysim.cli", "run", str(scene), "--out", str(tmp_path / "o"))
+    assert proc.returncode == 2
+    assert proc.stderr.count("error:") == 1 and "[provot] unknown key 'loopz'" in proc.stderr
