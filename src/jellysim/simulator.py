@@ -29,6 +29,12 @@ threads win on a quiet machine (about 20k vs 12k steps/s, BENCHMARKS.md); on a m
 other core is busy they can lose badly: pass ``threads=1`` there."""
 
 
+PHYSICAL_PARALLEL_MIN_TETS = 50_000
+"""Below this many tets the physical path runs on one thread: it takes 4 parallel regions per
+substep and 100+ substeps per frame, so synchronising threads costs more than it saves on a
+small body (and far more when another process competes for the cores)."""
+
+
 class StabilityWarning(UserWarning):
     """The time step exceeds the estimated stable limit."""
 
@@ -141,6 +147,8 @@ class Simulator:
             raise SceneError(
                 f"provot pairs = 'all' is O(n^2) and limited to {MAX_ALL_PAIRS_POINTS} points; "
                 f"this body has {n}. Use pairs = 'springs' (and a stiffer material) instead.")
+        if threads is None and self.physical and model.fem.tet_count < PHYSICAL_PARALLEL_MIN_TETS:
+            threads = 1  # a substep's work is too small to pay for thread synchronisation
         self.threads = auto_threads(n) if threads is None else int(threads)
         self.state = model.state() if state is None else state
         x0 = model.particle_x0
