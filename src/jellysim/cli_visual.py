@@ -89,13 +89,19 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
 @_size_opt
 @click.option("--no-usd", is_flag=True, help="Skip demo.usdc.")
 @click.option("--quiet", is_flag=True, help="No progress bars.")
-def demo(out_dir, frames, size, no_usd, quiet):
+@click.option("--backend", type=click.Choice(["numba", "numpy", "warp"]), default=None,
+              help="Kernels (default: the demo scene's, numba).")
+@click.option("--device", default=None, help="Warp device: auto, cpu, cuda, cuda:N.")
+@click.option("--precision", type=click.Choice(["float64", "float32"]), default=None,
+              help="Warp arithmetic precision.")
+def demo(out_dir, frames, size, no_usd, quiet, backend=None, device=None, precision=None):
     """A jello cow dropped on a table: writes OUT/demo.mp4 and OUT/demo.usdc."""
     from .demo import run_demo
 
     try:
         r = run_demo(out_dir, frames=frames, size=_size(size), usd=not no_usd,
-                     progress=not quiet)
+                     progress=not quiet, backend=backend, device=device,
+                     precision=precision)
     except JellysimError as exc:
         _fail(str(exc))
     s = r["seconds"]

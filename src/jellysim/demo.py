@@ -75,9 +75,12 @@ def build_demo_body():
 
 
 def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: bool = True,
-             progress: bool = True, vtu: bool = False) -> dict:
+             progress: bool = True, vtu: bool = False, backend: str | None = None,
+             device: str | None = None, precision: str | None = None) -> dict:
     """Simulate the demo and write ``<out_dir>/demo.mp4`` (+ ``demo.usdc``); the run itself
     goes to ``<out_dir>/demo/``.  ``frames`` limits the number of saved frames (CI).
+    ``backend``/``device``/``precision`` override the scene's (``--backend warp``; refused
+    with a :class:`~jellysim.errors.SceneError` where the backend lacks the demo's integrator).
     Returns the paths written and timings [s]."""
     import time
 
@@ -89,7 +92,7 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
 
     t0 = time.perf_counter()
     out_dir = Path(out_dir)
-    scene = Scene.from_dict(DEMO_SCENE, name="demo")
+    scene = Scene.from_dict(DEMO_SCENE, name="demo").with_backend(backend, device, precision)
     body, skin = build_demo_body()
     steps = scene.steps if frames is None else max(1, int(frames) - 1) * scene.frame_every
     result = run_scene(scene, out_dir / "demo", progress=progress, vtu=vtu, steps=steps,
