@@ -737,6 +737,11 @@ class _DeviceModel:
         self.counts = wp.zeros(2, dtype=wp.int32, device=dev)
         self.programs: dict = {}
         self.last = None
+        # CPU device: numpy views of the device arrays (copies in and out without Warp calls)
+        self.views = None
+        if not wp.get_device(dev).is_cuda:
+            self.views = {name: getattr(self, name).numpy() for name in
+                          ("x", "v", "a", "max_corr", "ctl", "counts", "largest")}
 
 
 class WarpBackend:
@@ -929,19 +934,34 @@ class WarpBackend:
         p["obstacle_kind"], p["obstacle_data"] = ok, od
         prog = self._program(dm, key, p)
         F = self.np_dtype
-        dm.x.assign(np.ascontiguousarray(x, dtype=F))
-        dm.v.assign(np.ascontiguousarray(v, dtype=F))
-        dm.a.assign(np.ascontiguousarray(a, dtype=F))
-        dm.ctl.zero_()
-        dm.counts.zero_()
-        dm.largest.zero_()
+        hv = dm.views
+        if hv is not None:  # CPU device: plain numpy copies into the device memory
+            hv["x"][...] = x
+            hv["v"][...] = v
+            hv["a"][...] = a
+            for name in ("ctl", "counts", "largest"):
+                hv[name][...] = 0
+        else:
+            dm.x.assign(np.ascontiguousarray(x, dtype=F))
+            dm.v.assign(np.ascontiguousarray(v, dtype=F))
+            dm.a.assign(np.ascontiguousarray(a, dtype=F))
+            dm.ctl.zero_()
+            dm.counts.zero_()
+            dm.largest.zero_()
         dm.last = prog
         self._replay(prog, int(nsteps))
-        ctl = dm.ctl.numpy()
-        x[...] = dm.x.numpy()
-        v[...] = dm.v.numpy()
-        a[...] = dm.a.numpy()
-        max_corr[...] = dm.max_corr.numpy()
+        if hv is not None:
+            ctl = hv["ctl"].copy()
+            x[...] = hv["x"]
+            v[...] = hv["v"]
+            a[...] = hv["a"]
+            max_corr[...] = hv["max_corr"]
+        else:
+            ctl = dm.ctl.numpy()
+            x[...] = dm.x.numpy()
+            v[...] = dm.v.numpy()
+            a[...] = dm.a.numpy()
+            max_corr[...] = dm.max_corr.numpy()
         status = int(ctl[0])
         done = int(ctl[1]) if status != STATUS_OK else int(nsteps)
         return done, status
@@ -954,7 +974,7 @@ class WarpBackend:
             if dm.last is not None and dm.n == x0.shape[0]:
                 self._replay(dm.last, int(nsteps))
                 wp.synchronize_device(self.device)
-                return int(dm.ctl.numpy()[0])
+                return int(dm.ctl.numpy()[0])  # noqa: the status word, not the state
         raise RuntimeError("no run_steps call to replay")
 
 
