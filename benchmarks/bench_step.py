@@ -27,7 +27,7 @@ on a GPU the whole step is one captured CUDA graph replayed per step.  It report
 memory bandwidth (CUDA driver: 2 x memory clock x bus width), a measured STREAM triad on the
 device, and the fraction of both used at the least traffic of one paper step with one Provot
 pass (``warp_backend.bytes_per_spring_update``).  ``--compare-numba`` also times the numba
-backend with all threads on the same scenes (where the GPU starts to win).  Scenes of 1M points
+backend (1 thread and all threads) on the same scenes (where the GPU starts to win).  Scenes of 1M points
 and more are cubic lattices by default (``--scene auto``; 26 neighbours within 1.8 h, built
 directly in CSR order in seconds), since the edge-favouring field of 1M points takes minutes to
 build (and holds 73M springs); ``--scene field`` forces the random field.
@@ -297,8 +297,9 @@ def main_warp(args) -> None:
             import numba
 
             steps = max(2, min(2000, int(2e7 / max(model.spring_count, 1))))
-            entry["runs"][f"numba_{numba.config.NUMBA_NUM_THREADS}t"] = time_steps(
-                model, "numba", numba.config.NUMBA_NUM_THREADS, steps, args.repeats, dt)
+            for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
+                entry["runs"][f"numba_{threads}t"] = time_steps(model, "numba", threads, steps,
+                                                                args.repeats, dt)
         result["scenes"].append(entry)
         print(json.dumps(entry), flush=True, file=__import__("sys").stderr)
         del model
@@ -322,7 +323,7 @@ def main(argv=None) -> None:
                     help="warp: the edge-favouring field, or a cubic lattice (auto: lattice "
                          "from 1M points)")
     ap.add_argument("--compare-numba", action="store_true",
-                    help="warp: also time numba (all threads) on the same scenes")
+                    help="warp: also time numba (1 thread and all threads) on the same scenes")
     ap.add_argument("--numba-max", type=int, default=1_000_000,
                     help="warp --compare-numba: largest N timed with numba")
     args = ap.parse_args(argv)
