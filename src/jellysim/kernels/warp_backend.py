@@ -660,8 +660,11 @@ def device_info(device: str) -> dict:
 
 
 def _cuda_peak_bandwidth(ordinal: int) -> float | None:
-    """2 x memory clock x bus width, from the CUDA driver's device attributes."""
+    """2 x memory clock x bus width [bytes/s]: the CUDA driver's device attributes (memory
+    clock rate 36, bus width 37); the clock from ``nvidia-smi`` where the driver no longer
+    reports it."""
     import ctypes
+    import subprocess
 
     try:
         cu = ctypes.CDLL("libcuda.so.1")
@@ -670,11 +673,17 @@ def _cuda_peak_bandwidth(ordinal: int) -> float | None:
             return None
         clock = ctypes.c_int()  # kHz
         width = ctypes.c_int()  # bits
-        if cu.cuDeviceGetAttribute(ctypes.byref(clock), 36, dev) or cu.cuDeviceGetAttribute(
-                ctypes.byref(width), 37, dev):
+        if cu.cuDeviceGetAttribute(ctypes.byref(width), 37, dev) or width.value <= 0:
             return None
-        return 2.0 * clock.value * 1e3 * width.value / 8.0
-    except OSError:
+        khz = clock.value if not cu.cuDeviceGetAttribute(ctypes.byref(clock), 36, dev) else 0
+        if khz <= 0:
+            out = subprocess.run(["nvidia-smi", f"--id={ordinal}",
+                                  "--query-gpu=clocks.max.memory",
+                                  "--format=csv,noheader,nounits"], capture_output=True,
+                                 text=True, timeout=20)
+            khz = 1000.0 * float(out.stdout.strip().splitlines()[0])
+        return 2.0 * khz * 1e3 * width.value / 8.0
+    except (OSError, ValueError, IndexError, subprocess.SubprocessError):
         return None
 
 
