@@ -110,6 +110,26 @@ def test_paths_agree_with_numba(warp, case):
     assert np.abs(out[0].a - out[1].a).max() <= 1e-8
 
 
+@pytest.mark.parametrize("integrator", ["paper", "symplectic"])
+def test_provot_tolerance_stops_the_passes_on_the_device(warp, integrator):
+    # a tolerance no correction exceeds: the device's "converged" flag skips passes 2 and 3,
+    # so three loops give exactly one loop's result (as numba's break does)
+    m = make_box_model(300, stiffness=20.0, damping=0.02, point_mass=0.05,
+                       lower=(0, 0.02, 0), upper=(1, 1.02, 1))
+    out = {}
+    for backend, loops, tol in (("warp", 3, 0.5), ("warp", 1, 0.0), ("numba", 3, 0.5),
+                                ("warp", 3, 0.0)):
+        sim = Simulator(m, dt=0.002, integrator=integrator, backend=backend,
+                        provot=ProvotParams(loops=loops, tolerance=tol), ground=GroundParams(),
+                        check_stability=False)
+        sim.state.v[:, 1] = -1.0
+        sim.advance(100)
+        out[backend, loops, tol] = sim.state.x
+    assert np.array_equal(out["warp", 3, 0.5], out["warp", 1, 0.0])
+    assert np.abs(out["warp", 3, 0.5] - out["numba", 3, 0.5]).max() <= 1e-12
+    assert not np.array_equal(out["warp", 3, 0.0], out["warp", 1, 0.0])  # passes 2, 3 acted
+
+
 def test_contact_acts_on_the_obstacles(warp):
     # the sphere and the box push the points out: nothing ends inside them
     m = make_box_model(300, stiffness=20.0, damping=0.02, point_mass=0.05,
