@@ -34,6 +34,7 @@ def contact_ground(e, mu):
 
 @pytest.mark.parametrize("integrator,backend", [("symplectic", "numpy"),
                                                 ("symplectic", "numba"),
+                                                ("symplectic", "warp"),
                                                 ("implicit", "numba"),
                                                 ("implicit-bdf2", "numba"),
                                                 ("implicit-bdf2", "numpy")])

@@ -9,6 +9,13 @@ from jellysim.params import GroundParams, ProvotParams
 from jellysim.simulator import Simulator
 
 BACKENDS = ["numpy", "numba"]
+try:
+    import warp  # noqa: F401
+    _warp = []
+except ImportError:
+    _warp = [pytest.mark.skip(reason="warp-lang (the optional [gpu] extra) is not installed")]
+STEP_BACKENDS = BACKENDS + [pytest.param("warp", marks=_warp)]
+"""Backends of the whole explicit step (the Warp backend has run_steps only)."""
 
 
 def two_masses(m=0.5, k=20.0, stretch=0.1):
@@ -20,7 +27,7 @@ def two_masses(m=0.5, k=20.0, stretch=0.1):
     return model, state
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("backend", STEP_BACKENDS)
 def test_two_mass_spring_period(backend):
     m, k = 0.5, 20.0
     model, state = two_masses(m, k)
@@ -40,7 +47,7 @@ def test_two_mass_spring_period(backend):
     assert np.allclose(periods, T, rtol=1e-4)
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("backend", STEP_BACKENDS)
 @pytest.mark.parametrize("integrator", ["paper", "symplectic"])
 def test_free_fall_matches_exact_discrete_trajectory(backend, integrator):
     # points in free fall (springs of zero stiffness: the paper integrator, forward Euler,
@@ -61,7 +68,7 @@ def test_free_fall_matches_exact_discrete_trajectory(backend, integrator):
     assert np.allclose(sim.state.v, v0 + n * dt * g, rtol=0, atol=1e-12)
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("backend", STEP_BACKENDS)
 def test_internal_forces_conserve_momentum(backend):
     model = make_box_model(200, stiffness=80.0, gravity=(0, 0, 0))
     state = model.state()

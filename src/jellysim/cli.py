@@ -35,8 +35,15 @@ def cli() -> None:
               help="Also export the skin to this glTF .glb.")
 @click.option("--partition", type=click.Choice(["morton", "metis"]), default="morton",
               show_default=True, help="Under mpiexec: how points are split among ranks.")
+@click.option("--backend", type=click.Choice(["numba", "numpy", "warp"]), default=None,
+              help="Override the scene's [integrator] backend (warp: pip install "
+                   "'jellysim[gpu]').")
+@click.option("--device", default=None,
+              help="Warp device: auto (a GPU when present), cpu, cuda, cuda:N.")
+@click.option("--precision", type=click.Choice(["float64", "float32"]), default=None,
+              help="Warp arithmetic precision.")
 def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None,
-        partition="morton") -> None:
+        partition="morton", backend=None, device=None, precision=None) -> None:
     """Simulate SCENE_FILE (TOML) and write trajectory.npz and body.pvd (under
     'mpiexec -n N': on N ranks, docs/mpi.md)."""
     from pathlib import Path
@@ -53,7 +60,7 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     from .scene import Scene
 
     try:
-        scene = Scene.load(scene_file)
+        scene = Scene.load(scene_file).with_backend(backend, device, precision)
         out = Path(out_dir) if out_dir else Path("out") / Path(scene_file).stem
         result = run_scene(scene, out, progress=not quiet, vtu=False if no_vtu else None,
                            steps=steps)

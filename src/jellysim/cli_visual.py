@@ -93,13 +93,20 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
               show_default=True,
               help="jelly: a fluted gelatin mould tossed onto a plate; cow: Spot dropped on it "
                    "(writes demo_cow.*).")
-def demo(out_dir, frames, size, no_usd, quiet, scene):
+@click.option("--backend", type=click.Choice(["numba", "numpy", "warp"]), default=None,
+              help="Kernels (default: the demo scene's, numba).")
+@click.option("--device", default=None, help="Warp device: auto, cpu, cuda, cuda:N.")
+@click.option("--precision", type=click.Choice(["float64", "float32"]), default=None,
+              help="Warp arithmetic precision.")
+def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
+         precision=None):
     """Real gelatin on a plate: writes OUT/demo.mp4 and OUT/demo.usdc."""
     from .demo import run_demo
 
     try:
         r = run_demo(out_dir, frames=frames, size=_size(size), usd=not no_usd,
-                     progress=not quiet, scene=scene)
+                     progress=not quiet, scene=scene, backend=backend, device=device,
+                     precision=precision)
     except JellysimError as exc:
         _fail(str(exc))
     s = r["seconds"]

@@ -95,11 +95,15 @@ def build_demo_body(name: str = "jelly"):
 
 
 def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: bool = True,
-             progress: bool = True, vtu: bool = False, scene: str = "jelly") -> dict:
+             progress: bool = True, vtu: bool = False, scene: str = "jelly",
+             backend: str | None = None, device: str | None = None,
+             precision: str | None = None) -> dict:
     """Simulate a demo scene (``"jelly"``: a fluted gelatin mould tossed onto a plate;
     ``"cow"``: Spot dropped on it) and write ``<out_dir>/demo.mp4`` (+ ``demo.usdc``; the cow:
     ``demo_cow.*``); the run itself goes to ``<out_dir>/demo/`` (``demo_cow/``).  ``frames``
-    limits the number of saved frames (CI).  Returns the paths written and timings [s]."""
+    limits the number of saved frames (CI).  ``backend``/``device``/``precision`` override
+    the scene's (refused with a :class:`~jellysim.errors.SceneError` where the backend lacks
+    the demo's physical path).  Returns the paths written and timings [s]."""
     import time
 
     from .io.trajectory import load_trajectory
@@ -117,7 +121,7 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
                             + ", ".join(DEMO_SHAPES))
     stem = "demo" if scene == "jelly" else f"demo_{scene}"
     raw = dict(DEMO_SCENE, body=dict(DEMO_SCENE["body"], velocity=DEMO_SHAPES[scene]["velocity"]))
-    sc = Scene.from_dict(raw, name="demo")
+    sc = Scene.from_dict(raw, name="demo").with_backend(backend, device, precision)
     body, skin = build_demo_body(scene)
     steps = sc.steps if frames is None else max(1, int(frames) - 1) * sc.frame_every
     result = run_scene(sc, out_dir / stem, progress=progress, vtu=vtu, steps=steps,

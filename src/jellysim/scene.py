@@ -126,8 +126,15 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "dt": _pos("Time step [s].", unit=" (s)"),
         "steps": Spec("int", REQUIRED, "Number of time steps.", lambda v: v >= 1,
                       "an integer >= 1"),
-        "backend": Spec("str", "numba", "Kernels: 'numba' or 'numpy' (reference).",
-                        choices=("numba", "numpy")),
+        "backend": Spec("str", "numba", "Kernels: 'numba', 'numpy' (reference) or 'warp' "
+                        "(NVIDIA Warp: a GPU, else Warp's CPU device; integrators 'paper' and "
+                        "'symplectic'; pip install 'jellysim[gpu]').",
+                        choices=("numba", "numpy", "warp")),
+        "device": Spec("str", "auto", "Warp device: 'auto' (a GPU when present, else the "
+                       "CPU), 'cpu', 'cuda' or 'cuda:N' (backend = 'warp' only)."),
+        "precision": Spec("str", "float64", "Warp arithmetic: 'float64' (bitwise the numba "
+                          "backend's on the CPU device) or 'float32' (backend = 'warp' only).",
+                          choices=("float64", "float32")),
         "threads": Spec("int", None, "Numba threads (default: by problem size).",
                         lambda v: v >= 1, "an integer >= 1"),
         "substeps": Spec("int", None, "Steps of dt / substeps per step (default: 1, or for "
@@ -203,6 +210,23 @@ OBSTACLE_SCHEMA: dict[str, Spec] = {
 model; used with every integrator)."""
 OBSTACLE_KEYS = {"plane": ("point", "normal"), "sphere": ("center", "radius"),
                  "box": ("lower", "upper")}
+
+
+def check_backend(backend: str, integrator: str, device: str = "auto",
+                  precision: str = "float64", *, where: str = "") -> None:
+    """Refuse combinations the backends do not implement (a :class:`SceneError` naming the
+    ``[integrator]`` keys)."""
+    from .kernels import WARP_INTEGRATORS
+
+    at = f"{where}: " if where else ""
+    if backend == "warp" and integrator not in WARP_INTEGRATORS:
+        raise SceneError(
+            f"{at}[integrator] backend = 'warp' supports integrators "
+            f"{' and '.join(WARP_INTEGRATORS)}; name = {integrator!r} is not implemented on "
+            "Warp: use backend = 'numba' (the default) or an explicit integrator")
+    if backend != "warp" and (precision != "float64" or device not in ("auto", "", None)):
+        raise SceneError(f"{at}[integrator] device and precision apply to backend = 'warp' "
+                         f"only (backend = {backend!r} computes in float64 on the CPU)")
 
 
 def schema_markdown() -> str:
@@ -378,6 +402,7 @@ class Scene:
                              "integrator; set it to false")
         if it["name"] == "implicit":
             out["provot"]["enabled"] = False
+        check_backend(it["backend"], it["name"], it["device"], it["precision"], where=name)
         b, sp = out["body"], out["springs"]
         kind = b["type"]
         if kind == "box":
@@ -607,6 +632,18 @@ class Scene:
                             model=g["model"], restitution=g["restitution"],
                             friction=g["friction"], static_friction=g["static_friction"])
 
+    def with_backend(self, backend: str | None = None, device: str | None = None,
+                     precision: str | None = None) -> "Scene":
+        """This scene with ``[integrator] backend / device / precision`` overridden where
+        given (the command line's ``--backend``), checked like a scene file's."""
+        it = dict(self.params["integrator"])
+        for key, value in (("backend", backend), ("device", device),
+                           ("precision", precision)):
+            if value is not None:
+                it[key] = _check(self.name, "integrator", key, SCHEMA["integrator"][key], value)
+        check_backend(it["backend"], it["name"], it["device"], it["precision"], where=self.name)
+        return Scene({**self.params, "integrator": it}, text=self.text, name=self.name)
+
     def simulator(self, model=None, **overrides):
         """A :class:`~jellysim.simulator.Simulator` of the scene: its options, the initial
         velocity and the ``[[handle]]`` tables applied."""
@@ -635,6 +672,7 @@ class Scene:
 
         kw = dict(dt=it["dt"], integrator=it["name"], provot=self.provot_params(),
                   ground=self.ground_params(), backend=it["backend"], threads=it["threads"],
+                  device=it["device"], precision=it["precision"],
                   substeps=it["substeps"] if it["substeps"] is not None else "auto",
                   implicit=ImplicitParams(scheme=it["scheme"], theta=it["theta"],
                                           tolerance=it["cg_tolerance"],

@@ -55,7 +55,10 @@ class Simulator:
     dt: time step [s], > 0.
     integrator: :class:`~jellysim.params.Integrator`.
     provot, ground: correction options.
-    backend: ``"numba"`` (default) or ``"numpy"`` (the reference).
+    backend: ``"numba"`` (default), ``"numpy"`` (the reference) or ``"warp"`` (NVIDIA Warp,
+        integrators ``paper`` and ``symplectic``; ``pip install 'jellysim[gpu]'``).
+    device, precision: Warp only: ``"auto"`` (a GPU when present, else Warp's CPU device),
+        ``"cpu"``, ``"cuda"``, ``"cuda:N"``; ``"float64"`` or ``"float32"``.
     threads: numba threads (default: :func:`auto_threads`).  Results do not depend on it.
     runaway_distance: a point farther than this [m] from the body's starting centre stops the
         run (default: 100 x the body's bounding-box diagonal, at least 100 m).
@@ -77,8 +80,10 @@ class Simulator:
                  ground: GroundParams = GroundParams(enabled=False),
                  backend: Backend | str = Backend.NUMBA, threads: int | None = None,
                  runaway_distance: float | None = None, check_stability: bool = True,
-                 state=None, substeps: int | str = "auto", implicit: ImplicitParams = ImplicitParams(),
-                 obstacles=(), rest_speed: float | None = None):
+                 state=None, substeps: int | str = "auto",
+                 implicit: ImplicitParams = ImplicitParams(), obstacles=(),
+                 rest_speed: float | None = None, device: str | None = None,
+                 precision: str = "float64"):
         if not (np.isfinite(dt) and dt > 0):
             raise SceneError(f"time step dt must be a positive number of seconds, got {dt}")
         self.model = model
@@ -139,8 +144,18 @@ class Simulator:
         """Conjugate-gradient iterations taken so far (implicit integrator)."""
         self.cg_worst_residual = 0.0
         """Largest relative residual a CG solve stopped at (implicit integrator)."""
-        self.backend = Backend(backend)
-        self._k = get_backend(self.backend)
+        try:
+            self.backend = Backend(backend)
+        except ValueError:
+            raise SceneError(f"backend must be one of {', '.join(b.value for b in Backend)}, "
+                             f"got {backend!r}") from None
+        from .scene import check_backend
+
+        check_backend(self.backend.value, self.integrator.value, device or "auto", precision)
+        if self.physical and self.backend is Backend.WARP:
+            raise SceneError("backend = 'warp' does not implement the physical (FEM) path yet "
+                             "(tets, damping, handles): use backend = 'numba'")
+        self._k = get_backend(self.backend, device=device, precision=precision)
         n = model.particle_count
         if provot.enabled and ProvotPairs(provot.pairs) is ProvotPairs.ALL and (
                 n > MAX_ALL_PAIRS_POINTS):

@@ -1,10 +1,12 @@
 """Compute kernels: plain functions over flat arrays with explicit outputs.
 
-Two backends with the same function names and signatures:
+Backends with the same function names and signatures:
 
 * :mod:`.numpy_backend` - the executable specification, vectorised numpy, easy to read;
 * :mod:`.numba_backend` - numba ``parallel=True`` versions, race-free (every per-point sum is
-  a gather in a fixed order), so results are bitwise identical for any thread count.
+  a gather in a fixed order), so results are bitwise identical for any thread count;
+* :mod:`.warp_backend` - NVIDIA Warp (a GPU, or Warp's CPU device): the explicit step
+  (``run_steps``) only; optional (``pip install 'jellysim[gpu]'``).
 
 :func:`get_backend` returns one of them by name.
 """
@@ -26,11 +28,31 @@ INTEGRATOR_CODES = {"paper": 0, "symplectic": 1}
 class Backend(str, Enum):
     NUMPY = "numpy"
     NUMBA = "numba"
+    WARP = "warp"
 
 
-def get_backend(name: Backend | str = Backend.NUMBA):
-    """The kernel module for ``name`` (``"numpy"`` or ``"numba"``)."""
+WARP_INTEGRATORS = ("paper", "symplectic")
+"""Integrators the Warp backend implements."""
+
+
+def get_backend(name: Backend | str = Backend.NUMBA, *, device: str | None = None,
+                precision: str = "float64"):
+    """The kernels for ``name`` (``"numpy"``, ``"numba"`` or ``"warp"``).
+
+    ``device`` and ``precision`` apply to ``"warp"`` only (see
+    :class:`~jellysim.kernels.warp_backend.WarpBackend`): an object with ``run_steps``."""
     name = Backend(name)
+    if name is Backend.WARP:
+        from ..errors import SceneError
+
+        try:
+            import warp  # noqa: F401
+        except ImportError:
+            raise SceneError("backend 'warp' needs NVIDIA Warp, which is not installed: "
+                             "pip install 'jellysim[gpu]' (or pip install warp-lang)") from None
+        from .warp_backend import WarpBackend
+
+        return WarpBackend.get(device, precision)
     if name is Backend.NUMPY:
         from . import numpy_backend as mod
     else:
