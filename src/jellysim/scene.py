@@ -213,12 +213,19 @@ OBSTACLE_KEYS = {"plane": ("point", "normal"), "sphere": ("center", "radius"),
 
 
 def check_backend(backend: str, integrator: str, device: str = "auto",
-                  precision: str = "float64", *, where: str = "") -> None:
+                  precision: str = "float64", *, where: str = "", physical: bool = False) -> None:
     """Refuse combinations the backends do not implement (a :class:`SceneError` naming the
-    ``[integrator]`` keys)."""
+    ``[integrator]`` keys).  ``physical``: the scene asks for the FEM material."""
     from .kernels import WARP_INTEGRATORS
 
     at = f"{where}: " if where else ""
+    if backend == "warp" and physical:
+        raise SceneError(
+            f"{at}[integrator] backend = 'warp' supports integrators "
+            f"{' and '.join(WARP_INTEGRATORS)} on spring bodies; the physical path ([material] "
+            "youngs_modulus with model 'fem' or 'auto': tets, damping, handles) is not "
+            "implemented on Warp: use backend = 'numba' (the default), or [material] model = "
+            "'springs'")
     if backend == "warp" and integrator not in WARP_INTEGRATORS:
         raise SceneError(
             f"{at}[integrator] backend = 'warp' supports integrators "
@@ -227,6 +234,11 @@ def check_backend(backend: str, integrator: str, device: str = "auto",
     if backend != "warp" and (precision != "float64" or device not in ("auto", "", None)):
         raise SceneError(f"{at}[integrator] device and precision apply to backend = 'warp' "
                          f"only (backend = {backend!r} computes in float64 on the CPU)")
+
+
+def _wants_fem(params: dict) -> bool:
+    mat = params["material"]
+    return mat["youngs_modulus"] is not None and mat["model"] != "springs"
 
 
 def schema_markdown() -> str:
@@ -402,7 +414,8 @@ class Scene:
                              "integrator; set it to false")
         if it["name"] == "implicit":
             out["provot"]["enabled"] = False
-        check_backend(it["backend"], it["name"], it["device"], it["precision"], where=name)
+        check_backend(it["backend"], it["name"], it["device"], it["precision"], where=name,
+                      physical=_wants_fem(out))
         b, sp = out["body"], out["springs"]
         kind = b["type"]
         if kind == "box":
@@ -641,7 +654,8 @@ class Scene:
                            ("precision", precision)):
             if value is not None:
                 it[key] = _check(self.name, "integrator", key, SCHEMA["integrator"][key], value)
-        check_backend(it["backend"], it["name"], it["device"], it["precision"], where=self.name)
+        check_backend(it["backend"], it["name"], it["device"], it["precision"], where=self.name,
+                      physical=_wants_fem(self.params))
         return Scene({**self.params, "integrator": it}, text=self.text, name=self.name)
 
     def simulator(self, model=None, **overrides):

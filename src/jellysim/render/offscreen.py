@@ -34,7 +34,7 @@ class RenderOptions:
     shadow: bool = True
     """Draw a contact shadow: the skin's silhouette on the floor, straight below it."""
     plate: bool = False
-    """Draw a round white plate on the floor under the body's starting position."""
+    """Draw a round white plate on the floor under the body's last position."""
     background: str = "#f4f1ec"
     """Background colour."""
 
@@ -136,7 +136,7 @@ class Renderer:
                        name="floor")
             extra = np.array([[lo[0], floor_y, lo[2]], [hi[0], floor_y, hi[2]]])
             if o.plate:
-                x0 = np.asarray(traj.positions[0])
+                x0 = np.asarray(traj.positions[-1])  # under where the body comes to rest
                 mid = 0.5 * (x0.min(axis=0) + x0.max(axis=0))
                 radius = 0.8 * float(np.max(np.ptp(x0[:, [0, 2]], axis=0)))
                 plate = pv.Cylinder(center=(mid[0], floor_y + 0.002 * ext, mid[2]),
