@@ -747,6 +747,33 @@ def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contac
 
 
 @njit(cache=True)
+def _serial_max_int(values):
+    m = -1
+    for i in range(values.shape[0]):
+        if values[i] > m:
+            m = values[i]
+    return m
+
+
+@njit(cache=True)
+def _project_net_residual(dv, b, ap, mass, shift):
+    """dv += sum(b - A dv) / sum(m + shift): serial sums, fixed order."""
+    w = 0.0
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    for q in range(dv.shape[0]):
+        w += mass[q] + shift[q]
+        s0 += b[q, 0] - ap[q, 0]
+        s1 += b[q, 1] - ap[q, 1]
+        s2 += b[q, 2] - ap[q, 2]
+    for q in range(dv.shape[0]):
+        dv[q, 0] += s0 / w
+        dv[q, 1] += s1 / w
+        dv[q, 2] += s2 / w
+
+
+@njit(cache=True)
 def _dot(a, b):
     s = 0.0
     for p in range(a.shape[0]):
@@ -950,6 +977,11 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
                 break
         if bnorm > 0.0:
             worst = max(worst, res / bnorm)
+        if _serial_max_int(cobs) < 0:
+            # free flight: project the solve's net residual out (see the numpy spec)
+            system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
+                          second_slot, second_other, spring_vec, ap)
+            _project_net_residual(dv, b, ap, mass, shift)
         if bdf2:
             _bdf2_update(x, v, a, dv, hist[0], hist[1], hist[2], dt, h)
             _bdf2_contact_velocity(v, x, hist[0], cnrm, cobs, dt, first_ptr, second_ptr)

@@ -504,6 +504,13 @@ def implicit_steps(nsteps, dt, theta, tol, max_iter, x, v, a, inv_mass, damping,
                 break
         if bnorm > 0.0:
             worst = max(worst, res / bnorm)
+        if not np.any(cobs >= 0):
+            # free flight: the solve's residual must not act as a net force; a uniform dv
+            # shift c changes A dv by (m + h delta) c (K annihilates translations), so this
+            # makes sum(A dv) = sum(b) exactly: momentum exact whatever the tolerance
+            system_matvec(dv, mass, shift, h2, spring_ij, frame, first_ptr, second_ptr,
+                          second_slot, second_other, spring_vec, ap)
+            dv += (np.sum(b - ap, axis=0) / np.sum(mass + shift))[None, :]
         if bdf2:
             x_new = x + (x - hist[0]) / 3.0 + h * (v + dv)
             hist[0][:] = x
