@@ -118,6 +118,10 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         lambda v: v >= 1, "an integer >= 1"),
         "substeps": Spec("int", 1, "Steps of dt / substeps per step.", lambda v: v >= 1,
                          "an integer >= 1"),
+        "start_acceleration": Spec("str", "forces", "Accelerations at t = 0: 'forces' (from "
+                                   "the forces at rest: gravity) or 'zero' (the report's "
+                                   "code: a = 0 until the first force evaluation).",
+                                   choices=("forces", "zero")),
         "scheme": Spec("str", "theta", "Implicit: 'theta' (one step, see theta) or 'bdf2' "
                        "(two-step, second order: keeps a frame-rate wobble, 0.90 of its "
                        "energy per period at 2.8 Hz and dt = 1/60 s; less robust through "
@@ -552,6 +556,10 @@ class Scene:
                                           tolerance=it["cg_tolerance"],
                                           max_iterations=it["cg_max_iterations"]),
                   obstacles=self.obstacles())
+        if it["start_acceleration"] == "zero" and "state" not in overrides:
+            state = model.state()
+            state.a[:] = 0.0
+            kw["state"] = state
         kw.update(overrides)
         return Simulator(model, **kw)
 
