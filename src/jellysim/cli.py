@@ -33,7 +33,11 @@ def cli() -> None:
               help="Also export the skin to this .usdc (see 'jellysim export').")
 @click.option("--glb", type=click.Path(dir_okay=False), default=None,
               help="Also export the skin to this glTF .glb.")
-def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None) -> None:
+@click.option("--threads", type=click.IntRange(min=1), default=None,
+              help="Numba threads (overrides the scene's [integrator] threads; default: by "
+                   "problem size).  Results do not depend on it.")
+def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None,
+        threads=None) -> None:
     """Simulate SCENE_FILE (TOML) and write trajectory.npz and body.pvd."""
     from pathlib import Path
 
@@ -42,6 +46,8 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 
     try:
         scene = Scene.load(scene_file)
+        if threads is not None:
+            scene.params["integrator"]["threads"] = threads
         out = Path(out_dir) if out_dir else Path("out") / Path(scene_file).stem
         result = run_scene(scene, out, progress=not quiet, vtu=False if no_vtu else None,
                            steps=steps)

@@ -89,13 +89,15 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
 @_size_opt
 @click.option("--no-usd", is_flag=True, help="Skip demo.usdc.")
 @click.option("--quiet", is_flag=True, help="No progress bars.")
-def demo(out_dir, frames, size, no_usd, quiet):
+@click.option("--threads", type=click.IntRange(min=1), default=None,
+              help="Numba threads (default: by problem size).")
+def demo(out_dir, frames, size, no_usd, quiet, threads=None):
     """A jello cow dropped on a table: writes OUT/demo.mp4 and OUT/demo.usdc."""
     from .demo import run_demo
 
     try:
         r = run_demo(out_dir, frames=frames, size=_size(size), usd=not no_usd,
-                     progress=not quiet)
+                     progress=not quiet, threads=threads)
     except JellysimError as exc:
         _fail(str(exc))
     s = r["seconds"]

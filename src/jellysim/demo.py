@@ -75,9 +75,10 @@ def build_demo_body():
 
 
 def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: bool = True,
-             progress: bool = True, vtu: bool = False) -> dict:
+             progress: bool = True, vtu: bool = False, threads: int | None = None) -> dict:
     """Simulate the demo and write ``<out_dir>/demo.mp4`` (+ ``demo.usdc``); the run itself
-    goes to ``<out_dir>/demo/``.  ``frames`` limits the number of saved frames (CI).
+    goes to ``<out_dir>/demo/``.  ``frames`` limits the number of saved frames (CI);
+    ``threads``: numba threads (default: by problem size).
     Returns the paths written and timings [s]."""
     import time
 
@@ -90,6 +91,8 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     t0 = time.perf_counter()
     out_dir = Path(out_dir)
     scene = Scene.from_dict(DEMO_SCENE, name="demo")
+    if threads is not None:
+        scene.params["integrator"]["threads"] = int(threads)
     body, skin = build_demo_body()
     steps = scene.steps if frames is None else max(1, int(frames) - 1) * scene.frame_every
     result = run_scene(scene, out_dir / "demo", progress=progress, vtu=vtu, steps=steps,
