@@ -7,12 +7,12 @@ and their ratio (quiet / busy: 1 = unaffected, 2 = what sharing every core with 
 process costs at most, worse = the threads hurt each other):
 
 * ``paper``: ``examples/paper_cube.toml`` (the report's 600-point cube, all-pairs Provot) with
-  jellysim's default settings, 200 steps;
+  jellysim's default settings, its 100 steps;
 * ``paper_springs``: the same cube with Provot over the springs (the fast explicit step that
   ``bench_step`` times: many short parallel regions per step, the case that spin-waiting
-  threads hurt most), 2000 steps;
+  threads hurt most), 1000 steps;
 * ``physical``: ``examples/gelatin_cube.toml`` (1331 points, the implicit integrator with
-  contact: the demo's physics), 30 steps.
+  contact: the demo's physics), 20 steps.
 
 ``--variants`` compares threading set-ups (each child gets that environment): ``default``
 (jellysim as shipped), ``spin`` (OpenMP's own default: ``OMP_WAIT_POLICY=active``-like spinning,
@@ -62,10 +62,10 @@ def child(workloads: list[str]) -> dict:
             sc = Scene.load(ROOT / "examples" / "paper_cube.toml")
             if name == "paper_springs":
                 sc.params["provot"]["pairs"] = "springs"
-            steps = 200 if name == "paper" else 2000
+            steps = 100 if name == "paper" else 1000
         else:
             sc = Scene.load(ROOT / "examples" / "gelatin_cube.toml")
-            steps = 30
+            steps = 20
         sim = sc.simulator(sc.build_model(), threads=threads)
         sim.advance(2)  # compile / load the cache outside the timing
         t = time.perf_counter()
@@ -138,6 +138,7 @@ def main() -> None:
             row[w] = {"quiet_steps_per_s": round(q, 1), "busy_steps_per_s": round(b, 1),
                       "slowdown": round(q / b, 2)}
         result["variants"][name] = row
+        print(json.dumps({name: row}), file=sys.stderr, flush=True)
     print(json.dumps(result, indent=1))
 
 
