@@ -12,9 +12,10 @@ from .provot_numba import _provot_c_inv
 def accelerations(x, v, points, springs, spring_scalar, a_out):
     n = x.shape[0]
     inv_mass, damping, gravity = points.inv_mass, points.damping, points.gravity
-    spring_ij, rest, stiff = springs.ij, springs.rest, springs.stiff
+    rest, stiff = springs.rest, springs.stiff
     first_ptr, second_ptr = springs.first_ptr, springs.second_ptr
     second_slot, second_other = springs.second_slot, springs.second_other
+    first_other = springs.first_other
     gx, gy, gz = gravity[0], gravity[1], gravity[2]
     for p in prange(n):
         fx = 0.0
@@ -22,7 +23,7 @@ def accelerations(x, v, points, springs, spring_scalar, a_out):
         fz = 0.0
         px, py, pz = x[p, 0], x[p, 1], x[p, 2]
         for s in range(first_ptr[p], first_ptr[p + 1]):
-            q = spring_ij[s, 1]
+            q = first_other[s]
             dx = x[q, 0] - px
             dy = x[q, 1] - py
             dz = x[q, 2] - pz
@@ -62,9 +63,10 @@ def _accelerations_provot_fused(x, v, points, springs, tau, spring_scalar, provo
     position change in between (the report's order).  Positions are corrected in place."""
     n = x.shape[0]
     inv_mass, damping, gravity = points.inv_mass, points.damping, points.gravity
-    spring_ij, rest, stiff = springs.ij, springs.rest, springs.stiff
+    rest, stiff = springs.rest, springs.stiff
     first_ptr, second_ptr = springs.first_ptr, springs.second_ptr
     second_slot, second_other = springs.second_slot, springs.second_other
+    first_other = springs.first_other
     for p in prange(n):
         fx = 0.0
         fy = 0.0
@@ -75,7 +77,7 @@ def _accelerations_provot_fused(x, v, points, springs, tau, spring_scalar, provo
         cnt = 0
         px, py, pz = x[p, 0], x[p, 1], x[p, 2]
         for s in range(first_ptr[p], first_ptr[p + 1]):
-            q = spring_ij[s, 1]
+            q = first_other[s]
             ex = x[q, 0] - px
             ey = x[q, 1] - py
             ez = x[q, 2] - pz

@@ -37,15 +37,15 @@ def spring_frames(x, springs, frame, clip):
 
 @njit(**_opts)
 def system_matvec(u, mass, shift, h2, springs, frame, spring_vec, out):
-    spring_ij, first_ptr, second_ptr = springs.ij, springs.first_ptr, springs.second_ptr
-    second_slot = springs.second_slot
+    first_ptr, second_ptr = springs.first_ptr, springs.second_ptr
+    second_slot, first_other = springs.second_slot, springs.first_other
     n = u.shape[0]
     for p in prange(n):
         sx = 0.0
         sy = 0.0
         sz = 0.0
         for s in range(first_ptr[p], first_ptr[p + 1]):
-            q = spring_ij[s, 1]
+            q = first_other[s]
             dx = u[q, 0] - u[p, 0]
             dy = u[q, 1] - u[p, 1]
             dz = u[q, 2] - u[p, 2]

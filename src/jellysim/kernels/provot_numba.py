@@ -31,9 +31,10 @@ def _provot_c_inv(length, inv_length, rest, tau):
 @njit(**_opts)
 def _provot_jacobi_springs(x, springs, tau, spring_scalar, dx, count, max_corr):
     n = x.shape[0]
-    spring_ij, rest = springs.ij, springs.rest
+    rest = springs.rest
     first_ptr, second_ptr = springs.first_ptr, springs.second_ptr
     second_slot, second_other = springs.second_slot, springs.second_other
+    first_other = springs.first_other
     for p in prange(n):
         sx = 0.0
         sy = 0.0
@@ -41,7 +42,7 @@ def _provot_jacobi_springs(x, springs, tau, spring_scalar, dx, count, max_corr):
         cnt = 0
         px, py, pz = x[p, 0], x[p, 1], x[p, 2]
         for s in range(first_ptr[p], first_ptr[p + 1]):
-            q = spring_ij[s, 1]
+            q = first_other[s]
             ex = x[q, 0] - px
             ey = x[q, 1] - py
             ez = x[q, 2] - pz

@@ -30,12 +30,13 @@ __all__ = ["SpringArrays", "PointArrays", "ProvotOptions", "GroundGuard", "Obsta
            "implicit_options", "implicit_scratch"]
 
 SpringArrays = namedtuple("SpringArrays", "ij rest stiff first_ptr second_ptr second_slot "
-                                          "second_other")
+                                          "second_other first_other")
 """The springs (k of them, sorted by (i, j), i < j): ``ij`` (k, 2) int64, ``rest`` [m] (k,),
 ``stiff`` [N/m] (k,); the CSR adjacency: ``first_ptr`` (n + 1,) (springs whose first point is
 p are ``first_ptr[p]:first_ptr[p+1]``), ``second_ptr`` (n + 1,) into the second-point list,
-``second_slot`` (k,) int32 (spring -> its slot in that list), ``second_other`` (k,) (slot ->
-the spring's first point).  See :class:`jellysim.model.Model`."""
+``second_slot`` (k,) int32 (spring -> its slot in that list), ``second_other`` (k,) int32
+(slot -> the spring's first point), ``first_other`` (k,) int32 (spring -> its second point:
+``ij[:, 1]`` in 4 bytes, what the per-point sweeps read).  See :class:`jellysim.model.Model`."""
 
 PointArrays = namedtuple("PointArrays", "x0 mass inv_mass damping gravity")
 """Rest positions ``x0`` [m] (n, 3), ``mass`` [kg] (n,), ``inv_mass`` [1/kg] (n,), the damping
@@ -76,7 +77,8 @@ def spring_arrays(model) -> SpringArrays:
     m = model
     return SpringArrays(m.spring_ij, m.spring_rest_length, m.spring_stiffness,
                         m.point_first_ptr, m.point_second_ptr, m.spring_second_slot,
-                        m.point_second_other)
+                        m.point_second_other,
+                        np.ascontiguousarray(m.spring_ij[:, 1], dtype=np.int32))
 
 
 def point_arrays(model) -> PointArrays:
