@@ -38,9 +38,9 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def report_steps(steps, x, v, a, x0, nbr_ptr, nbr, k, mass, delta, g, dt, tau, mu, nu):
-    """``steps`` report steps in place on x [m], v [m/s], a [m/s^2] (n, 3); ``nbr[nbr_ptr[i]:nbr_ptr[i + 1]]``:
-    point i's spring neighbours (the larger indices ascending, then the smaller ones
-    ascending: the order the sums are taken in)."""
+    """``steps`` report steps in place on x [m], v [m/s], a [m/s^2] (n, 3);
+    ``nbr[nbr_ptr[i]:nbr_ptr[i + 1]]``: point i's spring neighbours (the larger indices
+    ascending, then the smaller ones ascending: the order the sums are taken in)."""
     n = x.shape[0]
     new_a = np.zeros((n, 3))
     for _ in range(steps):
@@ -139,8 +139,8 @@ def test_transcription_runs_the_same_in_plain_python():
     x0 = rng.random((12, 3)) + [0, 0.01, 0]
     springs = np.array([(i, j) for i in range(12) for j in range(i + 1, 12)
                         if np.linalg.norm(x0[i] - x0[j]) < 0.6], dtype=np.int64)
-    args = (*neighbour_lists(12, springs), 50.0, np.full(12, 0.3), 0.8, np.array([0.0, -9.8, 0.0]), 0.01, 0.001,
-            0.1, 0.2)
+    args = (*neighbour_lists(12, springs), 50.0, np.full(12, 0.3), 0.8,
+            np.array([0.0, -9.8, 0.0]), 0.01, 0.001, 0.1, 0.2)
     runs = []
     for fn in (report_steps, report_steps_compiled):
         x, v, a = x0.copy(), np.zeros_like(x0), np.zeros_like(x0)

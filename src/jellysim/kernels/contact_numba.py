@@ -1,4 +1,5 @@
-"""Numba: the report's ground and the guard (:func:`finish_step`), obstacle contact with\nrestitution and Coulomb friction, and the implicit solve's contact constraints."""
+"""Numba: the report's ground and the guard (:func:`finish_step`), obstacle contact with
+restitution and Coulomb friction, and the implicit solve's contact constraints."""
 from __future__ import annotations
 
 import numpy as np

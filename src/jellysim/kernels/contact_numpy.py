@@ -1,4 +1,5 @@
-"""Numpy (the spec): the report's ground and the guard (:func:`finish_step`), obstacle\ncontact with restitution and Coulomb friction, and the implicit solve's contact constraints."""
+"""Numpy (the spec): the report's ground and the guard (:func:`finish_step`), obstacle
+contact with restitution and Coulomb friction, and the implicit solve's contact constraints."""
 from __future__ import annotations
 
 import numpy as np

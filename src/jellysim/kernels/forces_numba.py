@@ -1,4 +1,5 @@
-"""Numba: report eq. 1 spring forces, each spring once, race-free gather (see\n:mod:`.numba_backend` for the scheme)."""
+"""Numba: report eq. 1 spring forces, each spring once, race-free gather (see
+:mod:`.numba_backend` for the scheme)."""
 from __future__ import annotations
 
 import numpy as np

@@ -1,4 +1,5 @@
-"""Numba: the linearly implicit theta-method and BDF2 with matrix-free, Jacobi-preconditioned\nconjugate gradients (contact constraints inside the solve); a CSR block product."""
+"""Numba: the linearly implicit theta-method and BDF2 with matrix-free, Jacobi-preconditioned
+conjugate gradients (contact constraints inside the solve); a CSR block product."""
 from __future__ import annotations
 
 import numpy as np

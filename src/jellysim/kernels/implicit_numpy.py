@@ -1,4 +1,5 @@
-"""Numpy (the spec): the linearly implicit theta-method and BDF2, matrix-free\nJacobi-preconditioned conjugate gradients with contact constraints inside the solve."""
+"""Numpy (the spec): the linearly implicit theta-method and BDF2, matrix-free
+Jacobi-preconditioned conjugate gradients with contact constraints inside the solve."""
 from __future__ import annotations
 
 import numpy as np
