@@ -158,8 +158,14 @@ class Simulator:
             self._hist = sc.hist
             self._fresh = sc.fresh
             self._last = None  # (x, v) at the end of the last advance
+            self._frame, self._spring_vec = sc.frame, sc.spring_vec
         else:
             self._scratch = rec.explicit_scratch(n, k)
+            sc = self._scratch
+            # the scratch arrays under their former names (other integration paths use them)
+            self._dx, self._count, self._max_corr = sc.dx, sc.count, sc.max_corr
+            self._x_pre, self._provot_scalar = sc.x_pre, sc.provot_scalar
+        self._scalar = self._scratch.spring_scalar
         self.stability: StabilityEstimate | None = None
         if check_stability:
             self.check_stability()
