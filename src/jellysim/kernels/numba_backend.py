@@ -26,6 +26,12 @@ from .implicit_numba import (csr_matmat, implicit_steps, spring_frames, system_d
 from .provot_numba import provot
 from .steps_numba import run_steps
 
+# private helpers under their former module (kernels elsewhere may reuse them)
+from ._numba_opts import OPTS as _opts  # noqa: E402,F401
+from .contact_numba import _contact_point, _ground_and_check, _status  # noqa: E402,F401
+from .implicit_numba import _copy, _dot  # noqa: E402,F401
+from .provot_numba import _provot_c, _provot_c_inv, _serial_max  # noqa: E402,F401
+
 __all__ = ["accelerations", "provot", "finish_step", "run_steps", "contact", "contact_normals",
            "filter_constrained", "constrain_start", "constraint_friction", "spring_frames",
            "system_matvec", "system_diagonal", "implicit_steps", "csr_matmat"]

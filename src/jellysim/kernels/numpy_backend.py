@@ -20,6 +20,12 @@ from .implicit_numpy import implicit_steps, spring_frames, system_diagonal, syst
 from .provot_numpy import provot
 from .steps_numpy import run_steps
 
+# private helpers under their former module (kernels elsewhere may reuse them)
+from .contact_numpy import _contact_geometry  # noqa: E402,F401
+from .forces_numpy import _scatter  # noqa: E402,F401
+from .implicit_numpy import _dot  # noqa: E402,F401
+from .provot_numpy import _provot_scalar  # noqa: E402,F401
+
 __all__ = ["accelerations", "provot", "finish_step", "run_steps", "contact", "contact_normals",
            "filter_constrained", "constrain_start", "constraint_friction", "spring_frames",
            "system_matvec", "system_diagonal", "implicit_steps", "CONTACT_FREE",
