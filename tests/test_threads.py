@@ -80,3 +80,18 @@ def test_import_sets_passive_wait_unless_the_user_chose():
     assert _env_after_import() == ["PASSIVE", "0"]
     assert _env_after_import(OMP_WAIT_POLICY="active") == ["active", "0"]
     assert _env_after_import(JELLYSIM_THREADING="spin") == ["None", "None"]
+
+
+def test_auto_threads_counts_free_cores(monkeypatch):
+    import numba
+
+    from jellysim import simulator
+
+    cpus = os.cpu_count()
+    monkeypatch.setattr(os, "getloadavg", lambda: (0.2, 0.2, 0.2))  # idle: every thread
+    assert simulator.auto_threads(10_000) == numba.config.NUMBA_NUM_THREADS
+    assert simulator.auto_threads(100) == 1  # small bodies: one thread regardless
+    monkeypatch.setattr(os, "getloadavg", lambda: (cpus + 1.0, 0.0, 0.0))  # every core taken
+    assert simulator.auto_threads(10_000) == 1
+    monkeypatch.setattr(os, "getloadavg", lambda: (20.0 * cpus, 0.0, 0.0))
+    assert simulator.auto_threads(1_000_000) == 1

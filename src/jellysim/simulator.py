@@ -26,7 +26,8 @@ __all__ = ["Simulator", "StabilityWarning", "auto_threads"]
 PARALLEL_MIN_POINTS = 500
 """Below this many points one thread is used.  From the paper scene's 600 points on, two
 threads win on a quiet machine (about 20k vs 12k steps/s, BENCHMARKS.md); on a machine whose
-other core is busy they can lose badly: pass ``threads=1`` there."""
+cores are taken by other work they lose badly, so :func:`auto_threads` also counts the free
+cores."""
 
 
 class StabilityWarning(UserWarning):
@@ -34,10 +35,25 @@ class StabilityWarning(UserWarning):
 
 
 def auto_threads(point_count: int) -> int:
-    """Thread count used when none is given: 1 for small bodies, all cores otherwise."""
+    """Thread count used when none is given: 1 for small bodies; otherwise one per free core,
+    at least 1, at most numba's threads.  Free cores: the CPU count minus the 1-minute load
+    average, plus one (this process's own share of the load).  On an oversubscribed machine a
+    second thread has to wait for a core at every parallel region: with a load average of 19
+    on 2 cores the paper scene ran 39 steps/s on 2 threads and 3,244 on one (BENCHMARKS.md,
+    "Contention")."""
+    import os
+
     import numba
 
-    return 1 if point_count < PARALLEL_MIN_POINTS else numba.config.NUMBA_NUM_THREADS
+    if point_count < PARALLEL_MIN_POINTS:
+        return 1
+    most = numba.config.NUMBA_NUM_THREADS
+    try:
+        load = os.getloadavg()[0]
+    except (AttributeError, OSError):  # no load average on this platform
+        return most
+    free = int((os.cpu_count() or 1) - load + 1.0)
+    return max(1, min(most, free))
 
 
 class Simulator:
