@@ -6,7 +6,10 @@ Two backends with the same function names and signatures:
 * :mod:`.numba_backend` - numba ``parallel=True`` versions, race-free (every per-point sum is
   a gather in a fixed order), so results are bitwise identical for any thread count.
 
-:func:`get_backend` returns one of them by name.
+Each backend is split by concern (``forces_*``, ``provot_*``, ``contact_*``, ``implicit_*``,
+``steps_*``); its functions take the records of :mod:`.records` (the backend interface: the
+Simulator calls only ``run_steps`` and ``implicit_steps``).  :func:`get_backend` returns a
+backend by name.
 """
 from __future__ import annotations
 
