@@ -82,7 +82,7 @@ def test_import_sets_passive_wait_unless_the_user_chose():
     assert _env_after_import(JELLYSIM_THREADING="spin") == ["None", "None"]
 
 
-def test_auto_threads_counts_free_cores(monkeypatch):
+def test_auto_threads_drops_to_one_on_an_oversubscribed_machine(monkeypatch):
     import numba
 
     from jellysim import simulator
@@ -91,7 +91,9 @@ def test_auto_threads_counts_free_cores(monkeypatch):
     monkeypatch.setattr(os, "getloadavg", lambda: (0.2, 0.2, 0.2))  # idle: every thread
     assert simulator.auto_threads(10_000) == numba.config.NUMBA_NUM_THREADS
     assert simulator.auto_threads(100) == 1  # small bodies: one thread regardless
-    monkeypatch.setattr(os, "getloadavg", lambda: (cpus + 1.0, 0.0, 0.0))  # every core taken
+    monkeypatch.setattr(os, "getloadavg", lambda: (cpus + 1.0, 0.0, 0.0))  # a busy process
+    assert simulator.auto_threads(10_000) == numba.config.NUMBA_NUM_THREADS  # per core: passive
+    monkeypatch.setattr(os, "getloadavg", lambda: (2.5 * cpus, 0.0, 0.0))  # oversubscribed
     assert simulator.auto_threads(10_000) == 1
     monkeypatch.setattr(os, "getloadavg", lambda: (20.0 * cpus, 0.0, 0.0))
     assert simulator.auto_threads(1_000_000) == 1

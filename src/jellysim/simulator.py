@@ -35,12 +35,12 @@ class StabilityWarning(UserWarning):
 
 
 def auto_threads(point_count: int) -> int:
-    """Thread count used when none is given: 1 for small bodies; otherwise one per free core,
-    at least 1, at most numba's threads.  Free cores: the CPU count minus the 1-minute load
-    average, plus one (this process's own share of the load).  On an oversubscribed machine a
-    second thread has to wait for a core at every parallel region: with a load average of 19
-    on 2 cores the paper scene ran 39 steps/s on 2 threads and 3,244 on one (BENCHMARKS.md,
-    "Contention")."""
+    """Thread count used when none is given: 1 for small bodies; 1 on a heavily oversubscribed
+    machine (1-minute load average above twice the CPU count); otherwise all of numba's
+    threads.  With one busy process per core, passive-waiting threads keep a run within
+    1.2-2.2x of its quiet speed (one thread: 2.9-3.4x); with a load average of 19 on 2 cores
+    a second thread has to wait for a core at every parallel region and the paper scene ran 39
+    steps/s on 2 threads, 3,244 on one (BENCHMARKS.md, "Contention")."""
     import os
 
     import numba
@@ -52,8 +52,7 @@ def auto_threads(point_count: int) -> int:
         load = os.getloadavg()[0]
     except (AttributeError, OSError):  # no load average on this platform
         return most
-    free = int((os.cpu_count() or 1) - load + 1.0)
-    return max(1, min(most, free))
+    return 1 if load > 2.0 * (os.cpu_count() or 1) else most
 
 
 class Simulator:
