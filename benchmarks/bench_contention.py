@@ -13,6 +13,9 @@ process costs at most, worse = the threads hurt each other):
   threads hurt most), 1000 steps;
 * ``physical``: ``examples/gelatin_cube.toml`` (1331 points, the implicit integrator with
   contact: the demo's physics), 20 steps.
+* ``demo`` (only when asked for with ``--workloads``): the simulation of ``jellysim demo``
+  (the cow, about 4,100 points, implicit with 2 substeps), 10 steps; the body is built
+  outside the timing.
 
 ``--variants`` compares threading set-ups (each child gets that environment): ``default``
 (jellysim as shipped), ``spin`` (OpenMP's own default: ``OMP_WAIT_POLICY=active``-like spinning,
@@ -63,10 +66,18 @@ def child(workloads: list[str]) -> dict:
             if name == "paper_springs":
                 sc.params["provot"]["pairs"] = "springs"
             steps = 100 if name == "paper" else 1000
+        elif name == "demo":
+            from jellysim.demo import DEMO_SCENE, build_demo_body
+
+            sc = Scene.from_dict(DEMO_SCENE, name="demo")
+            body, _ = build_demo_body()
+            sim = sc.simulator(sc.build_model(body), threads=threads)
+            steps = 10
         else:
             sc = Scene.load(ROOT / "examples" / "gelatin_cube.toml")
             steps = 20
-        sim = sc.simulator(sc.build_model(), threads=threads)
+        if name != "demo":
+            sim = sc.simulator(sc.build_model(), threads=threads)
         sim.advance(2)  # compile / load the cache outside the timing
         t = time.perf_counter()
         sim.advance(steps)
