@@ -2,7 +2,13 @@
 called with positional arguments (the pre-records backend, loaded from ``--old`` as a package
 ``oldk`` holding ``numba_backend.py``), alternating in one process on the paper-scene recipe.
 
-Run:  PYTHONPATH=src:/path/to/old python -m benchmarks.bench_records [--sizes 600,100000]
+Make the old package once (commit 6c02052 is the last one before the records)::
+
+    mkdir -p /tmp/old/oldk && git show 6c02052:src/jellysim/kernels/numba_backend.py \
+        > /tmp/old/oldk/numba_backend.py && printf \
+        'STATUS_OK = 0\nSTATUS_NONFINITE = 1\nSTATUS_RUNAWAY = 2\n' > /tmp/old/oldk/__init__.py
+
+Run:  PYTHONPATH=src:/tmp/old python -m benchmarks.bench_records [--sizes 600,100000]
 Prints JSON: steps/s per size, thread count and variant (medians), and the ratio new / old.
 """
 from __future__ import annotations
