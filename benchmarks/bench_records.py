@@ -1,6 +1,6 @@
-"""Do the kernel records cost speed?  The explicit driver with records against the same kernels
-called with positional arguments (the pre-records backend, loaded from ``--old`` as a package
-``oldk`` holding ``numba_backend.py``), alternating in one process on the paper-scene recipe.
+r"""Do the kernel records cost speed?  The explicit driver with records against the same kernels
+called with positional arguments (the pre-records backend, imported as a package ``oldk`` holding
+that commit's ``numba_backend.py``), alternating in one process on the paper-scene recipe.
 
 Make the old package once (commit 6c02052 is the last one before the records)::
 
