@@ -6,6 +6,7 @@ import pytest
 from conftest import make_box_model
 from jellysim.kernels import numba_backend as nbk
 from jellysim.kernels import numpy_backend as npk
+from jellysim.kernels import records as rec
 from jellysim.params import GroundParams, ProvotParams
 from jellysim.simulator import Simulator
 
@@ -29,9 +30,7 @@ def test_accelerations_agree():
     for k in (npk, nbk):
         a = np.zeros_like(x)
         sc = np.zeros(m.spring_count)
-        k.accelerations(x, v, m.particle_inv_mass, m.damping, m.gravity, m.spring_ij,
-                        m.spring_rest_length, m.spring_stiffness, m.point_first_ptr,
-                        m.point_second_ptr, m.spring_second_slot, m.point_second_other, sc, a)
+        k.accelerations(x, v, rec.point_arrays(m), rec.spring_arrays(m), sc, a)
         out.append((a, sc))
     # numba keeps the scalars in second-list slot order
     out[1] = (out[1][0], out[1][1][m.spring_second_slot])
@@ -49,10 +48,8 @@ def test_provot_agrees(all_pairs, gauss_seidel):
     results = []
     for k in (npk, nbk):
         xx = x.copy()
-        res = k.provot(xx, m.particle_x0, m.spring_ij, m.spring_rest_length, m.point_first_ptr,
-                       m.point_second_ptr, m.spring_second_slot, m.point_second_other, 0.002,
-                       4, 0.0, all_pairs, gauss_seidel, np.zeros(m.spring_count),
-                       np.zeros((n, 3)), np.zeros(n, dtype=np.int64), np.zeros(n))
+        res = k.provot(xx, m.particle_x0, rec.spring_arrays(m), 0.002, 4, 0.0, all_pairs,
+                       gauss_seidel, rec.explicit_scratch(n, m.spring_count))
         results.append((xx, res))
     assert np.allclose(results[0][0], results[1][0], rtol=0, atol=1e-12)
     assert results[0][1][0] == results[1][1][0]

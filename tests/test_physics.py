@@ -126,11 +126,11 @@ def test_provot_springs_enough_loops_puts_every_spring_in_band(backend, order):
     n, ns = model.particle_count, model.spring_count
     tau = 0.01
     loops = 3000 if order == "jacobi" else 400
-    passes, largest = k.provot(
-        x, model.particle_x0, model.spring_ij, model.spring_rest_length,
-        model.point_first_ptr, model.point_second_ptr, model.spring_second_slot,
-        model.point_second_other, tau, loops, 1e-13, False, order == "gauss-seidel",
-        np.zeros(ns), np.zeros((n, 3)), np.zeros(n, dtype=np.int64), np.zeros(n))
+    from jellysim.kernels import records as rec
+
+    passes, largest = k.provot(x, model.particle_x0, rec.spring_arrays(model), tau, loops,
+                               1e-13, False, order == "gauss-seidel",
+                               rec.explicit_scratch(n, ns))
     L = np.linalg.norm(x[model.spring_ij[:, 1]] - x[model.spring_ij[:, 0]], axis=1)
     strain = np.abs(L / model.spring_rest_length - 1)
     assert strain.max() <= tau + 1e-9
@@ -143,11 +143,10 @@ def test_provot_all_pairs_limits_every_pair():
     model = make_box_model(60, r=0.5)
     x = model.particle_x0 + 0.01 * np.random.default_rng(6).standard_normal((60, 3))
     n = 60
-    k.provot(x, model.particle_x0, model.spring_ij, model.spring_rest_length,
-             model.point_first_ptr, model.point_second_ptr, model.spring_second_slot,
-             model.point_second_other, 0.01, 5000, 1e-13, True, False,
-             np.zeros(model.spring_count), np.zeros((n, 3)), np.zeros(n, dtype=np.int64),
-             np.zeros(n))
+    from jellysim.kernels import records as rec
+
+    k.provot(x, model.particle_x0, rec.spring_arrays(model), 0.01, 5000, 1e-13, True, False,
+             rec.explicit_scratch(n, model.spring_count))
     d = np.linalg.norm(x[:, None] - x[None], axis=2)
     d0 = np.linalg.norm(model.particle_x0[:, None] - model.particle_x0[None], axis=2)
     iu = np.triu_indices(n, 1)

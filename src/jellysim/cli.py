@@ -42,8 +42,11 @@ def cli() -> None:
               help="Warp device: auto (a GPU when present), cpu, cuda, cuda:N.")
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default=None,
               help="Warp arithmetic precision.")
+@click.option("--threads", type=click.IntRange(min=1), default=None,
+              help="Numba threads (overrides the scene's [integrator] threads; default: by "
+                   "problem size).  Results do not depend on it.")
 def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None,
-        partition="morton", backend=None, device=None, precision=None) -> None:
+        partition="morton", backend=None, device=None, precision=None, threads=None) -> None:
     """Simulate SCENE_FILE (TOML) and write trajectory.npz and body.pvd (under
     'mpiexec -n N': on N ranks, docs/mpi.md)."""
     from pathlib import Path
@@ -61,6 +64,8 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 
     try:
         scene = Scene.load(scene_file).with_backend(backend, device, precision)
+        if threads is not None:
+            scene.params["integrator"]["threads"] = threads
         out = Path(out_dir) if out_dir else Path("out") / Path(scene_file).stem
         result = run_scene(scene, out, progress=not quiet, vtu=False if no_vtu else None,
                            steps=steps)

@@ -98,15 +98,17 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
 @click.option("--device", default=None, help="Warp device: auto, cpu, cuda, cuda:N.")
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default=None,
               help="Warp arithmetic precision.")
+@click.option("--threads", type=click.IntRange(min=1), default=None,
+              help="Numba threads (default: by problem size).")
 def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
-         precision=None):
+         precision=None, threads=None):
     """Real gelatin on a plate: writes OUT/demo.mp4 and OUT/demo.usdc."""
     from .demo import run_demo
 
     try:
         r = run_demo(out_dir, frames=frames, size=_size(size), usd=not no_usd,
                      progress=not quiet, scene=scene, backend=backend, device=device,
-                     precision=precision)
+                     precision=precision, threads=threads)
     except JellysimError as exc:
         _fail(str(exc))
     s = r["seconds"]

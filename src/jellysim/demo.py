@@ -100,13 +100,14 @@ def build_demo_body(name: str = "jelly"):
 def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: bool = True,
              progress: bool = True, vtu: bool = False, scene: str = "jelly",
              backend: str | None = None, device: str | None = None,
-             precision: str | None = None) -> dict:
+             precision: str | None = None, threads: int | None = None) -> dict:
     """Simulate a demo scene (``"jelly"``: a fluted gelatin mould tossed onto a plate;
     ``"cow"``: Spot dropped on it) and write ``<out_dir>/demo.mp4`` (+ ``demo.usdc``; the cow:
     ``demo_cow.*``); the run itself goes to ``<out_dir>/demo/`` (``demo_cow/``).  ``frames``
     limits the number of saved frames (CI).  ``backend``/``device``/``precision`` override
     the scene's (refused with a :class:`~jellysim.errors.SceneError` where the backend lacks
-    the demo's physical path).  Returns the paths written and timings [s]."""
+    the demo's physical path); ``threads``: numba threads (default: by problem size).
+    Returns the paths written and timings [s]."""
     import time
 
     from .io.trajectory import load_trajectory
@@ -125,6 +126,8 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     stem = "demo" if scene == "jelly" else f"demo_{scene}"
     raw = dict(DEMO_SCENE, body=dict(DEMO_SCENE["body"], velocity=DEMO_SHAPES[scene]["velocity"]))
     sc = Scene.from_dict(raw, name="demo").with_backend(backend, device, precision)
+    if threads is not None:
+        sc.params["integrator"]["threads"] = int(threads)
     body, skin = build_demo_body(scene)
     steps = sc.steps if frames is None else max(1, int(frames) - 1) * sc.frame_every
     result = run_scene(sc, out_dir / stem, progress=progress, vtu=vtu, steps=steps,

@@ -140,6 +140,10 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "substeps": Spec("int", None, "Steps of dt / substeps per step (default: 1, or for "
                          "a fem material as many as its stability estimate needs).",
                          lambda v: v >= 1, "an integer >= 1"),
+        "start_acceleration": Spec("str", "forces", "Accelerations at t = 0: 'forces' (from "
+                                   "the forces at rest: gravity) or 'zero' (the report's "
+                                   "code: a = 0 until the first force evaluation).",
+                                   choices=("forces", "zero")),
         "scheme": Spec("str", "theta", "Implicit: 'theta' (one step, see theta) or 'bdf2' "
                        "(two-step, second order: keeps a frame-rate wobble, 0.90 of its "
                        "energy per period at 2.8 Hz and dt = 1/60 s; less robust through "
@@ -699,6 +703,10 @@ class Scene:
                     "integrated by symplectic substeps; set name = 'symplectic' (or [material] "
                     "model = 'springs' for the springs path)")
             kw["provot"] = self.provot_params().__class__(enabled=False)
+        if it["start_acceleration"] == "zero" and "state" not in overrides and model is not None:
+            state = model.state()
+            state.a[:] = 0.0
+            kw["state"] = state
         kw.update(overrides)
         return kw
 

@@ -26,7 +26,8 @@ __all__ = ["Simulator", "StabilityWarning", "auto_threads"]
 PARALLEL_MIN_POINTS = 500
 """Below this many points one thread is used.  From the paper scene's 600 points on, two
 threads win on a quiet machine (about 20k vs 12k steps/s, BENCHMARKS.md); on a machine whose
-other core is busy they can lose badly: pass ``threads=1`` there."""
+cores are taken by other work they lose badly, so :func:`auto_threads` also counts the free
+cores."""
 
 
 PHYSICAL_PARALLEL_MIN_TETS = 50_000
@@ -40,10 +41,24 @@ class StabilityWarning(UserWarning):
 
 
 def auto_threads(point_count: int) -> int:
-    """Thread count used when none is given: 1 for small bodies, all cores otherwise."""
+    """Thread count used when none is given: 1 for small bodies; 1 on a heavily oversubscribed
+    machine (1-minute load average above twice the CPU count); otherwise all of numba's
+    threads.  With one busy process per core, passive-waiting threads keep a run within
+    1.2-2.2x of its quiet speed (one thread: 2.9-3.4x); with a load average of 19 on 2 cores
+    a second thread has to wait for a core at every parallel region and the paper scene ran 39
+    steps/s on 2 threads, 3,244 on one (BENCHMARKS.md, "Contention")."""
+    import os
+
     import numba
 
-    return 1 if point_count < PARALLEL_MIN_POINTS else numba.config.NUMBA_NUM_THREADS
+    if point_count < PARALLEL_MIN_POINTS:
+        return 1
+    most = numba.config.NUMBA_NUM_THREADS
+    try:
+        load = os.getloadavg()[0]
+    except (AttributeError, OSError):  # no load average on this platform
+        return most
+    return 1 if load > 2.0 * (os.cpu_count() or 1) else most
 
 
 class Simulator:
@@ -173,23 +188,44 @@ class Simulator:
             runaway_distance = max(100.0 * diag, 100.0)
         self.runaway_distance = float(runaway_distance)
         k = model.spring_count
-        self._scalar = np.zeros(k)
-        self._dx = np.zeros((n, 3))
-        self._count = np.zeros(n, dtype=np.int64)
-        self._max_corr = np.zeros(n)
-        self._x_pre = np.zeros((n, 3))
-        self._provot_scalar = np.zeros(k)
+        # the backend interface (kernels/records.py): records built once, the drivers called
+        # with them and the state arrays only
+        from .kernels import records as rec
+
+        self._springs = rec.spring_arrays(model)
+        self._points = rec.point_arrays(model)
+        p, g = provot, ground
+        self._provot_opts = rec.provot_options(
+            int(p.loops) if p.enabled else 0, p.tau, p.tolerance,
+            ProvotPairs(p.pairs) is ProvotPairs.ALL,
+            ProvotOrder(p.order) is ProvotOrder.GAUSS_SEIDEL, p.velocity_update)
+        self._ground = rec.ground_guard(g.enabled and GroundModel(g.model) is GroundModel.PAPER,
+                                        g.height, g.mu, g.nu, self.center,
+                                        self.runaway_distance**2)
+        self._obstacles = rec.obstacles(self._obstacle_kind, self._obstacle_data,
+                                        self.rest_speed)
         if self.integrator is Integrator.IMPLICIT:
-            self._frame = np.zeros((k, 5))
-            self._spring_vec = np.zeros((k, 3))
-            self._cg = [np.zeros((n, 3)) for _ in range(7)]  # dv, r, z, p, Ap, diag, b
-            self._cg.append(np.zeros((n, 6)))  # normal, target speed, impact speed, stuck
-            self._cobs = np.full(n, -1, dtype=np.int64)
-            self._contact_state = np.zeros(n, dtype=np.int8)
+            im = implicit
+            self._implicit_opts = rec.implicit_options(im.theta, im.tolerance,
+                                                       im.max_iterations, im.scheme == "bdf2")
+            self._scratch = rec.implicit_scratch(n, k)
+            sc = self._scratch
+            # dv, r, z, p, ap, diag, b; cnrm (normal, target speed, impact speed, stuck)
+            self._cg = [sc.dv, sc.r, sc.z, sc.p, sc.ap, sc.diag, sc.b, sc.cnrm]
+            self._cobs = sc.cobs
+            self._contact_state = sc.contact_state
             # BDF2: previous x and v, two scratch arrays; points whose history restarts
-            self._hist = np.zeros((4, n, 3))
-            self._fresh = np.ones(n, dtype=np.uint8)
+            self._hist = sc.hist
+            self._fresh = sc.fresh
             self._last = None  # (x, v) at the end of the last advance
+            self._frame, self._spring_vec = sc.frame, sc.spring_vec
+        else:
+            self._scratch = rec.explicit_scratch(n, k)
+            sc = self._scratch
+            # the scratch arrays under their former names (other integration paths use them)
+            self._dx, self._count, self._max_corr = sc.dx, sc.count, sc.max_corr
+            self._x_pre, self._provot_scalar = sc.x_pre, sc.provot_scalar
+        self._scalar = self._scratch.spring_scalar
         from .handles import Handles
 
         self.handles = Handles.empty(n)
@@ -370,24 +406,15 @@ class Simulator:
             self._raise(status)
 
     def _advance_implicit(self, steps):
-        m, g, s, im = self.model, self.ground, self.state, self.implicit
-        paper = g.enabled and GroundModel(g.model) is GroundModel.PAPER
-        dv, r, z, p, ap, diag, b, cnrm = self._cg
+        s = self.state
         sub = self.substeps
-        bdf2 = im.scheme == "bdf2"
+        bdf2 = self._implicit_opts.bdf2
         if bdf2 and self._last is not None and not (
                 np.array_equal(self._last[0], s.x) and np.array_equal(self._last[1], s.v)):
             self._fresh[:] = 1  # the state was changed from outside: restart the history
         done, status, iters, worst = self._k.implicit_steps(
-            steps * sub, self.dt_step, float(im.theta), float(im.tolerance),
-            int(im.max_iterations),
-            s.x, s.v, s.a, m.particle_inv_mass, m.damping, m.gravity, m.spring_ij,
-            m.spring_rest_length, m.spring_stiffness, m.point_first_ptr, m.point_second_ptr,
-            m.spring_second_slot, m.point_second_other, paper, float(g.height), float(g.mu),
-            float(g.nu), self._obstacle_kind, self._obstacle_data, self.rest_speed,
-            self.center, self.runaway_distance**2, self._scalar, self._frame,
-            self._spring_vec, dv, r, z, p, ap, diag, b, cnrm, m.particle_mass, self._cobs,
-            self._contact_state, bdf2, self._hist, self._fresh)
+            steps * sub, self.dt_step, s.x, s.v, s.a, self._springs, self._points,
+            self._ground, self._obstacles, self._implicit_opts, self._scratch)
         if bdf2:
             self._last = (s.x.copy(), s.v.copy())
         self.cg_iterations += int(iters)
@@ -395,22 +422,12 @@ class Simulator:
         return (done + sub - 1) // sub, status
 
     def _advance_explicit(self, steps):
-        m, p, g, s = self.model, self.provot, self.ground, self.state
-        paper = g.enabled and GroundModel(g.model) is GroundModel.PAPER
+        s = self.state
         sub = self.substeps
         done, status = self._k.run_steps(
             steps * sub, self.dt_step, INTEGRATOR_CODES[self.integrator.value], s.x, s.v, s.a,
-            m.particle_x0, m.particle_inv_mass, m.damping, m.gravity,
-            m.spring_ij, m.spring_rest_length, m.spring_stiffness, m.point_first_ptr,
-            m.point_second_ptr, m.spring_second_slot, m.point_second_other,
-            int(p.loops) if p.enabled else 0, float(p.tau), float(p.tolerance),
-            ProvotPairs(p.pairs) is ProvotPairs.ALL,
-            ProvotOrder(p.order) is ProvotOrder.GAUSS_SEIDEL, bool(p.velocity_update),
-            paper, float(g.height), float(g.mu), float(g.nu),
-            self._obstacle_kind, self._obstacle_data, self.rest_speed,
-            self.center, self.runaway_distance**2,
-            self._scalar, self._dx, self._count, self._max_corr, self._x_pre,
-            self._provot_scalar)
+            self._springs, self._points, self._provot_opts, self._ground, self._obstacles,
+            self._scratch)
         # a failing substep counts its whole step
         return (done + sub - 1) // sub, status
 

@@ -27,15 +27,13 @@ class State:
     def at_rest(cls, model) -> "State":
         """Rest positions, zero velocity, accelerations from the forces there."""
         from .kernels import numpy_backend as nb
+        from .kernels.records import point_arrays, spring_arrays
 
         x = np.array(model.particle_x0, dtype=np.float64, copy=True)
         v = np.zeros_like(x)
         a = np.zeros_like(x)
         scalar = np.zeros(model.spring_count)
-        nb.accelerations(x, v, model.particle_inv_mass, model.damping, model.gravity,
-                         model.spring_ij, model.spring_rest_length, model.spring_stiffness,
-                         model.point_first_ptr, model.point_second_ptr,
-                         model.spring_second_slot, model.point_second_other, scalar, a)
+        nb.accelerations(x, v, point_arrays(model), spring_arrays(model), scalar, a)
         return cls(x=x, v=v, a=a)
 
     def copy(self) -> "State":

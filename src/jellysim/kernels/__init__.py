@@ -8,7 +8,10 @@ Backends with the same function names and signatures:
 * :mod:`.warp_backend` - NVIDIA Warp (a GPU, or Warp's CPU device): the explicit step
   (``run_steps``) only; optional (``pip install 'jellysim[gpu]'``).
 
-:func:`get_backend` returns one of them by name.
+Each backend is split by concern (``forces_*``, ``provot_*``, ``contact_*``, ``implicit_*``,
+``steps_*``); its functions take the records of :mod:`.records` (the backend interface: the
+Simulator calls only ``run_steps`` and ``implicit_steps``).  :func:`get_backend` returns a
+backend by name.
 """
 from __future__ import annotations
 

@@ -1,0 +1,157 @@
+"""Speed with and without competing processes: does jellysim degrade gracefully?
+
+Runs three workloads in a fresh child process (so that threading settings taken at library
+load apply), first on the machine as it is ("quiet"), then with one busy process per core
+(``python -c "while True: pass"``, started and killed here), and prints JSON with both rates
+and their ratio (quiet / busy: 1 = unaffected, 2 = what sharing every core with one other
+process costs at most, worse = the threads hurt each other):
+
+* ``paper``: ``examples/paper_cube.toml`` (the report's 600-point cube, all-pairs Provot) with
+  jellysim's default settings, its 100 steps;
+* ``paper_springs``: the same cube with Provot over the springs (the fast explicit step that
+  ``bench_step`` times: many short parallel regions per step, the case that spin-waiting
+  threads hurt most), 1000 steps;
+* ``physical``: ``examples/gelatin_cube.toml`` (1331 points, the implicit integrator with
+  contact: the demo's physics), 20 steps.
+* ``demo`` (only when asked for with ``--workloads``): the simulation of ``jellysim demo``
+  (the cow, about 4,100 points, implicit with 2 substeps), 10 steps; the body is built
+  outside the timing.
+
+``--variants`` compares threading set-ups (each child gets that environment): ``default``
+(jellysim as shipped), ``spin`` (OpenMP's own default: ``OMP_WAIT_POLICY=active``-like spinning,
+i.e. jellysim's setting undone), ``workqueue`` (numba's workqueue layer), ``threads1``.
+
+Run:  PYTHONPATH=src python -m benchmarks.bench_contention [--variants default,spin]
+          [--busy N] [--repeats 3]
+
+The machine is shared: the "quiet" figures include whatever else runs; compare the ratios of one
+run, and report medians.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+VARIANTS = {
+    "default": {},
+    # what numba + libgomp do without jellysim's setting: spin for ~300k iterations
+    "spin": {"JELLYSIM_THREADING": "spin"},
+    "spin10k": {"JELLYSIM_THREADING": "spin", "GOMP_SPINCOUNT": "10000"},
+    "workqueue": {"NUMBA_THREADING_LAYER": "workqueue"},
+    "threads1": {"JELLYSIM_BENCH_THREADS": "1"},
+}
+
+
+def child(workloads: list[str]) -> dict:
+    import warnings
+
+    warnings.simplefilter("ignore")
+    from jellysim.scene import Scene
+
+    threads = os.environ.get("JELLYSIM_BENCH_THREADS")
+    threads = int(threads) if threads else None
+    out = {}
+    for name in workloads:
+        if name in ("paper", "paper_springs"):
+            sc = Scene.load(ROOT / "examples" / "paper_cube.toml")
+            if name == "paper_springs":
+                sc.params["provot"]["pairs"] = "springs"
+            steps = 100 if name == "paper" else 1000
+        elif name == "demo":
+            from jellysim.demo import DEMO_SCENE, build_demo_body
+
+            sc = Scene.from_dict(DEMO_SCENE, name="demo")
+            body, _ = build_demo_body()
+            sim = sc.simulator(sc.build_model(body), threads=threads)
+            steps = 10
+        else:
+            sc = Scene.load(ROOT / "examples" / "gelatin_cube.toml")
+            steps = 20
+        if name != "demo":
+            sim = sc.simulator(sc.build_model(), threads=threads)
+        sim.advance(2)  # compile / load the cache outside the timing
+        t = time.perf_counter()
+        sim.advance(steps)
+        out[name] = steps / (time.perf_counter() - t)
+        out["threads"] = sim.threads
+    import numba
+
+    out["layer"] = numba.threading_layer()
+    out["OMP_WAIT_POLICY"] = os.environ.get("OMP_WAIT_POLICY")
+    return out
+
+
+def run_child(env_extra: dict, workloads: list[str]) -> dict:
+    env = dict(os.environ)
+    env.update(env_extra)
+    env["PYTHONPATH"] = str(ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
+    cmd = [sys.executable, "-m", "benchmarks.bench_contention", "--child",
+           ",".join(workloads)]
+    res = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=1800)
+    if res.returncode != 0:
+        raise RuntimeError(res.stderr[-2000:])
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def start_busy(count: int) -> list[subprocess.Popen]:
+    return [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(count)]
+
+
+def stop_busy(procs) -> None:
+    for p in procs:
+        p.kill()
+    for p in procs:
+        p.wait()
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--variants", default="default")
+    ap.add_argument("--workloads", default="paper,paper_springs,physical")
+    ap.add_argument("--busy", type=int, default=os.cpu_count(),
+                    help="busy processes (default: one per core)")
+    ap.add_argument("--repeats", type=int, default=3)
+    args = ap.parse_args()
+    workloads = args.workloads.split(",")
+    if args.child:
+        print(json.dumps(child(args.child.split(","))))
+        return
+    run_child({}, workloads)  # fill numba's cache before anything is timed
+    result = {"machine": {"cpus": os.cpu_count(), "platform": platform.platform(),
+                          "busy_processes": args.busy,
+                          "load_average_before": os.getloadavg()}, "variants": {}}
+    for name in args.variants.split(","):
+        env = VARIANTS[name]
+        quiet, busy = [], []
+        for _ in range(args.repeats):
+            quiet.append(run_child(env, workloads))
+            procs = start_busy(args.busy)
+            try:
+                time.sleep(0.2)
+                busy.append(run_child(env, workloads))
+            finally:
+                stop_busy(procs)
+        row = {"layer": quiet[0]["layer"], "threads": quiet[0]["threads"],
+               "OMP_WAIT_POLICY": quiet[0]["OMP_WAIT_POLICY"]}
+        for w in workloads:
+            q = statistics.median(r[w] for r in quiet)
+            b = statistics.median(r[w] for r in busy)
+            row[w] = {"quiet_steps_per_s": round(q, 1), "busy_steps_per_s": round(b, 1),
+                      "slowdown": round(q / b, 2)}
+        result["variants"][name] = row
+        print(json.dumps({name: row}), file=sys.stderr, flush=True)
+    print(json.dumps(result, indent=1))
+
+
+if __name__ == "__main__":
+    main()

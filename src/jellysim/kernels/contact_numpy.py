@@ -1,0 +1,205 @@
+"""Numpy (the spec): the report's ground and the guard (:func:`finish_step`), obstacle
+contact with restitution and Coulomb friction, and the implicit solve's contact constraints."""
+from __future__ import annotations
+
+import numpy as np
+
+from . import STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY
+
+
+def finish_step(x, v, a, ground, height, mu, nu, center, bound2):
+    """The report's ground (eqs. 2, 3), then the runaway/non-finite check.
+
+    With ``ground``, a point with ``y < height`` gets ``y = height``, ``v_y = 0``,
+    ``v_x, v_z *= mu`` and ``a_y -= nu a_y``.  Returns :data:`STATUS_NONFINITE` when any
+    x, v or a is NaN/inf, else :data:`STATUS_RUNAWAY` when a point is farther than
+    ``sqrt(bound2)`` [m] from ``center`` [m] (3,), else :data:`STATUS_OK`.
+    """
+    if ground:
+        below = x[:, 1] < height
+        x[below, 1] = height
+        v[below, 1] = 0.0
+        v[below, 0] *= mu
+        v[below, 2] *= mu
+        a[below, 1] -= nu * a[below, 1]
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(v)) and np.all(np.isfinite(a))):
+        return STATUS_NONFINITE
+    r = x - center
+    if np.any(np.einsum("ij,ij->i", r, r) > bound2):
+        return STATUS_RUNAWAY
+    return STATUS_OK
+
+
+def _contact_geometry(kind, geom, x):
+    """Signed distance [m] (n,) and outward unit normal (n, 3) of points ``x`` to one
+    obstacle: kind 0 plane (point, normal), 1 sphere (centre, radius), 2 solid axis-aligned
+    box (lower, upper; inside points are pushed out through the nearest face)."""
+    n = x.shape[0]
+    if kind == 0:
+        nrm = np.broadcast_to(geom[3:6], (n, 3))
+        return (x - geom[0:3]) @ geom[3:6], nrm
+    if kind == 1:
+        d = x - geom[0:3]
+        r = np.sqrt(np.einsum("ij,ij->i", d, d))
+        nrm = np.where(r[:, None] > 0.0, d / np.where(r > 0.0, r, 1.0)[:, None],
+                       np.array([0.0, 1.0, 0.0]))
+        return r - geom[3], nrm
+    lo, hi = geom[0:3], geom[3:6]
+    depth = np.concatenate([x - lo, hi - x], axis=1)  # (n, 6): distance inside each face
+    face = np.argmin(depth, axis=1)
+    phi = -depth[np.arange(n), face]
+    inside = np.all(depth > 0.0, axis=1)
+    phi = np.where(inside, phi, 1.0)
+    nrm = np.zeros((n, 3))
+    nrm[np.arange(n), face % 3] = np.where(face < 3, -1.0, 1.0)
+    return phi, nrm
+
+
+def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
+    """Non-penetration, restitution and Coulomb friction against static obstacles, in place.
+
+    For each obstacle in order (``obstacle_data`` row: 6 geometry numbers, restitution e,
+    static friction mu_s, kinetic friction mu_k), a point with signed distance ``phi < 0`` is
+    moved out along the normal; if it approaches (``v_n < 0``) its normal velocity becomes
+    ``-e v_n`` (0 when ``-v_n <= rest_speed`` [m/s]: resting contact), and the normal impulse
+    per mass ``dv_n`` buys friction: the tangential velocity ``v_t`` is removed when
+    ``|v_t| <= mu_s dv_n`` (sticking), else reduced by ``mu_k dv_n`` (sliding).  The position
+    is moved tangentially by ``(v_t' - v_t) dt`` so that it follows the corrected velocity
+    (a sticking point does not creep).
+    """
+    for o in range(obstacle_kind.shape[0]):
+        geom = obstacle_data[o]
+        phi, nrm = _contact_geometry(obstacle_kind[o], geom, x)
+        hit = phi < 0.0
+        if not np.any(hit):
+            continue
+        nh = nrm[hit]
+        xh = x[hit] - phi[hit][:, None] * nh
+        vh = v[hit]
+        vn = np.einsum("ij,ij->i", vh, nh)
+        vt = vh - vn[:, None] * nh
+        app = vn < 0.0
+        e, mu_s, mu_k = geom[6], geom[7], geom[8]
+        vn_new = np.where(app, np.where(-vn > rest_speed, -e * vn, 0.0), vn)
+        dvn = vn_new - vn
+        speed = np.sqrt(np.einsum("ij,ij->i", vt, vt))
+        stick = app & (speed <= mu_s * dvn)
+        scale = np.where(stick, 0.0, np.where(
+            app & (speed > 0.0), 1.0 - mu_k * dvn / np.where(speed > 0.0, speed, 1.0), 1.0))
+        scale = np.maximum(scale, 0.0)
+        vt_new = scale[:, None] * vt
+        x[hit] = xh + (vt_new - vt) * dt
+        v[hit] = vt_new + vn_new[:, None] * nh
+
+
+CONTACT_FREE = 0
+"""Contact state of a point: no special state (constrained along the normal if touching)."""
+
+
+CONTACT_RELEASED = 1
+"""Its constraint pulled last step: left free for one step."""
+
+
+CONTACT_STUCK = 2
+"""Static friction held it last step: constrained in all three directions."""
+
+
+def contact_normals(x, v, obstacle_kind, obstacle_data, margin, contact_state, dt, rest_speed,
+                    springs, cnrm, cobs, offset):
+    """Contact constraints for an implicit step (speculative contacts).
+
+    A point is constrained by the first obstacle it touches or would reach during the step at
+    its current speed (``phi + dt min(v_n, 0) <= margin``, ``phi`` [m]: signed distance),
+    unless its ``contact_state`` (n,) int8 is ``CONTACT_RELEASED``.  ``cnrm`` (n, 6) gets per
+    point: the obstacle normal (3; zero for free points), the target normal velocity [m/s],
+    the impact speed ``-v_n`` [m/s] when it exceeds ``rest_speed`` (else 0: resting) and 1.0
+    when the point sticks (``CONTACT_STUCK``: its tangential velocity is held at 0 too).  The
+    target is ``-max(phi, 0) / dt`` (close the gap, no more: the point stops on the surface
+    and the body's own elasticity makes it bounce), except for a point without springs (a
+    free particle), whose target is ``e x impact speed`` (its bounce, up to ``|v_n| dt``
+    early).  Prescribing a bounce to the surface points of a body at a frame-rate dt would
+    drive the layer above through them in one step, so the solve treats body points as
+    inelastic.  ``cobs`` (n,): obstacle index or -1.
+
+    ``dt`` here is the step's position coefficient and ``offset`` (n, 3) [m] the part of the
+    position change that does not depend on the new velocity: the step moves a point by
+    ``offset + dt v_new`` (theta-method: offset 0 and dt; BDF2: ``(x_n - x_n-1) / 3`` and
+    ``2 dt / 3``), so the gap test is ``phi + offset_n + dt min(v_n, 0)`` and the target closes
+    ``phi + offset_n``.
+    """
+    first_ptr, second_ptr = springs.first_ptr, springs.second_ptr
+    cnrm[:] = 0.0
+    cobs[:] = -1
+    for o in range(obstacle_kind.shape[0]):
+        phi, nrm = _contact_geometry(obstacle_kind[o], obstacle_data[o], x)
+        vn = np.einsum("ij,ij->i", v, nrm)
+        gap = phi + np.einsum("ij,ij->i", offset, nrm)
+        hit = ((cobs < 0) & (gap + dt * np.minimum(vn, 0.0) <= margin) & (vn <= 0.0)
+               & (contact_state != CONTACT_RELEASED))
+        cnrm[hit, 0:3] = nrm[hit]
+        impact = np.where(-vn[hit] > rest_speed, -vn[hit], 0.0)
+        free = (np.diff(first_ptr) + np.diff(second_ptr))[hit] == 0
+        cnrm[hit, 3] = np.where((impact > 0.0) & free, obstacle_data[o, 6] * impact,
+                                -(np.maximum(phi[hit], 0.0) + gap[hit] - phi[hit]) / dt)
+        cnrm[hit, 4] = impact
+        cnrm[hit, 5] = np.where(contact_state[hit] == CONTACT_STUCK, 1.0, 0.0)
+        cobs[hit] = o
+
+
+def filter_constrained(u, cnrm):
+    """Remove the constrained components of u (n, 3) in place (Baraff & Witkin 1998): the
+    normal one, or all three for a sticking point; ``cnrm`` (n, 6) from
+    :func:`contact_normals`."""
+    nrm = cnrm[:, 0:3]
+    u -= np.einsum("ij,ij->i", u, nrm)[:, None] * nrm
+    u *= (1.0 - cnrm[:, 5])[:, None]
+
+
+def constrain_start(dv, v, cnrm):
+    """Initial guess of an implicit solve (n, 3), in place: the free components of ``dv`` (the
+    last step's, a warm start) and, along each constraint, what reaches the target velocity:
+    ``v + dv = target n`` on the normal (and tangentially 0 for a sticking point)."""
+    nrm = cnrm[:, 0:3]
+    filter_constrained(dv, cnrm)
+    dv += (cnrm[:, 3] - np.einsum("ij,ij->i", v, nrm))[:, None] * nrm
+    vt = v - np.einsum("ij,ij->i", v, nrm)[:, None] * nrm
+    dv -= cnrm[:, 5][:, None] * vt
+
+
+def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contact_state):
+    """Coulomb friction on the constrained points after an implicit step, in place on x, v,
+    and their next ``contact_state``.
+
+    The constraint impulse is ``J = A dv - b`` [kg m/s].  ``J_n < 0`` (the constraint pulled):
+    the point is ``CONTACT_RELEASED`` next step.  A sticking point stays ``CONTACT_STUCK``
+    while ``|J_t| <= mu_s J_n`` (static friction held it, inside the solve), else it slides
+    from the next step.  A sliding point's tangential velocity is removed when
+    ``|v_t| <= mu_s J_n / m`` (it sticks from the next step on), else reduced by
+    ``mu_k J_n / m``; its position follows (``x += (v_t' - v_t) dt``).
+    """
+    contact_state[:] = CONTACT_FREE
+    on = cobs >= 0
+    if not np.any(on):
+        return
+    idx = np.nonzero(on)[0]
+    nrm = cnrm[on, 0:3]
+    j = ap[on] - b[on]
+    jn = np.einsum("ij,ij->i", j, nrm)
+    data = obstacle_data[cobs[on]]
+    was_stuck = cnrm[on, 5] > 0.0
+    jt = j - jn[:, None] * nrm
+    jt_norm = np.sqrt(np.einsum("ij,ij->i", jt, jt))
+    budget = np.maximum(jn, 0.0) / mass[on]
+    vv = v[on]
+    vn = np.einsum("ij,ij->i", vv, nrm)
+    vt = vv - vn[:, None] * nrm
+    speed = np.sqrt(np.einsum("ij,ij->i", vt, vt))
+    stick = speed <= data[:, 7] * budget
+    scale = np.where(stick | was_stuck, 0.0,
+                     np.maximum(1.0 - data[:, 8] * budget / np.where(speed > 0, speed, 1.0),
+                                0.0))
+    x[on] += ((scale - 1.0)[:, None] * vt) * dt
+    v[on] = scale[:, None] * vt + vn[:, None] * nrm
+    holds = np.where(was_stuck, jt_norm <= data[:, 7] * np.maximum(jn, 0.0), stick)
+    contact_state[idx[holds]] = CONTACT_STUCK
+    contact_state[idx[jn < 0.0]] = CONTACT_RELEASED

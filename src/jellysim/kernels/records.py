@@ -1,0 +1,122 @@
+"""The backend interface's records: kernel arguments bundled once per model.
+
+A backend (numpy, numba; a GPU or distributed one later) implements two drivers,
+
+* ``run_steps(nsteps, dt, integrator, x, v, a, springs, points, provot, ground, obstacles,
+  scratch) -> (steps_done, status)`` (the explicit integrators), and
+* ``implicit_steps(nsteps, dt, x, v, a, springs, points, ground, obstacles, options,
+  scratch) -> (steps_done, status, cg_iterations, worst_residual)``,
+
+plus ``finish_step`` and ``contact`` (used alone by other integration paths), over the state
+arrays ``x`` [m], ``v`` [m/s], ``a`` [m/s^2] (n, 3) float64, updated in place, and the records
+below.  The :class:`~jellysim.simulator.Simulator` builds the records once
+(:func:`spring_arrays`, :func:`point_arrays`, ...) and only ever calls those drivers, so a new
+backend needs no change to the simulator: it receives the host arrays and may keep device
+copies keyed on the records it is given (they do not change during a run, except the state and
+the scratch).
+
+The records are named tuples of arrays and scalars: numba compiles them in nopython mode as
+typed tuples (no speed loss measured, BENCHMARKS.md), numpy reads their fields by name.
+"""
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+__all__ = ["SpringArrays", "PointArrays", "ProvotOptions", "GroundGuard", "Obstacles",
+           "ExplicitScratch", "ImplicitOptions", "ImplicitScratch", "spring_arrays",
+           "point_arrays", "provot_options", "ground_guard", "obstacles", "explicit_scratch",
+           "implicit_options", "implicit_scratch"]
+
+SpringArrays = namedtuple("SpringArrays", "ij rest stiff first_ptr second_ptr second_slot "
+                                          "second_other first_other")
+"""The springs (k of them, sorted by (i, j), i < j): ``ij`` (k, 2) int64, ``rest`` [m] (k,),
+``stiff`` [N/m] (k,); the CSR adjacency: ``first_ptr`` (n + 1,) (springs whose first point is
+p are ``first_ptr[p]:first_ptr[p+1]``), ``second_ptr`` (n + 1,) into the second-point list,
+``second_slot`` (k,) int32 (spring -> its slot in that list), ``second_other`` (k,) int32
+(slot -> the spring's first point), ``first_other`` (k,) int32 (spring -> its second point:
+``ij[:, 1]`` in 4 bytes, what the per-point sweeps read).  See :class:`jellysim.model.Model`."""
+
+PointArrays = namedtuple("PointArrays", "x0 mass inv_mass damping gravity")
+"""Rest positions ``x0`` [m] (n, 3), ``mass`` [kg] (n,), ``inv_mass`` [1/kg] (n,), the damping
+``damping`` delta [kg/s] (a float) and ``gravity`` [m/s^2] (3,)."""
+
+ProvotOptions = namedtuple("ProvotOptions", "loops tau tolerance all_pairs gauss_seidel "
+                                            "velocity_update")
+"""Provot strain limiting: ``loops`` passes per step (0: off), ``tau`` [-], early stop when the
+largest correction is <= ``tolerance`` [m], ``all_pairs`` / ``gauss_seidel`` (bools) and
+``velocity_update`` (add the correction / dt to v)."""
+
+GroundGuard = namedtuple("GroundGuard", "paper height mu nu center bound2")
+"""The report's ground (``paper`` bool; plane ``y = height`` [m], ``mu``, ``nu``) and the
+runaway guard: a point farther than ``sqrt(bound2)`` [m] from ``center`` [m] (3,) stops the
+run."""
+
+Obstacles = namedtuple("Obstacles", "kind data rest_speed")
+"""Static obstacles (:func:`jellysim.physics.contact.pack_obstacles`): ``kind`` (m,) int32,
+``data`` (m, 9), ``rest_speed`` [m/s] below which a contact rests."""
+
+ExplicitScratch = namedtuple("ExplicitScratch", "spring_scalar provot_scalar dx count max_corr "
+                                                "x_pre")
+"""Scratch of :func:`run_steps`: (k,), (k,), (n, 3), (n,) int64, (n,), (n, 3)."""
+
+ImplicitOptions = namedtuple("ImplicitOptions", "theta tolerance max_iterations bdf2")
+"""The implicit step: ``theta`` in [1/2, 1], CG relative ``tolerance`` and ``max_iterations``,
+``bdf2`` (bool: the BDF2 scheme instead of the theta-method)."""
+
+ImplicitScratch = namedtuple("ImplicitScratch", "spring_scalar frame spring_vec dv r z p ap "
+                                                "diag b cnrm cobs contact_state hist fresh")
+"""State and scratch of :func:`implicit_steps`: ``spring_scalar`` (k,), ``frame`` (k, 5),
+``spring_vec`` (k, 3); ``dv`` (the warm start), ``r z p ap diag b`` (n, 3); ``cnrm`` (n, 6),
+``cobs`` (n,) int64, ``contact_state`` (n,) int8 (carried between steps); BDF2 history
+``hist`` (4, n, 3) and ``fresh`` (n,) uint8 (carried)."""
+
+
+def spring_arrays(model) -> SpringArrays:
+    m = model
+    return SpringArrays(m.spring_ij, m.spring_rest_length, m.spring_stiffness,
+                        m.point_first_ptr, m.point_second_ptr, m.spring_second_slot,
+                        m.point_second_other,
+                        np.ascontiguousarray(m.spring_ij[:, 1], dtype=np.int32))
+
+
+def point_arrays(model) -> PointArrays:
+    m = model
+    return PointArrays(m.particle_x0, m.particle_mass, m.particle_inv_mass, float(m.damping),
+                       np.ascontiguousarray(m.gravity, dtype=np.float64))
+
+
+def provot_options(loops, tau, tolerance=0.0, all_pairs=False, gauss_seidel=False,
+                   velocity_update=False) -> ProvotOptions:
+    return ProvotOptions(int(loops), float(tau), float(tolerance), bool(all_pairs),
+                         bool(gauss_seidel), bool(velocity_update))
+
+
+def ground_guard(paper=False, height=0.0, mu=0.1, nu=0.2, center=(0.0, 0.0, 0.0),
+                 bound2=np.inf) -> GroundGuard:
+    return GroundGuard(bool(paper), float(height), float(mu), float(nu),
+                       np.ascontiguousarray(center, dtype=np.float64), float(bound2))
+
+
+def obstacles(kind=None, data=None, rest_speed=0.0) -> Obstacles:
+    kind = np.zeros(0, dtype=np.int32) if kind is None else kind
+    data = np.zeros((0, 9)) if data is None else data
+    return Obstacles(kind, data, float(rest_speed))
+
+
+def explicit_scratch(n: int, k: int) -> ExplicitScratch:
+    return ExplicitScratch(np.zeros(k), np.zeros(k), np.zeros((n, 3)),
+                           np.zeros(n, dtype=np.int64), np.zeros(n), np.zeros((n, 3)))
+
+
+def implicit_options(theta=1.0, tolerance=1e-3, max_iterations=300, bdf2=False):
+    return ImplicitOptions(float(theta), float(tolerance), int(max_iterations), bool(bdf2))
+
+
+def implicit_scratch(n: int, k: int) -> ImplicitScratch:
+    z3 = [np.zeros((n, 3)) for _ in range(7)]  # dv, r, z, p, ap, diag, b
+    return ImplicitScratch(np.zeros(k), np.zeros((k, 5)), np.zeros((k, 3)), *z3,
+                           np.zeros((n, 6)), np.full(n, -1, dtype=np.int64),
+                           np.zeros(n, dtype=np.int8), np.zeros((4, n, 3)),
+                           np.ones(n, dtype=np.uint8))

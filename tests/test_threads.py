@@ -1,0 +1,99 @@
+"""Threads: the CLI's --threads option changes nothing in the results; jellysim's import sets
+OpenMP's passive wait (robust to competing processes) unless the user chose otherwise."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+from click.testing import CliRunner
+
+from jellysim.cli import cli
+from jellysim.io.trajectory import load_trajectory
+
+ROOT = Path(__file__).resolve().parent.parent
+
+SCENE = """
+[body]
+points = 700
+distribution = "uniform"
+lower = [0.0, 0.05, 0.0]
+upper = [1.0, 1.05, 1.0]
+seed = 5
+
+[springs]
+radius = 0.2
+stiffness = 2000.0
+
+[mass]
+point_mass = 1.0
+
+[physics]
+damping = 0.5
+
+[integrator]
+name = "symplectic"
+dt = 0.002
+steps = 30
+
+[provot]
+loops = 2
+
+[output]
+every = 10
+vtu = false
+"""
+
+
+def test_cli_threads_option_gives_bitwise_equal_runs(tmp_path):
+    scene = tmp_path / "s.toml"
+    scene.write_text(SCENE)
+    runs = []
+    for threads in (1, 2):
+        out = tmp_path / f"t{threads}"
+        res = CliRunner().invoke(cli, ["run", str(scene), "--out", str(out), "--quiet",
+                                       "--threads", str(threads)])
+        assert res.exit_code == 0, res.output
+        traj = load_trajectory(out / "trajectory.npz")
+        assert traj.params["integrator"]["threads"] == threads
+        runs.append(traj.positions[-1])
+    assert np.array_equal(runs[0], runs[1])
+    assert np.ptp(runs[0][:, 1]) > 0.5  # the body moved and landed, still a body
+    res = CliRunner().invoke(cli, ["run", str(scene), "--threads", "0"])
+    assert res.exit_code == 2 and "--threads" in res.output
+
+
+def _env_after_import(**env):
+    base = {k: v for k, v in os.environ.items()
+            if k not in ("OMP_WAIT_POLICY", "KMP_BLOCKTIME", "JELLYSIM_THREADING")}
+    base.update(env)
+    base["PYTHONPATH"] = str(ROOT / "src")
+    code = ("import os, jellysim; print(os.environ.get('OMP_WAIT_POLICY'), "
+            "os.environ.get('KMP_BLOCKTIME'))")
+    return subprocess.run([sys.executable, "-c", code], env=base, capture_output=True,
+                          text=True, check=True).stdout.split()
+
+
+def test_import_sets_passive_wait_unless_the_user_chose():
+    assert _env_after_import() == ["PASSIVE", "0"]
+    assert _env_after_import(OMP_WAIT_POLICY="active") == ["active", "0"]
+    assert _env_after_import(JELLYSIM_THREADING="spin") == ["None", "None"]
+
+
+def test_auto_threads_drops_to_one_on_an_oversubscribed_machine(monkeypatch):
+    import numba
+
+    from jellysim import simulator
+
+    cpus = os.cpu_count()
+    monkeypatch.setattr(os, "getloadavg", lambda: (0.2, 0.2, 0.2))  # idle: every thread
+    assert simulator.auto_threads(10_000) == numba.config.NUMBA_NUM_THREADS
+    assert simulator.auto_threads(100) == 1  # small bodies: one thread regardless
+    monkeypatch.setattr(os, "getloadavg", lambda: (cpus + 1.0, 0.0, 0.0))  # a busy process
+    assert simulator.auto_threads(10_000) == numba.config.NUMBA_NUM_THREADS  # per core: passive
+    monkeypatch.setattr(os, "getloadavg", lambda: (2.5 * cpus, 0.0, 0.0))  # oversubscribed
+    assert simulator.auto_threads(10_000) == 1
+    monkeypatch.setattr(os, "getloadavg", lambda: (20.0 * cpus, 0.0, 0.0))
+    assert simulator.auto_threads(1_000_000) == 1
