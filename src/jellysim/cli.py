@@ -33,16 +33,21 @@ def cli() -> None:
               help="Also export the skin to this .usdc (see 'jellysim export').")
 @click.option("--glb", type=click.Path(dir_okay=False), default=None,
               help="Also export the skin to this glTF .glb.")
-def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None) -> None:
+@click.option("--overwrite", is_flag=True,
+              help="Reuse a non-empty output folder: the earlier run's files in it "
+                   "(trajectory.npz, *.pvd, *.vtu) are deleted first.")
+def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None,
+        overwrite=False) -> None:
     """Simulate SCENE_FILE (TOML) and write trajectory.npz and body.pvd."""
     from pathlib import Path
 
-    from .runner import run_scene
+    from .runner import prepare_out_dir, run_scene
     from .scene import Scene
 
     try:
         scene = Scene.load(scene_file)
         out = Path(out_dir) if out_dir else Path("out") / Path(scene_file).stem
+        prepare_out_dir(out, overwrite=overwrite)
         result = run_scene(scene, out, progress=not quiet, vtu=False if no_vtu else None,
                            steps=steps)
     except JellysimError as exc:

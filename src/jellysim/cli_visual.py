@@ -34,10 +34,11 @@ def _options(size, color, opacity, show, no_floor):
     from .render.offscreen import RenderOptions
 
     show = {s.lower() for s in show}
+    if "all" in show:
+        show |= {"skin", "points", "springs"}
     return RenderOptions(size=_size(size), color=color, opacity=opacity,
                          show_points="points" in show, show_springs="springs" in show,
-                         show_skin="skin" in show or not show or "all" in show,
-                         floor=not no_floor)
+                         show_skin="skin" in show or not show, floor=not no_floor)
 
 
 def _load(path):
@@ -89,13 +90,15 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
 @_size_opt
 @click.option("--no-usd", is_flag=True, help="Skip demo.usdc.")
 @click.option("--quiet", is_flag=True, help="No progress bars.")
-def demo(out_dir, frames, size, no_usd, quiet):
+@click.option("--overwrite", is_flag=True,
+              help="Replace an earlier demo in OUT (its demo.mp4, demo.usdc, demo/ run).")
+def demo(out_dir, frames, size, no_usd, quiet, overwrite):
     """A jello cow dropped on a table: writes OUT/demo.mp4 and OUT/demo.usdc."""
     from .demo import run_demo
 
     try:
         r = run_demo(out_dir, frames=frames, size=_size(size), usd=not no_usd,
-                     progress=not quiet)
+                     progress=not quiet, overwrite=overwrite)
     except JellysimError as exc:
         _fail(str(exc))
     s = r["seconds"]
@@ -151,9 +154,11 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
 
 @click.command()
 @click.argument("trajectory", type=click.Path(dir_okay=False))
-@click.option("-o", "--output", required=True, type=click.Path(),
-              help="run.usdc / .usda (USD), run.glb (glTF), run.pvd (ParaView series), or a "
-                   "folder with --sequence.")
+@click.argument("target", required=False, type=click.Path())
+@click.option("-o", "--output", default=None, type=click.Path(),
+              help="run.usdc / .usda (USD), run.glb (glTF), run.pvd (ParaView series; its "
+                   ".vtu frames go into the folder run/), or a folder with --sequence.  May "
+                   "also be given as the second argument.")
 @click.option("--sequence", type=click.Choice(["obj", "ply"]), default=None,
               help="Write the skin as one OBJ/PLY file per frame into the folder OUTPUT.")
 @click.option("--fps", type=click.FloatRange(min=0.1), default=None,
@@ -161,14 +166,26 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
 @click.option("--max-frames", type=click.IntRange(min=2), default=None,
               help="glb: keep at most this many frames (evenly spaced), one morph target "
                    "each.")
-def export(trajectory, output, sequence, fps, max_frames):
-    """Export TRAJECTORY for other tools: USD, glTF (.glb), ParaView (.pvd), OBJ/PLY."""
-    out = Path(output)
+def export(trajectory, target, output, sequence, fps, max_frames):
+    """Export TRAJECTORY for other tools: USD, glTF (.glb), ParaView (.pvd), OBJ/PLY.
+
+    \b
+    jellysim export out/run/trajectory.npz -o run.glb
+    jellysim export out/run/trajectory.npz --sequence obj frames/"""
+    if output and target and Path(output) != Path(target):
+        _fail(f"two outputs given ('{target}' and -o '{output}'); give one")
+    if not (output or target):
+        _fail("no output given: jellysim export TRAJECTORY -o run.glb (or .usdc, .pvd), or "
+              "--sequence obj|ply FOLDER")
+    out = Path(output or target)
     try:
         traj = _load(trajectory)
         if sequence:
             from .io.meshseq import export_mesh_sequence
 
+            if out.suffix and not out.is_dir():
+                raise JellysimError(f"{out}: --sequence writes one file per frame into a "
+                                    "folder; give a folder name (no suffix)")
             paths = export_mesh_sequence(traj, out, fmt=sequence)
             click.echo(f"wrote {len(paths)} {sequence.upper()} files in {out}")
             return
@@ -182,9 +199,9 @@ def export(trajectory, output, sequence, fps, max_frames):
 
             written = [export_glb(traj, out, max_frames=max_frames)]
         elif suffix == ".pvd":
-            from .io.vtk import export_pvd
+            from .io.vtk import export_pvd_file
 
-            written = export_pvd(traj, out.parent, out.stem)
+            written = export_pvd_file(traj, out)
         else:
             raise JellysimError(f"{out}: unknown export type '{suffix}'; use .usdc, .usda, "
                                 ".glb, .pvd, or --sequence obj|ply with a folder")

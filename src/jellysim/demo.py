@@ -75,10 +75,12 @@ def build_demo_body():
 
 
 def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: bool = True,
-             progress: bool = True, vtu: bool = False) -> dict:
+             progress: bool = True, vtu: bool = False, overwrite: bool = False) -> dict:
     """Simulate the demo and write ``<out_dir>/demo.mp4`` (+ ``demo.usdc``); the run itself
     goes to ``<out_dir>/demo/``.  ``frames`` limits the number of saved frames (CI).
-    Returns the paths written and timings [s]."""
+    An earlier demo's outputs there are refused (:class:`~jellysim.errors.JellysimError`)
+    unless ``overwrite``, which deletes them first.  Returns the paths written and timings
+    [s]."""
     import time
 
     from .io.trajectory import load_trajectory
@@ -87,8 +89,19 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     from .runner import run_scene
     from .scene import Scene
 
+    from .errors import JellysimError
+    from .runner import prepare_out_dir
+
     t0 = time.perf_counter()
     out_dir = Path(out_dir)
+    old = [out_dir / "demo.mp4", out_dir / "demo.usdc"]
+    if not overwrite and any(p.exists() for p in old):
+        raise JellysimError(f"--out {out_dir}: holds an earlier demo "
+                            f"({', '.join(p.name for p in old if p.exists())}); pass "
+                            "--overwrite to replace it, or choose another --out")
+    prepare_out_dir(out_dir / "demo", overwrite=overwrite)
+    for p in old:
+        p.unlink(missing_ok=True)
     scene = Scene.from_dict(DEMO_SCENE, name="demo")
     body, skin = build_demo_body()
     steps = scene.steps if frames is None else max(1, int(frames) - 1) * scene.frame_every
