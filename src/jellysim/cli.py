@@ -6,6 +6,7 @@ import sys
 import click
 
 from .errors import JellysimError
+from .params import REPORT_DENSITY
 
 
 def _fail(message: str) -> None:
@@ -91,12 +92,17 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 @click.option("--surface-samples/--no-surface-samples", default=None,
               help="delaunay: also sample the surface's sharp edges and faces at the point "
                    "spacing (default: on; off is the report's way, mesh vertices only).")
-@click.option("--density", type=click.FloatRange(min=0, min_open=True), default=1141.0,
+@click.option("--density", type=click.FloatRange(min=0, min_open=True), default=REPORT_DENSITY,
               show_default=True, help="Density [kg/m^3].")
+@click.option("--size", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Scale the mesh so its largest extent is SIZE metres (default: its "
+                   "coordinates are read as metres).")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
-          surface_vertices, surface_samples, density, seed) -> None:
-    """Build a jello body from MESH_FILE and write it to a .jello or .npz file."""
+          surface_vertices, surface_samples, density, size, seed) -> None:
+    """Build a jello body from MESH_FILE and write it to a .jello or .npz file.
+
+    The mesh's coordinates are read as metres unless --size scales it."""
     import warnings
 
     from .build import body_stats, build_body
@@ -108,7 +114,8 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
             body = build_body(mesh_file, points=points, connect=connect, sampling=sampling,
                               radius=radius, neighbours=neighbours, h=h,
                               surface_vertices=surface_vertices,
-                              surface_samples=surface_samples, density=density, seed=seed)
+                              surface_samples=surface_samples, density=density, seed=seed,
+                              size=size)
         write_body(out_file, body)
     except JellysimError as exc:
         _fail(str(exc))
@@ -152,9 +159,16 @@ def inspect(path) -> None:
             for k, v in rows:
                 click.echo(f"  {k:<20} {v}")
         else:
+            import numpy as np
+
             from .geometry.mesh import load_mesh
 
-            click.echo(load_mesh(path).defects.describe())
+            mesh = load_mesh(path)
+            ext = np.ptp(mesh.vertices, axis=0)
+            click.echo(f"{path}: surface mesh; coordinates are read as metres (jellysim build "
+                       "--size S scales its largest extent to S m)")
+            click.echo(f"extent [m]:              {ext[0]:.6g} x {ext[1]:.6g} x {ext[2]:.6g}")
+            click.echo(mesh.defects.describe())
     except JellysimError as exc:
         _fail(str(exc))
 

@@ -14,10 +14,15 @@ __all__ = [
     "ImplicitParams",
     "MAX_ALL_PAIRS_POINTS",
     "REPORT_DENSITY",
+    "GRAVITY",
 ]
 
 REPORT_DENSITY = 1141.0
-"""Density of jello [kg/m^3] quoted by the report (section 6.4)."""
+"""Density of jello [kg/m^3] quoted by the report (section 6.4): the one default density of
+jellysim (scenes, builders, :func:`~jellysim.model.finalize`, the gelatin preset)."""
+
+GRAVITY = (0.0, -9.8, 0.0)
+"""Default gravitational acceleration [m/s^2] (y up), the report's g = 9.8 m/s^2."""
 
 MAX_ALL_PAIRS_POINTS = 4000
 """Largest body for ``ProvotPairs.ALL``: n (n - 1) / 2 = 8.0e6 pair checks per loop, about

@@ -517,7 +517,8 @@ class Scene:
                 body = replace(body, stiffness=calibrate_springs(
                     body, mat["youngs_modulus"], point_volume=pv), masses=masses)
             return finalize(body, stiffness=self.params["springs"]["stiffness"],
-                            density=density, point_mass=m["point_mass"],
+                            density=density if body.masses is None else None,
+                            point_mass=m["point_mass"] if body.masses is None else None,
                             damping=ph["damping"], gravity=ph["gravity"])
         except ValueError as exc:
             raise SceneError(f"{self.name}: {exc}") from None
