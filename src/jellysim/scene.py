@@ -284,6 +284,7 @@ class Scene:
 
     @classmethod
     def load(cls, path) -> "Scene":
+        """Read and validate a TOML scene file (also :meth:`from_file`)."""
         path = Path(path)
         try:
             text = path.read_text(encoding="utf-8")
@@ -302,7 +303,16 @@ class Scene:
         return cls(cls._validate(raw, name), text=text, name=name)
 
     @classmethod
+    def from_file(cls, path) -> "Scene":
+        """Read and validate a TOML scene file (the same as :meth:`load`)."""
+        return cls.load(path)
+
+    @classmethod
     def from_dict(cls, raw: dict, *, name: str = "<scene>") -> "Scene":
+        """A scene from a dictionary shaped like the TOML file: ``{"body": {...},
+        "springs": {...}, "integrator": {...}, "obstacle": [{...}, ...]}`` (keys and defaults:
+        ``jellysim scene-help``).  Relative paths are relative to the current directory;
+        errors name ``name``."""
         return cls(cls._validate(raw, name), name=name)
 
     @staticmethod
