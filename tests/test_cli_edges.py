@@ -134,3 +134,17 @@ def test_export_sequence_takes_the_folder_as_an_argument(traj_path, tmp_path):
     assert res.exit_code == 2 and "two outputs" in res.output
     res = CliRunner().invoke(cli, ["export", str(traj_path)])
     assert res.exit_code == 2 and "no output" in res.output
+
+
+def test_run_set_overrides_a_scene_value_and_records_it(tmp_path):
+    out = tmp_path / "o"
+    res = _run(tmp_path, out, 10, "--set", "body.points=12", "--set", "physics.damping=0.5")
+    assert res.exit_code == 0, res.output
+    traj = load_trajectory(out / "trajectory.npz")
+    assert traj.positions.shape[1] == 12
+    assert traj.params["body"]["points"] == 12 and traj.params["physics"]["damping"] == 0.5
+    assert "--set body.points=12" in traj.scene_toml
+    res = _run(tmp_path, tmp_path / "p", 10, "--set", "bodypoints=3")
+    assert res.exit_code == 2 and "SECTION.KEY=VALUE" in res.output
+    res = _run(tmp_path, tmp_path / "q", 10, "--set", "body.pionts=3")
+    assert res.exit_code == 2 and "did you mean 'points'" in res.output

@@ -27,14 +27,14 @@ ROOT = Path(__file__).resolve().parents[1]
 SRC = str(Path(jellysim.__file__).resolve().parents[1])
 
 SCALE = {
-    "demo": ["--frames", "3", "--size", "64x48", "--quiet"],
-    "run": ["--steps", "6", "--quiet"],
+    "demo": ["--frames", "2", "--size", "64x48", "--quiet", "--points", "200"],
+    "run": ["--steps", "2", "--quiet"],
     "render": ["--size", "64x48", "--quiet"],
 }
 """Flags appended per sub-command (options given later win in click)."""
 REPLACE = [(r"--points \d+", "--points 200")]
 """Substitutions in the command text (scaled-down sizes)."""
-PY_SCALE = [(r"points=\d+", "points=200"), (r"advance\(\d+\)", "advance(6)"),
+PY_SCALE = [(r"points=\d+", "points=200"), (r"advance\(\d+\)", "advance(2)"),
             (r"range\(\d+\)", "range(5)")]
 SKIPPED = (re.compile(r"^python3? -m venv "), re.compile(r"pip install"),
            re.compile(r"-m pytest\b"))
@@ -83,6 +83,12 @@ def _copy_repo(dest: Path) -> None:
             ".git", ".venv", "out", "__pycache__", "*.egg-info"))
 
 
+def _is_mesh_scene(path: Path) -> bool:
+    import tomllib
+
+    return tomllib.loads(path.read_text())["body"].get("type") == "mesh"
+
+
 def _env() -> dict:
     env = dict(os.environ)
     env["PYTHONPATH"] = SRC + os.pathsep + env.get("PYTHONPATH", "")
@@ -128,6 +134,8 @@ def test_every_readme_command_runs_on_a_clean_copy(tmp_path):
         else:
             sub = argv[1]
             argv = [sys.executable, "-m", "jellysim", *argv[1:], *SCALE.get(sub, [])]
+            if sub == "run" and _is_mesh_scene(tmp_path / argv[4]):
+                argv += ["--set", "body.points=200"]
         if sub == "view":
             # an interactive window: with a display (xvfb-run) draw it once and save it;
             # without one the README's promise is a clear message, not a crash

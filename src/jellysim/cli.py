@@ -37,8 +37,11 @@ def cli() -> None:
 @click.option("--overwrite", is_flag=True,
               help="Reuse a non-empty output folder: the earlier run's files in it "
                    "(trajectory.npz, *.pvd, *.vtu) are deleted first.")
+@click.option("--set", "settings", multiple=True, metavar="SECTION.KEY=VALUE",
+              help="Override one scene value (TOML syntax), e.g. --set body.points=500 "
+                   "--set 'material.preset=\"gelatin\"'.  Repeatable.")
 def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None,
-        overwrite=False) -> None:
+        overwrite=False, settings=()) -> None:
     """Simulate SCENE_FILE (TOML) and write trajectory.npz and body.pvd."""
     from pathlib import Path
 
@@ -46,7 +49,7 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     from .scene import Scene
 
     try:
-        scene = Scene.load(scene_file)
+        scene = Scene.load(scene_file, overrides=settings)
         out = Path(out_dir) if out_dir else Path("out") / Path(scene_file).stem
         prepare_out_dir(out, overwrite=overwrite)
         result = run_scene(scene, out, progress=not quiet, vtu=False if no_vtu else None,

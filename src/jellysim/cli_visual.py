@@ -92,13 +92,15 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
 @click.option("--quiet", is_flag=True, help="No progress bars.")
 @click.option("--overwrite", is_flag=True,
               help="Replace an earlier demo in OUT (its demo.mp4, demo.usdc, demo/ run).")
-def demo(out_dir, frames, size, no_usd, quiet, overwrite):
+@click.option("--points", type=click.IntRange(min=50), default=None,
+              help="Points sampled inside the cow (default 1500; fewer: a quick, coarse run).")
+def demo(out_dir, frames, size, no_usd, quiet, overwrite, points):
     """A jello cow dropped on a table: writes OUT/demo.mp4 and OUT/demo.usdc."""
     from .demo import run_demo
 
     try:
         r = run_demo(out_dir, frames=frames, size=_size(size), usd=not no_usd,
-                     progress=not quiet, overwrite=overwrite)
+                     progress=not quiet, overwrite=overwrite, points=points)
     except JellysimError as exc:
         _fail(str(exc))
     s = r["seconds"]

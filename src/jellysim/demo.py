@@ -53,10 +53,11 @@ def demo_mesh():
     return v, np.asarray(mesh.faces, dtype=np.int64)
 
 
-def build_demo_body():
+def build_demo_body(points: int | None = None):
     """The demo's jello body and its skin: ``(Body, Skin)``: Spot sampled and tetrahedralized
     by :func:`jellysim.build.build_body` (Delaunay, tets carved by the exact inside test), the
-    skin Spot itself bound to the body's tets."""
+    skin Spot itself bound to the body's tets.  ``points``: sampled inside (default
+    ``DEMO_SHAPE["points"]``)."""
     import warnings
 
     from .build import build_body
@@ -67,7 +68,8 @@ def build_demo_body():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # Spot is clean; nothing to report
         body = build_body(Mesh.from_arrays(verts, faces, name="spot.obj"),
-                          points=DEMO_SHAPE["points"], connect=DEMO_SHAPE["connect"],
+                          points=DEMO_SHAPE["points"] if points is None else int(points),
+                          connect=DEMO_SHAPE["connect"],
                           density=DEMO_SCENE["material"].get("density", 1141.0),
                           seed=DEMO_SHAPE["seed"])
     body.meta.update(builder="demo-spot", **DEMO_SHAPE)
@@ -75,11 +77,13 @@ def build_demo_body():
 
 
 def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: bool = True,
-             progress: bool = True, vtu: bool = False, overwrite: bool = False) -> dict:
+             progress: bool = True, vtu: bool = False, overwrite: bool = False,
+             points: int | None = None) -> dict:
     """Simulate the demo and write ``<out_dir>/demo.mp4`` (+ ``demo.usdc``); the run itself
     goes to ``<out_dir>/demo/``.  ``frames`` limits the number of saved frames (CI).
     An earlier demo's outputs there are refused (:class:`~jellysim.errors.JellysimError`)
-    unless ``overwrite``, which deletes them first.  Returns the paths written and timings
+    unless ``overwrite``, which deletes them first.  ``points``: see :func:`build_demo_body`.
+    Returns the paths written and timings
     [s]."""
     import time
 
@@ -103,7 +107,7 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     for p in old:
         p.unlink(missing_ok=True)
     scene = Scene.from_dict(DEMO_SCENE, name="demo")
-    body, skin = build_demo_body()
+    body, skin = build_demo_body(points)
     steps = scene.steps if frames is None else max(1, int(frames) - 1) * scene.frame_every
     result = run_scene(scene, out_dir / "demo", progress=progress, vtu=vtu, steps=steps,
                        skin=skin, body=body)

@@ -274,6 +274,23 @@ def _table(name: str, label: str, given: dict, keys: dict[str, Spec]) -> dict:
     return values
 
 
+def _override(raw: dict, item: str, name: str) -> None:
+    """Apply one ``section.key=value`` (TOML value) to a parsed scene, in place."""
+    where, sep, value = item.partition("=")
+    section, dot, key = where.strip().partition(".")
+    if not (sep and dot and section and key):
+        raise SceneError(f"{name}: --set {item!r}: expected SECTION.KEY=VALUE, e.g. "
+                         "body.points=500")
+    try:
+        parsed = tomllib.loads(f"v = {value.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        parsed = value.strip()      # a bare word: a string (e.g. integrator.name=implicit)
+    table = raw.setdefault(section, {})
+    if not isinstance(table, dict):
+        raise SceneError(f"{name}: --set {item!r}: [{section}] is not a table")
+    table[key] = parsed
+
+
 class Scene:
     """A validated scene: ``scene.params[section][key]`` with every default filled in."""
 
@@ -283,8 +300,9 @@ class Scene:
         self.name = name
 
     @classmethod
-    def load(cls, path) -> "Scene":
-        """Read and validate a TOML scene file (also :meth:`from_file`)."""
+    def load(cls, path, *, overrides=()) -> "Scene":
+        """Read and validate a TOML scene file (also :meth:`from_file`).  ``overrides``:
+        ``"section.key=value"`` strings (TOML values) applied over the file's values."""
         path = Path(path)
         try:
             text = path.read_text(encoding="utf-8")
@@ -292,20 +310,25 @@ class Scene:
             raise SceneError(f"{path}: scene file not found") from None
         except (OSError, UnicodeDecodeError) as exc:
             raise SceneError(f"{path}: cannot read the scene file ({exc})") from None
-        return cls.from_text(text, name=str(path))
+        return cls.from_text(text, name=str(path), overrides=overrides)
 
     @classmethod
-    def from_text(cls, text: str, *, name: str = "<scene>") -> "Scene":
+    def from_text(cls, text: str, *, name: str = "<scene>", overrides=()) -> "Scene":
         try:
             raw = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise SceneError(f"{name}: not valid TOML: {exc}") from None
+        for item in overrides:
+            _override(raw, item, name)
+        if overrides:   # the recorded text says what ran
+            text += "\n# overridden on the command line:\n" + "".join(
+                f"#   --set {item}\n" for item in overrides)
         return cls(cls._validate(raw, name), text=text, name=name)
 
     @classmethod
-    def from_file(cls, path) -> "Scene":
+    def from_file(cls, path, *, overrides=()) -> "Scene":
         """Read and validate a TOML scene file (the same as :meth:`load`)."""
-        return cls.load(path)
+        return cls.load(path, overrides=overrides)
 
     @classmethod
     def from_dict(cls, raw: dict, *, name: str = "<scene>") -> "Scene":
