@@ -62,6 +62,7 @@ def build_demo_body(points: int | None = None):
 
     from .build import build_body
     from .geometry.mesh import Mesh
+    from .params import REPORT_DENSITY
     from .skin import bind_body_skin
 
     verts, faces = demo_mesh()
@@ -70,7 +71,7 @@ def build_demo_body(points: int | None = None):
         body = build_body(Mesh.from_arrays(verts, faces, name="spot.obj"),
                           points=DEMO_SHAPE["points"] if points is None else int(points),
                           connect=DEMO_SHAPE["connect"],
-                          density=DEMO_SCENE["material"].get("density", 1141.0),
+                          density=DEMO_SCENE["material"].get("density", REPORT_DENSITY),
                           seed=DEMO_SHAPE["seed"])
     body.meta.update(builder="demo-spot", **DEMO_SHAPE)
     return body, bind_body_skin(body, verts, faces)

@@ -20,10 +20,12 @@ from __future__ import annotations
 
 import copy
 
+from .params import CONTACT_FRICTION, CONTACT_RESTITUTION, REPORT_DENSITY
+
 __all__ = ["PRESETS", "GELATIN_DENSITY", "GELATIN_YOUNGS_MODULUS", "apply_preset"]
 
-GELATIN_DENSITY = 1141.0
-"""Density of jello [kg/m^3] (report section 6.4)."""
+GELATIN_DENSITY = REPORT_DENSITY
+"""Density of jello [kg/m^3] (report section 6.4): :data:`jellysim.params.REPORT_DENSITY`."""
 GELATIN_YOUNGS_MODULUS = 1.0e4
 """Young's modulus of a firm dessert gelatin [Pa] (Bonavia 2025, see the module docstring)."""
 
@@ -33,11 +35,12 @@ PRESETS: dict[str, dict] = {
         "physics": {"damping": 0.0},
         "integrator": {"name": "implicit", "dt": 1.0 / 60.0},
         "provot": {"enabled": False},
-        "ground": {"model": "contact", "restitution": 0.3, "friction": 0.6},
+        "ground": {"model": "contact", "restitution": CONTACT_RESTITUTION,
+                   "friction": CONTACT_FRICTION},
     },
     "paper-2010": {
         "springs": {"stiffness": 2.0},
-        "material": {"density": 1141.0},
+        "material": {"density": REPORT_DENSITY},
         "physics": {"damping": 0.8},
         "integrator": {"name": "paper", "dt": 0.01},
         "provot": {"enabled": True, "tau": 0.001, "loops": 1, "pairs": "all"},

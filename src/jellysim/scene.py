@@ -9,38 +9,21 @@ from __future__ import annotations
 import difflib
 import math
 import tomllib
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
 
 import numpy as np
 
 from .errors import SceneError
+from .params import GRAVITY, REPORT_DENSITY, GroundParams, ImplicitParams, ProvotParams
+# Spec (one row of the schema) and the checks live in scene_spec; SCHEMA stays here
+from .scene_spec import REQUIRED, Spec, _nonneg, _pos
+from .scene_spec import apply_override as _override
+from .scene_spec import check_table as _table
 
 __all__ = ["Scene", "SCHEMA", "Spec", "schema_markdown"]
 
-REQUIRED = object()
-
-
-@dataclass(frozen=True)
-class Spec:
-    kind: str
-    """``float``, ``int``, ``bool``, ``str``, ``vec3`` or ``path``."""
-    default: Any
-    doc: str
-    check: Callable[[Any], bool] | None = None
-    allowed: str = ""
-    """Words for the allowed range, used in error messages."""
-    choices: tuple[str, ...] = ()
-
-
-def _pos(doc, default=REQUIRED, unit=""):
-    return Spec("float", default, doc, lambda v: v > 0, f"a number > 0{unit}")
-
-
-def _nonneg(doc, default, unit=""):
-    return Spec("float", default, doc, lambda v: v >= 0, f"a number >= 0{unit}")
-
+_P, _G, _I = ProvotParams(), GroundParams(), ImplicitParams()
+"""Defaults come from the option dataclasses (:mod:`jellysim.params`), the one source."""
 
 SCHEMA: dict[str, dict[str, Spec]] = {
     "body": {
@@ -96,13 +79,13 @@ SCHEMA: dict[str, dict[str, Spec]] = {
     },
     "mass": {
         "density": _pos("Density [kg/m^3]; total mass = density x volume, split evenly.",
-                        1141.0, " (kg/m^3)"),
+                        REPORT_DENSITY, " (kg/m^3)"),
         "point_mass": Spec("float", None, "Mass of every point [kg] (overrides density).",
                            lambda v: v > 0, "a number > 0 (kg)"),
     },
     "physics": {
         "damping": _nonneg("Velocity damping delta [kg/s] (report eq. 1).", 0.0, " (kg/s)"),
-        "gravity": Spec("vec3", [0.0, -9.8, 0.0], "Gravitational acceleration [m/s^2]."),
+        "gravity": Spec("vec3", list(GRAVITY), "Gravitational acceleration [m/s^2]."),
     },
     "integrator": {
         "name": Spec("str", "symplectic", "'paper' (report order: x, v, then a), "
@@ -118,45 +101,45 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         lambda v: v >= 1, "an integer >= 1"),
         "substeps": Spec("int", 1, "Steps of dt / substeps per step.", lambda v: v >= 1,
                          "an integer >= 1"),
-        "scheme": Spec("str", "theta", "Implicit: 'theta' (one step, see theta) or 'bdf2' "
+        "scheme": Spec("str", _I.scheme, "Implicit: 'theta' (one step, see theta) or 'bdf2' "
                        "(two-step, second order: keeps a frame-rate wobble, 0.90 of its "
                        "energy per period at 2.8 Hz and dt = 1/60 s; less robust through "
                        "impacts).",
                        choices=("theta", "bdf2")),
-        "theta": Spec("float", 1.0, "Implicit: 1 = backward Euler (robust, damps), 0.5 = "
+        "theta": Spec("float", _I.theta, "Implicit: 1 = backward Euler (robust, damps), 0.5 = "
                       "midpoint (no damping of linear vibrations).", lambda v: 0.5 <= v <= 1,
                       "a number in [0.5, 1]"),
-        "cg_tolerance": _pos("Implicit: relative residual at which CG stops.", 1e-3),
-        "cg_max_iterations": Spec("int", 300, "Implicit: CG iterations per step at most.",
+        "cg_tolerance": _pos("Implicit: relative residual at which CG stops.", _I.tolerance),
+        "cg_max_iterations": Spec("int", _I.max_iterations, "Implicit: CG iterations per step at most.",
                                   lambda v: v >= 1, "an integer >= 1"),
     },
     "provot": {
-        "enabled": Spec("bool", True, "Provot strain limiting on/off."),
-        "tau": Spec("float", 0.001, "Tolerance as a fraction of rest length (0.001 = 0.1 %).",
+        "enabled": Spec("bool", _P.enabled, "Provot strain limiting on/off."),
+        "tau": Spec("float", _P.tau, "Tolerance as a fraction of rest length (0.001 = 0.1 %).",
                     lambda v: 0 < v < 1, "a number in (0, 1)"),
-        "loops": Spec("int", 5, "Passes per step (report: 5).", lambda v: v >= 1,
+        "loops": Spec("int", _P.loops, "Passes per step (report: 5).", lambda v: v >= 1,
                       "an integer >= 1"),
-        "pairs": Spec("str", "springs", "'springs' or 'all' (the report's O(n^2) hack).",
+        "pairs": Spec("str", _P.pairs.value, "'springs' or 'all' (the report's O(n^2) hack).",
                       choices=("springs", "all")),
-        "order": Spec("str", "jacobi", "'jacobi' (parallel, averaged) or 'gauss-seidel'.",
+        "order": Spec("str", _P.order.value, "'jacobi' (parallel, averaged) or 'gauss-seidel'.",
                       choices=("jacobi", "gauss-seidel")),
         "tolerance": _nonneg("Stop the loops once the largest correction is below this [m].",
-                             0.0, " (m)"),
-        "velocity_update": Spec("bool", True, "Add the correction / dt to the velocity."),
+                             _P.tolerance, " (m)"),
+        "velocity_update": Spec("bool", _P.velocity_update, "Add the correction / dt to the velocity."),
     },
     "ground": {
-        "enabled": Spec("bool", True, "The report's ground plane on/off."),
-        "model": Spec("str", "paper", "'paper': the report's mu/nu rule (eqs. 2, 3); "
+        "enabled": Spec("bool", _G.enabled, "The report's ground plane on/off."),
+        "model": Spec("str", _G.model.value, "'paper': the report's mu/nu rule (eqs. 2, 3); "
                       "'contact': non-penetration, restitution, Coulomb friction.",
                       choices=("paper", "contact")),
-        "height": Spec("float", 0.0, "Height of the plane y = height [m]."),
-        "mu": Spec("float", 0.1, "Factor on x/z velocity of a point on the ground.",
+        "height": Spec("float", _G.height, "Height of the plane y = height [m]."),
+        "mu": Spec("float", _G.mu, "Factor on x/z velocity of a point on the ground.",
                    lambda v: 0 <= v <= 1, "a number in [0, 1]"),
-        "nu": Spec("float", 0.2, "Fraction of y acceleration removed on the ground.",
+        "nu": Spec("float", _G.nu, "Fraction of y acceleration removed on the ground.",
                    lambda v: 0 <= v <= 1, "a number in [0, 1]"),
-        "restitution": Spec("float", 0.3, "Contact: coefficient of restitution e.",
+        "restitution": Spec("float", _G.restitution, "Contact: coefficient of restitution e.",
                             lambda v: 0 <= v <= 1, "a number in [0, 1]"),
-        "friction": _nonneg("Contact: kinetic Coulomb friction coefficient.", 0.6),
+        "friction": _nonneg("Contact: kinetic Coulomb friction coefficient.", _G.friction),
         "static_friction": Spec("float", None, "Contact: static Coulomb coefficient "
                                 "(default: friction).", lambda v: v >= 0, "a number >= 0"),
     },
@@ -177,9 +160,9 @@ OBSTACLE_SCHEMA: dict[str, Spec] = {
     "radius": Spec("float", None, "Sphere: radius [m].", lambda v: v > 0, "a number > 0 (m)"),
     "lower": Spec("vec3", None, "Box: lower corner [m]."),
     "upper": Spec("vec3", None, "Box: upper corner [m]."),
-    "restitution": Spec("float", 0.3, "Coefficient of restitution e.", lambda v: 0 <= v <= 1,
+    "restitution": Spec("float", _G.restitution, "Coefficient of restitution e.", lambda v: 0 <= v <= 1,
                         "a number in [0, 1]"),
-    "friction": Spec("float", 0.6, "Kinetic Coulomb friction coefficient.", lambda v: v >= 0,
+    "friction": Spec("float", _G.friction, "Kinetic Coulomb friction coefficient.", lambda v: v >= 0,
                      "a number >= 0"),
     "static_friction": Spec("float", None, "Static Coulomb coefficient (default: friction).",
                             lambda v: v >= 0, "a number >= 0"),
@@ -210,85 +193,6 @@ def schema_markdown() -> str:
         allowed = spec.allowed or (", ".join(f"`{c}`" for c in spec.choices))
         lines.append(f"| `{key}` | {spec.kind} | {default} | {allowed} | {spec.doc} |")
     return "\n".join(lines)
-
-
-def _check(name: str, section: str, key: str, spec: Spec, value: Any) -> Any:
-    label = section if section.startswith("[") else f"[{section}]"
-    where = f"{name}: {label} {key}"
-    kind = spec.kind
-
-    def fail(problem: str, allowed: str) -> SceneError:
-        return SceneError(f"{where} = {value!r}: {problem}; expected {allowed}")
-
-    if kind == "float":
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise fail("wrong type", spec.allowed or "a number")
-        value = float(value)
-        if not math.isfinite(value):
-            raise fail("not a finite number", spec.allowed or "a finite number")
-    elif kind == "int":
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise fail("wrong type", spec.allowed or "an integer")
-    elif kind == "bool":
-        if not isinstance(value, bool):
-            raise fail("wrong type", "true or false")
-    elif kind == "str":
-        if not isinstance(value, str):
-            raise fail("wrong type", spec.allowed or
-                       "one of " + ", ".join(repr(c) for c in spec.choices))
-        if spec.choices and value not in spec.choices:
-            raise fail("unknown choice", "one of " + ", ".join(repr(c) for c in spec.choices))
-    elif kind == "vec3":
-        ok = (isinstance(value, list) and len(value) == 3 and all(
-            isinstance(c, (int, float)) and not isinstance(c, bool) for c in value))
-        if not ok:
-            raise fail("wrong type", "a list of three numbers, e.g. [0.0, -9.8, 0.0]")
-        value = [float(c) for c in value]
-        if not all(math.isfinite(c) for c in value):
-            raise fail("not finite", "three finite numbers")
-    if spec.check is not None and not spec.check(value):
-        raise fail("out of range", spec.allowed)
-    return value
-
-
-def _table(name: str, label: str, given: dict, keys: dict[str, Spec]) -> dict:
-    """One table checked against ``keys``: unknown keys, missing required values and each
-    value (:func:`_check`); defaults filled in.  ``label`` names it (``[section]``)."""
-    for key in given:
-        if key not in keys:
-            near = difflib.get_close_matches(key, keys, n=1)
-            hint = f" (did you mean '{near[0]}'?)" if near else ""
-            raise SceneError(f"{name}: {label} unknown key '{key}'{hint}; allowed: "
-                             + ", ".join(keys))
-    values = {}
-    for key, spec in keys.items():
-        if key in given and given[key] is None and spec.default is None:
-            values[key] = None  # "not set" (only reachable from Python dicts)
-        elif key in given:
-            values[key] = _check(name, label, key, spec, given[key])
-        elif spec.default is REQUIRED:
-            raise SceneError(f"{name}: {label} missing value '{key}': {spec.doc} "
-                             f"Expected {spec.allowed or spec.kind}.")
-        else:
-            values[key] = spec.default
-    return values
-
-
-def _override(raw: dict, item: str, name: str) -> None:
-    """Apply one ``section.key=value`` (TOML value) to a parsed scene, in place."""
-    where, sep, value = item.partition("=")
-    section, dot, key = where.strip().partition(".")
-    if not (sep and dot and section and key):
-        raise SceneError(f"{name}: --set {item!r}: expected SECTION.KEY=VALUE, e.g. "
-                         "body.points=500")
-    try:
-        parsed = tomllib.loads(f"v = {value.strip()}")["v"]
-    except tomllib.TOMLDecodeError:
-        parsed = value.strip()      # a bare word: a string (e.g. integrator.name=implicit)
-    table = raw.setdefault(section, {})
-    if not isinstance(table, dict):
-        raise SceneError(f"{name}: --set {item!r}: [{section}] is not a table")
-    table[key] = parsed
 
 
 class Scene:

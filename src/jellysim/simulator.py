@@ -48,7 +48,11 @@ class Simulator:
     model: the body.
     dt: time step [s], > 0.
     integrator: :class:`~jellysim.params.Integrator`.
-    provot, ground: correction options.
+    provot: :class:`~jellysim.params.ProvotParams` to turn on the report's strain limiting
+        (``ProvotParams()`` = its defaults, as in a scene: tau = 0.1 %, 5 loops); ``None``
+        (default): none.
+    ground: :class:`~jellysim.params.GroundParams` for a ground plane (``GroundParams()`` =
+        the report's mu/nu ground at y = 0, as in a scene); ``None`` (default): none.
     backend: ``"numba"`` (default) or ``"numpy"`` (the reference).
     threads: numba threads (default: :func:`auto_threads`).  Results do not depend on it.
     runaway_distance: a point farther than this [m] from the body's starting centre stops the
@@ -67,8 +71,8 @@ class Simulator:
     """
 
     def __init__(self, model, *, dt: float, integrator: Integrator | str = Integrator.SYMPLECTIC,
-                 provot: ProvotParams = ProvotParams(enabled=False),
-                 ground: GroundParams = GroundParams(enabled=False),
+                 provot: ProvotParams | None = None,
+                 ground: GroundParams | None = None,
                  backend: Backend | str = Backend.NUMBA, threads: int | None = None,
                  runaway_distance: float | None = None, check_stability: bool = True,
                  state=None, substeps: int = 1, implicit: ImplicitParams = ImplicitParams(),
@@ -78,6 +82,8 @@ class Simulator:
         self.model = model
         self.dt = float(dt)
         self.integrator = Integrator(integrator)
+        provot = ProvotParams(enabled=False) if provot is None else provot
+        ground = GroundParams(enabled=False) if ground is None else ground
         self.provot = provot
         self.ground = ground
         self.substeps = int(substeps)
