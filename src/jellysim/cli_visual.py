@@ -156,7 +156,7 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
 
 @click.command()
 @click.argument("trajectory", type=click.Path(dir_okay=False))
-@click.argument("target", required=False, type=click.Path())
+@click.argument("target", required=False, type=click.Path(), metavar="[OUTPUT]")
 @click.option("-o", "--output", default=None, type=click.Path(),
               help="run.usdc / .usda (USD), run.glb (glTF), run.pvd (ParaView series; its "
                    ".vtu frames go into the folder run/), or a folder with --sequence.  May "
