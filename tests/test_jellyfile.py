@@ -210,7 +210,7 @@ def test_failed_write_leaves_existing_file_intact(tmp_path, monkeypatch):
     def boom(*a, **k):
         raise OSError("simulated failure")
 
-    monkeypatch.setattr(jellyfile.os, "replace", boom)
+    monkeypatch.setattr(os, "replace", boom)   # the one atomic writer: jellysim.io.atomic
     with pytest.raises(OSError, match="simulated"):
         write_body(p, good)
     assert p.read_bytes() == before

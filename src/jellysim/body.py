@@ -51,6 +51,39 @@ class Body:
     volume: float | None = None
     meta: dict = field(default_factory=dict)
 
+    @classmethod
+    def from_mesh(cls, mesh, *, size: float | None = 0.1, points: int = 5000,
+                  connect: str = "delaunay", seed: int = 0, density: float | None = None,
+                  base=None, **options) -> "Body":
+        """A jello body filling a surface mesh (a path, in any format
+        :func:`~jellysim.geometry.load_mesh` reads, or a loaded mesh).
+
+        ``size``: the largest bounding-box extent [m] the mesh is scaled to (about the
+        origin); ``None`` keeps the mesh's coordinates, which are then read as metres.
+        ``points``: points sampled inside (``delaunay`` also adds points on the surface).
+        ``connect``: ``"radius"``, ``"marching"``, ``"delaunay"`` or ``"tetgen"``.
+        ``density``: [kg/m^3] (default :data:`~jellysim.params.REPORT_DENSITY`): the masses
+        are density x the scaled body's enclosed volume (tet bodies: lumped on the corners).
+        ``base``: if given, move the body so the bottom centre of its bounding box is here [m]
+        (y is up).  Other keywords go to :func:`jellysim.build.build_body`.
+        """
+        from .build import _mesh_of, build_body
+        from .params import REPORT_DENSITY
+
+        m = _mesh_of(mesh, size)
+        if base is not None:
+            from dataclasses import replace
+
+            lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)
+            bottom = np.array([0.5 * (lo[0] + hi[0]), lo[1], 0.5 * (lo[2] + hi[2])])
+            shift = np.asarray(base, dtype=np.float64).reshape(3) - bottom
+            m = replace(m, vertices=m.vertices + shift)
+        body = build_body(m, points=points, connect=connect, seed=seed,
+                          density=REPORT_DENSITY if density is None else density, **options)
+        if size is not None:
+            body.meta["size"] = float(size)
+        return body
+
     @property
     def point_count(self) -> int:
         return int(self.points.shape[0])

@@ -51,14 +51,29 @@ class Connect(str, Enum):
     TETGEN = "tetgen"
 
 
-def _mesh_of(mesh):
+def _mesh_of(mesh, size: float | None = None):
+    """A loaded :class:`~jellysim.geometry.mesh.Mesh`; with ``size`` scaled (about the
+    origin) so its largest bounding-box extent is ``size`` [m]."""
+    from dataclasses import replace
+
     from .geometry.mesh import Mesh, load_mesh
 
     if isinstance(mesh, (str, Path)):
-        return load_mesh(mesh)
-    if isinstance(mesh, Mesh):
-        return mesh
-    return Mesh.from_arrays(mesh.vertices, mesh.faces)
+        m = load_mesh(mesh)
+    elif isinstance(mesh, Mesh):
+        m = mesh
+    else:
+        m = Mesh.from_arrays(mesh.vertices, mesh.faces)
+    if size is None:
+        return m
+    if not (np.isfinite(size) and size > 0):
+        raise BuildError(f"size must be a positive length in metres, got {size}")
+    extent = float(np.ptp(m.vertices, axis=0).max())
+    if not extent > 0:
+        raise BuildError("the mesh has no extent to scale to a size")
+    factor = float(size) / extent
+    defects = replace(m.defects, volume=m.defects.volume * factor**3)
+    return replace(m, vertices=m.vertices * factor, defects=defects)
 
 
 def enclosed_volume(mesh, query=None, *, seed: int = 0) -> tuple[float, bool]:
@@ -78,7 +93,7 @@ def enclosed_volume(mesh, query=None, *, seed: int = 0) -> tuple[float, bool]:
 def _warn_defects(m, name: str) -> None:
     fixed = m.defects.repairs()
     if fixed:
-        warnings.warn(f"{name}: removed on load: {', '.join(fixed)}", UserWarning, stacklevel=3)
+        warnings.warn(f"{name}: removed on load: {', '.join(fixed)}", UserWarning, stacklevel=4)
 
 
 def _rescale_masses(body: Body, density: float, volume: float) -> Body:
@@ -98,12 +113,17 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
                density: float = REPORT_DENSITY,
                seed: int = 0, rule: str = "auto", epsilon: float | None = None,
                min_quality: float | None = None, max_volume: float | None = None,
-               snap: bool = True) -> Body:
+               size: float | None = None, snap: bool = True) -> Body:
     """A jello :class:`~jellysim.body.Body` from a surface mesh.
+
+    The mesh's coordinates are read as metres.  ``size`` scales it first (about the origin)
+    so that its largest bounding-box extent is ``size`` metres; masses (density x enclosed
+    volume) are those of the scaled body.
 
     Parameters
     ----------
     mesh: a path (any format :func:`~jellysim.geometry.load_mesh` reads) or a loaded mesh.
+    size: largest bounding-box extent [m] after scaling (default: the mesh as it is).
     points: number of points to sample inside (``radius``/``delaunay``: exactly this many
         before surface points are added; ``marching``/``tetgen``: a target that sets the
         grid size ``h`` / the maximum tet volume).
@@ -130,6 +150,20 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
         its tets well shaped (:func:`~jellysim.geometry.snap.snap_to_surface`); ``False``
         keeps the report's staircase.
     """
+    body = _build_body(mesh, points=points, connect=connect, sampling=sampling, radius=radius,
+                       neighbours=neighbours, h=h, surface_vertices=surface_vertices,
+                       surface_samples=surface_samples, density=density, seed=seed, rule=rule,
+                       epsilon=epsilon, min_quality=min_quality, max_volume=max_volume,
+                       size=size)
+    body.meta["density"] = float(density)
+    if size is not None:
+        body.meta["size"] = float(size)
+    return body
+
+
+def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surface_vertices,
+                surface_samples, density, seed, rule, epsilon, min_quality, max_volume,
+                size) -> Body:
     from .geometry.connect import choose_radius, radius_springs
     from .geometry.inside import InsideQuery
     from .geometry.sampling import morton_order, sample_inside
@@ -140,7 +174,7 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
         raise BuildError(f"points must be >= 4, got {points}")
     if not (np.isfinite(density) and density > 0):
         raise BuildError(f"density must be a positive number of kg/m^3, got {density}")
-    m = _mesh_of(mesh)
+    m = _mesh_of(mesh, size)
     name = str(m.path) if getattr(m, "path", None) else "mesh"
     _warn_defects(m, name)
     if connect is Connect.TETGEN:
@@ -159,7 +193,7 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     if not exact:
         warnings.warn(f"{name}: the surface is open, so its enclosed volume {volume:.6g} is a "
                       f"Monte-Carlo estimate ({VOLUME_SAMPLES} samples) with the "
-                      f"{query.rule} rule", UserWarning, stacklevel=2)
+                      f"{query.rule} rule", UserWarning, stacklevel=3)
     if volume <= 0:
         raise BuildError(f"{name}: the surface encloses no volume (no inside points found)")
     if connect is Connect.MARCHING:
@@ -217,7 +251,7 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     if np.any(deg == 0):
         lonely = int(np.sum(deg == 0))
         warnings.warn(f"{name}: {lonely} of {len(pts)} points have no spring within r = "
-                      f"{radius:.4g} m (raise radius or neighbours)", UserWarning, stacklevel=2)
+                      f"{radius:.4g} m (raise radius or neighbours)", UserWarning, stacklevel=3)
     meta = {"source": name, "connect": "radius", "sampling": sampling.value, "seed": seed,
             "radius": float(radius), "radius_chosen_for_neighbours": neighbours if chosen else None,
             "mean_neighbours": float(2 * len(springs) / len(pts))}

@@ -6,6 +6,7 @@ import sys
 import click
 
 from .errors import JellysimError
+from .params import REPORT_DENSITY
 
 
 def _fail(message: str) -> None:
@@ -45,8 +46,15 @@ def cli() -> None:
 @click.option("--threads", type=click.IntRange(min=1), default=None,
               help="Numba threads (overrides the scene's [integrator] threads; default: by "
                    "problem size).  Results do not depend on it.")
+@click.option("--overwrite", is_flag=True,
+              help="Reuse a non-empty output folder: the earlier run's files in it "
+                   "(trajectory.npz, *.pvd, *.vtu) are deleted first.")
+@click.option("--set", "settings", multiple=True, metavar="SECTION.KEY=VALUE",
+              help="Override one scene value (TOML syntax), e.g. --set body.points=500 "
+                   "--set 'material.preset=\"gelatin\"'.  Repeatable.")
 def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None,
-        partition="morton", backend=None, device=None, precision=None, threads=None) -> None:
+        partition="morton", backend=None, device=None, precision=None, threads=None,
+        overwrite=False, settings=()) -> None:
     """Simulate SCENE_FILE (TOML) and write trajectory.npz and body.pvd (under
     'mpiexec -n N': on N ranks, docs/mpi.md)."""
     from pathlib import Path
@@ -59,14 +67,16 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         return cli_run(scene_file, out_dir, steps=steps, no_vtu=no_vtu, quiet=quiet,
                        partition=partition, video=video, usd=usd, glb=glb)
 
-    from .runner import run_scene
+    from .runner import prepare_out_dir, run_scene
     from .scene import Scene
 
     try:
-        scene = Scene.load(scene_file).with_backend(backend, device, precision)
+        scene = Scene.load(scene_file, overrides=settings).with_backend(backend, device,
+                                                                        precision)
         if threads is not None:
             scene.params["integrator"]["threads"] = threads
         out = Path(out_dir) if out_dir else Path("out") / Path(scene_file).stem
+        prepare_out_dir(out, overwrite=overwrite)
         result = run_scene(scene, out, progress=not quiet, vtu=False if no_vtu else None,
                            steps=steps)
     except JellysimError as exc:
@@ -110,12 +120,17 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 @click.option("--surface-samples/--no-surface-samples", default=None,
               help="delaunay: also sample the surface's sharp edges and faces at the point "
                    "spacing (default: on; off is the report's way, mesh vertices only).")
-@click.option("--density", type=click.FloatRange(min=0, min_open=True), default=1141.0,
+@click.option("--density", type=click.FloatRange(min=0, min_open=True), default=REPORT_DENSITY,
               show_default=True, help="Density [kg/m^3].")
+@click.option("--size", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Scale the mesh so its largest extent is SIZE metres (default: its "
+                   "coordinates are read as metres).")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
-          surface_vertices, surface_samples, density, seed) -> None:
-    """Build a jello body from MESH_FILE and write it to a .jello or .npz file."""
+          surface_vertices, surface_samples, density, size, seed) -> None:
+    """Build a jello body from MESH_FILE and write it to a .jello or .npz file.
+
+    The mesh's coordinates are read as metres unless --size scales it."""
     import warnings
 
     from .build import body_stats, build_body
@@ -127,7 +142,8 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
             body = build_body(mesh_file, points=points, connect=connect, sampling=sampling,
                               radius=radius, neighbours=neighbours, h=h,
                               surface_vertices=surface_vertices,
-                              surface_samples=surface_samples, density=density, seed=seed)
+                              surface_samples=surface_samples, density=density, seed=seed,
+                              size=size)
         write_body(out_file, body)
     except JellysimError as exc:
         _fail(str(exc))
@@ -171,9 +187,16 @@ def inspect(path) -> None:
             for k, v in rows:
                 click.echo(f"  {k:<20} {v}")
         else:
+            import numpy as np
+
             from .geometry.mesh import load_mesh
 
-            click.echo(load_mesh(path).defects.describe())
+            mesh = load_mesh(path)
+            ext = np.ptp(mesh.vertices, axis=0)
+            click.echo(f"{path}: surface mesh; coordinates are read as metres (jellysim build "
+                       "--size S scales its largest extent to S m)")
+            click.echo(f"extent [m]:              {ext[0]:.6g} x {ext[1]:.6g} x {ext[2]:.6g}")
+            click.echo(mesh.defects.describe())
     except JellysimError as exc:
         _fail(str(exc))
 

@@ -34,10 +34,11 @@ def _options(size, color, opacity, show, no_floor):
     from .render.offscreen import RenderOptions
 
     show = {s.lower() for s in show}
+    if "all" in show:
+        show |= {"skin", "points", "springs"}
     return RenderOptions(size=_size(size), color=color, opacity=opacity,
                          show_points="points" in show, show_springs="springs" in show,
-                         show_skin="skin" in show or not show or "all" in show,
-                         floor=not no_floor)
+                         show_skin="skin" in show or not show, floor=not no_floor)
 
 
 def _load(path):
@@ -100,15 +101,20 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
               help="Warp arithmetic precision.")
 @click.option("--threads", type=click.IntRange(min=1), default=None,
               help="Numba threads (default: by problem size).")
+@click.option("--overwrite", is_flag=True,
+              help="Replace an earlier demo in OUT (its video, USD and run folder).")
+@click.option("--points", type=click.IntRange(min=50), default=None,
+              help="Grid points inside the shape (default 1500 jelly, 3000 cow; fewer: a "
+                   "quick, coarse run).")
 def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
-         precision=None, threads=None):
+         precision=None, threads=None, overwrite=False, points=None):
     """Real gelatin on a plate: writes OUT/demo.mp4 and OUT/demo.usdc."""
     from .demo import run_demo
 
     try:
         r = run_demo(out_dir, frames=frames, size=_size(size), usd=not no_usd,
                      progress=not quiet, scene=scene, backend=backend, device=device,
-                     precision=precision, threads=threads)
+                     precision=precision, threads=threads, overwrite=overwrite, points=points)
     except JellysimError as exc:
         _fail(str(exc))
     s = r["seconds"]
@@ -164,9 +170,11 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
 
 @click.command()
 @click.argument("trajectory", type=click.Path(dir_okay=False))
-@click.option("-o", "--output", required=True, type=click.Path(),
-              help="run.usdc / .usda (USD), run.glb (glTF), run.pvd (ParaView series), or a "
-                   "folder with --sequence.")
+@click.argument("target", required=False, type=click.Path(), metavar="[OUTPUT]")
+@click.option("-o", "--output", default=None, type=click.Path(),
+              help="run.usdc / .usda (USD), run.glb (glTF), run.pvd (ParaView series; its "
+                   ".vtu frames go into the folder run/), or a folder with --sequence.  May "
+                   "also be given as the second argument.")
 @click.option("--sequence", type=click.Choice(["obj", "ply"]), default=None,
               help="Write the skin as one OBJ/PLY file per frame into the folder OUTPUT.")
 @click.option("--fps", type=click.FloatRange(min=0.1), default=None,
@@ -174,14 +182,26 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
 @click.option("--max-frames", type=click.IntRange(min=2), default=None,
               help="glb: keep at most this many frames (evenly spaced), one morph target "
                    "each.")
-def export(trajectory, output, sequence, fps, max_frames):
-    """Export TRAJECTORY for other tools: USD, glTF (.glb), ParaView (.pvd), OBJ/PLY."""
-    out = Path(output)
+def export(trajectory, target, output, sequence, fps, max_frames):
+    """Export TRAJECTORY for other tools: USD, glTF (.glb), ParaView (.pvd), OBJ/PLY.
+
+    \b
+    jellysim export out/run/trajectory.npz -o run.glb
+    jellysim export out/run/trajectory.npz --sequence obj frames/"""
+    if output and target and Path(output) != Path(target):
+        _fail(f"two outputs given ('{target}' and -o '{output}'); give one")
+    if not (output or target):
+        _fail("no output given: jellysim export TRAJECTORY -o run.glb (or .usdc, .pvd), or "
+              "--sequence obj|ply FOLDER")
+    out = Path(output or target)
     try:
         traj = _load(trajectory)
         if sequence:
             from .io.meshseq import export_mesh_sequence
 
+            if out.suffix and not out.is_dir():
+                raise JellysimError(f"{out}: --sequence writes one file per frame into a "
+                                    "folder; give a folder name (no suffix)")
             paths = export_mesh_sequence(traj, out, fmt=sequence)
             click.echo(f"wrote {len(paths)} {sequence.upper()} files in {out}")
             return
@@ -195,9 +215,9 @@ def export(trajectory, output, sequence, fps, max_frames):
 
             written = [export_glb(traj, out, max_frames=max_frames)]
         elif suffix == ".pvd":
-            from .io.vtk import export_pvd
+            from .io.vtk import export_pvd_file
 
-            written = export_pvd(traj, out.parent, out.stem)
+            written = export_pvd_file(traj, out)
         else:
             raise JellysimError(f"{out}: unknown export type '{suffix}'; use .usdc, .usda, "
                                 ".glb, .pvd, or --sequence obj|ply with a folder")

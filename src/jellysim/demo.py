@@ -76,14 +76,16 @@ def demo_mesh(name: str = "jelly"):
     return v, np.asarray(f, dtype=np.int64)
 
 
-def build_demo_body(name: str = "jelly"):
+def build_demo_body(name: str = "jelly", points: int | None = None):
     """The demo's jello body and its skin: ``(Body, Skin)``: the surface filled with a
     marching grid (its boundary snapped onto the surface) by :func:`jellysim.build.build_body`,
-    the skin the surface itself bound to the body's tets."""
+    the skin the surface itself bound to the body's tets.  ``points``: grid points inside
+    (default ``DEMO_SHAPES[name]["points"]``)."""
     import warnings
 
     from .build import build_body
     from .geometry.mesh import Mesh
+    from .params import REPORT_DENSITY
     from .skin import bind_body_skin
 
     shape = DEMO_SHAPES[name]
@@ -91,7 +93,8 @@ def build_demo_body(name: str = "jelly"):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # both surfaces are clean; nothing to report
         body = build_body(Mesh.from_arrays(verts, faces, name=f"{name}.obj"),
-                          points=shape["points"], connect=shape["connect"],
+                          points=shape["points"] if points is None else int(points),
+                          connect=shape["connect"], density=REPORT_DENSITY,
                           seed=shape["seed"])
     body.meta.update(builder=f"demo-{name}", **{k: v for k, v in shape.items()})
     return body, bind_body_skin(body, verts, faces)
@@ -100,13 +103,16 @@ def build_demo_body(name: str = "jelly"):
 def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: bool = True,
              progress: bool = True, vtu: bool = False, scene: str = "jelly",
              backend: str | None = None, device: str | None = None,
-             precision: str | None = None, threads: int | None = None) -> dict:
+             precision: str | None = None, threads: int | None = None,
+             overwrite: bool = False, points: int | None = None) -> dict:
     """Simulate a demo scene (``"jelly"``: a fluted gelatin mould tossed onto a plate;
     ``"cow"``: Spot dropped on it) and write ``<out_dir>/demo.mp4`` (+ ``demo.usdc``; the cow:
     ``demo_cow.*``); the run itself goes to ``<out_dir>/demo/`` (``demo_cow/``).  ``frames``
     limits the number of saved frames (CI).  ``backend``/``device``/``precision`` override
     the scene's (refused with a :class:`~jellysim.errors.SceneError` where the backend lacks
-    the demo's physical path); ``threads``: numba threads (default: by problem size).
+    the demo's physical path); ``threads``: numba threads (default: by problem size).  An
+    earlier demo's outputs there are refused (:class:`~jellysim.errors.JellysimError`) unless
+    ``overwrite``, which deletes them first.  ``points``: see :func:`build_demo_body`.
     Returns the paths written and timings [s]."""
     import time
 
@@ -116,19 +122,28 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     from .runner import run_scene
     from .scene import Scene
 
+    from .errors import JellysimError
+    from .runner import prepare_out_dir
+
     t0 = time.perf_counter()
     out_dir = Path(out_dir)
     if scene not in DEMO_SHAPES:
-        from .errors import JellysimError
-
         raise JellysimError(f"unknown demo scene {scene!r}; choose one of "
                             + ", ".join(DEMO_SHAPES))
     stem = "demo" if scene == "jelly" else f"demo_{scene}"
+    old = [out_dir / f"{stem}.mp4", out_dir / f"{stem}.usdc"]
+    if not overwrite and any(p.exists() for p in old):
+        raise JellysimError(f"--out {out_dir}: holds an earlier demo "
+                            f"({', '.join(p.name for p in old if p.exists())}); pass "
+                            "--overwrite to replace it, or choose another --out")
+    prepare_out_dir(out_dir / stem, overwrite=overwrite)
+    for p in old:
+        p.unlink(missing_ok=True)
     raw = dict(DEMO_SCENE, body=dict(DEMO_SCENE["body"], velocity=DEMO_SHAPES[scene]["velocity"]))
     sc = Scene.from_dict(raw, name="demo").with_backend(backend, device, precision)
     if threads is not None:
         sc.params["integrator"]["threads"] = int(threads)
-    body, skin = build_demo_body(scene)
+    body, skin = build_demo_body(scene, points)
     steps = sc.steps if frames is None else max(1, int(frames) - 1) * sc.frame_every
     result = run_scene(sc, out_dir / stem, progress=progress, vtu=vtu, steps=steps,
                        skin=skin, body=body)

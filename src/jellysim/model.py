@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .body import Body
-from .params import REPORT_DENSITY
+from .params import GRAVITY, REPORT_DENSITY
 
 __all__ = ["Model", "finalize"]
 
@@ -91,23 +91,33 @@ class Model:
 def finalize(
     body: Body,
     *,
-    stiffness: float | None = None,
-    density: float = REPORT_DENSITY,
+    stiffness=None,
+    density: float | None = None,
     volume: float | None = None,
     point_mass: float | None = None,
     damping: float = 0.0,
-    gravity=(0.0, -9.8, 0.0),
+    gravity=GRAVITY,
 ) -> Model:
     """Freeze a body into a :class:`Model`.
 
     Parameters
     ----------
     body: points, springs and optional per-spring/per-point data.
-    stiffness: spring stiffness k [N/m] for springs whose ``body.stiffness`` is not given.
-    density: [kg/m^3], used when neither ``body.masses`` nor ``point_mass`` is given: total mass
-        = density x volume (``volume`` argument, else ``body.volume``), split evenly.
+    stiffness: spring stiffness k [N/m]: one number for every spring, or an array of shape
+        (k,), one per row of ``body.springs`` (e.g. from
+        :func:`jellysim.physics.material.calibrate_springs`).  Needed unless
+        ``body.stiffness`` is set; giving both is an error when they differ.
+    density: [kg/m^3] (default :data:`~jellysim.params.REPORT_DENSITY`), used when neither
+        ``body.masses`` nor ``point_mass`` is given: total mass = density x volume
+        (``volume`` argument, else ``body.volume``), split evenly.  When ``body.masses`` is
+        already set (tet bodies from :func:`jellysim.build.build_body` lump density x volume
+        at build time, at the size they were built) a ``density`` other than the one the body
+        was built with (``body.meta["density"]``) is an error, never silently ignored: build
+        the body at its final size and density (``Body.from_mesh(path, size=..., density=...)``)
+        or drop its masses (``dataclasses.replace(body, masses=None)``).
     volume: enclosed volume [m^3] overriding ``body.volume`` for the mass split.
-    point_mass: mass of every point [kg], overriding density x volume.
+    point_mass: mass of every point [kg], overriding density x volume (an error when
+        ``body.masses`` is set).
     damping: velocity damping delta [kg/s], >= 0.
     gravity: [m/s^2], shape (3,).
     """
@@ -131,27 +141,9 @@ def finalize(
         rest = np.linalg.norm(points[springs[:, 1]] - points[springs[:, 0]], axis=1)
     else:
         rest = np.asarray(body.rest_length, dtype=np.float64).reshape(k)
-    if body.stiffness is None:
-        if stiffness is None:
-            if k:
-                raise ValueError("spring stiffness k [N/m] is not given")
-            stiffness = 0.0
-        if not (stiffness >= 0 and np.isfinite(stiffness)):
-            raise ValueError(f"stiffness must be >= 0 N/m, got {stiffness}")
-        stiff = np.full(k, float(stiffness))
-    else:
-        stiff = np.asarray(body.stiffness, dtype=np.float64).reshape(k)
+    stiff = _stiffness(body, stiffness, k)
     springs, rest, stiff = springs[order], rest[order], stiff[order]
-
-    if body.masses is not None:
-        mass = np.asarray(body.masses, dtype=np.float64).reshape(n)
-    elif point_mass is not None:
-        mass = np.full(n, float(point_mass))
-    else:
-        vol = volume if volume is not None else body.volume
-        if vol is None:
-            raise ValueError("cannot derive masses: give point masses, point_mass or a volume")
-        mass = np.full(n, density * float(vol) / n)
+    mass = _masses(body, n, density, volume, point_mass)
     if not np.all(np.isfinite(mass) & (mass > 0)):
         raise ValueError("every point mass must be a positive finite number of kg")
     if not (damping >= 0 and np.isfinite(damping)):
@@ -180,3 +172,58 @@ def finalize(
         gravity=_frozen(gravity, np.float64),
         body=body,
     )
+
+
+def _stiffness(body: Body, stiffness, k: int) -> np.ndarray:
+    """Per-spring stiffness [N/m], shape (k,), in ``body.springs`` order."""
+    given = None
+    if stiffness is not None:
+        given = np.asarray(stiffness, dtype=np.float64)
+        if given.ndim == 0:
+            given = np.full(k, float(given))
+        elif given.shape != (k,):
+            raise ValueError(f"stiffness must be one number or an array of shape ({k},) (one "
+                             f"per spring), got shape {given.shape}")
+        if not np.all(np.isfinite(given) & (given >= 0)):
+            raise ValueError("stiffness must be >= 0 N/m and finite for every spring")
+    if body.stiffness is None:
+        if given is None:
+            if k:
+                raise ValueError("spring stiffness k [N/m] is not given: pass stiffness= (a "
+                                 "number or one per spring) or set body.stiffness")
+            given = np.zeros(0)
+        return given
+    own = np.asarray(body.stiffness, dtype=np.float64).reshape(k)
+    if given is not None and not np.allclose(given, own, rtol=1e-12, atol=0.0):
+        raise ValueError("stiffness given, but body.stiffness is already set and differs; "
+                         "pass one of them (dataclasses.replace(body, stiffness=None) drops "
+                         "the body's)")
+    return own
+
+
+def _masses(body: Body, n: int, density, volume, point_mass) -> np.ndarray:
+    """Point masses [kg], shape (n,)."""
+    if body.masses is not None:
+        built = body.meta.get("density") if isinstance(body.meta, dict) else None
+        if point_mass is not None:
+            raise ValueError("point_mass given, but body.masses is already set; drop one "
+                             "(dataclasses.replace(body, masses=None) drops the body's)")
+        if density is not None and not (built is not None and float(built) == float(density)):
+            at = f" at {built:g} kg/m^3" if built is not None else ""
+            raise ValueError(
+                f"density={density:g} kg/m^3 given, but body.masses is already set (lumped"
+                f"{at} when the body was built, at the size it was built), so it would be "
+                "ignored: build the body at its final size and density (Body.from_mesh(path, "
+                "size=..., density=...) or build_body(..., size=..., density=...)), or drop "
+                "its masses with dataclasses.replace(body, masses=None) to split density x "
+                "volume evenly")
+        return np.asarray(body.masses, dtype=np.float64).reshape(n)
+    if point_mass is not None:
+        return np.full(n, float(point_mass))
+    vol = volume if volume is not None else body.volume
+    if vol is None:
+        raise ValueError("cannot derive masses: give point masses, point_mass or a volume")
+    density = REPORT_DENSITY if density is None else float(density)
+    if not (np.isfinite(density) and density > 0):
+        raise ValueError(f"density must be a positive number of kg/m^3, got {density}")
+    return np.full(n, density * float(vol) / n)

@@ -14,12 +14,24 @@ __all__ = [
     "ImplicitParams",
     "MAX_ALL_PAIRS_POINTS",
     "REPORT_DENSITY",
+    "GRAVITY",
+    "CONTACT_RESTITUTION",
+    "CONTACT_FRICTION",
     "Material",
     "MaterialModel",
 ]
 
 REPORT_DENSITY = 1141.0
-"""Density of jello [kg/m^3] quoted by the report (section 6.4)."""
+"""Density of jello [kg/m^3] quoted by the report (section 6.4): the one default density of
+jellysim (scenes, builders, :func:`~jellysim.model.finalize`, the gelatin preset)."""
+
+GRAVITY = (0.0, -9.8, 0.0)
+"""Default gravitational acceleration [m/s^2] (y up), the report's g = 9.8 m/s^2."""
+
+CONTACT_RESTITUTION = 0.3
+"""Default coefficient of restitution e [-] of the contact ground and of obstacles."""
+CONTACT_FRICTION = 0.6
+"""Default kinetic Coulomb friction coefficient [-] of the contact ground and of obstacles."""
 
 MAX_ALL_PAIRS_POINTS = 4000
 """Largest body for ``ProvotPairs.ALL``: n (n - 1) / 2 = 8.0e6 pair checks per loop, about
@@ -119,9 +131,9 @@ class GroundParams:
     """Height of the ground plane [m]."""
     model: GroundModel = GroundModel.PAPER
     """``PAPER`` (mu, nu above) or ``CONTACT`` (restitution and friction below)."""
-    restitution: float = 0.3
+    restitution: float = CONTACT_RESTITUTION
     """Contact model: coefficient of restitution e [-] (bounce speed / impact speed)."""
-    friction: float = 0.6
+    friction: float = CONTACT_FRICTION
     """Contact model: kinetic Coulomb friction coefficient [-]."""
     static_friction: float | None = None
     """Contact model: static Coulomb friction coefficient [-] (default: ``friction``)."""

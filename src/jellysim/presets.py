@@ -32,11 +32,13 @@ from __future__ import annotations
 
 import copy
 
-__all__ = ["PRESETS", "GELATIN_DENSITY", "GELATIN_YOUNGS_MODULUS", "GELATIN_POISSON_RATIO",
-           "GELATIN_DAMPING_RATIO", "apply_preset", "gelatin"]
+from .params import CONTACT_FRICTION, CONTACT_RESTITUTION, REPORT_DENSITY
 
-GELATIN_DENSITY = 1141.0
-"""Density of jello [kg/m^3] (report section 6.4)."""
+__all__ = ["PRESETS", "GELATIN_DENSITY", "GELATIN_YOUNGS_MODULUS", "GELATIN_POISSON_RATIO",
+           "GELATIN_DAMPING_RATIO", "apply_preset", "gelatin", "material"]
+
+GELATIN_DENSITY = REPORT_DENSITY
+"""Density of jello [kg/m^3] (report section 6.4): :data:`jellysim.params.REPORT_DENSITY`."""
 GELATIN_YOUNGS_MODULUS = 1.0e4
 """Young's modulus of a firm dessert gelatin [Pa] (Bonavia 2025, see the module docstring)."""
 
@@ -53,11 +55,12 @@ PRESETS: dict[str, dict] = {
         "physics": {"damping": 0.0},
         "integrator": {"name": "symplectic", "dt": 1.0 / 60.0},
         "provot": {"enabled": False},
-        "ground": {"model": "contact", "restitution": 0.3, "friction": 0.6},
+        "ground": {"model": "contact", "restitution": CONTACT_RESTITUTION,
+                   "friction": CONTACT_FRICTION},
     },
     "paper-2010": {
         "springs": {"stiffness": 2.0},
-        "material": {"density": 1141.0},
+        "material": {"density": REPORT_DENSITY},
         "physics": {"damping": 0.8},
         "integrator": {"name": "paper", "dt": 0.01, "start_acceleration": "zero"},
         "provot": {"enabled": True, "tau": 0.001, "loops": 1, "pairs": "all",
@@ -87,3 +90,12 @@ def gelatin(**changes):
                   damping_frequency=5.0)
     values.update(changes)
     return Material(**values)
+
+
+def material(name: str = "gelatin", **changes):
+    """A named material preset as a :class:`~jellysim.params.Material` (``"gelatin"``);
+    keyword changes win (e.g. ``material("gelatin", youngs_modulus=5e3)``)."""
+    if name != "gelatin":
+        raise ValueError(f"unknown material {name!r}; available: 'gelatin' (the paper-2010 "
+                         "preset is a springs-only scene preset, not a material)")
+    return gelatin(**changes)

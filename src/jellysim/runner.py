@@ -8,16 +8,44 @@ unstable, the frames written so far are kept (the trajectory is saved with
 """
 from __future__ import annotations
 
+import fnmatch
 import time
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import SimulationError
+from .errors import JellysimError, SimulationError
 from .io.trajectory import Recorder
 from .io.vtk import PVDSeries
 
-__all__ = ["RunResult", "run_scene"]
+__all__ = ["RUN_FILES", "RunResult", "prepare_out_dir", "run_scene"]
+
+RUN_FILES = ("trajectory.npz", "body.pvd", "body_*.vtu", "skin.pvd", "skin_*.vtu",
+             ".trajectory.npz.*", ".body*", ".skin*")
+"""Names (glob patterns) of the files a run writes into its folder: what ``--overwrite``
+removes before a new run (nothing else in the folder is touched)."""
+
+
+def prepare_out_dir(out_dir, *, overwrite: bool = False, owned=RUN_FILES,
+                    option: str = "--out") -> Path:
+    """Make ``out_dir`` ready for a run: create it; if it already holds files, refuse
+    (:class:`~jellysim.errors.JellysimError`) unless ``overwrite``, and then delete the files
+    an earlier run wrote there (names matching ``owned``), so no stale frame survives.
+    Files that are not a run's are kept.  Returns the folder."""
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise JellysimError(f"{option} {out_dir}: exists and is not a folder")
+    present = sorted(out_dir.iterdir()) if out_dir.is_dir() else []
+    if present and not overwrite:
+        names = ", ".join(p.name for p in present[:3]) + (", ..." if len(present) > 3 else "")
+        raise JellysimError(f"{option} {out_dir}: the folder is not empty ({len(present)} "
+                            f"entries: {names}); pass --overwrite to replace the run there, "
+                            f"or choose another {option}")
+    for p in present:
+        if p.is_file() and any(fnmatch.fnmatchcase(p.name, pat) for pat in owned):
+            p.unlink()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    return out_dir
 
 
 @dataclass

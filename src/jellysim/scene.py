@@ -9,38 +9,21 @@ from __future__ import annotations
 import difflib
 import math
 import tomllib
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
 
 import numpy as np
 
 from .errors import SceneError
+from .params import GRAVITY, REPORT_DENSITY, GroundParams, ImplicitParams, ProvotParams
+# Spec (one row of the schema) and the checks live in scene_spec; SCHEMA stays here
+from .scene_spec import REQUIRED, Spec, _nonneg, _pos, check_backend
+from .scene_spec import apply_override as _override
+from .scene_spec import check_table as _table
 
 __all__ = ["Scene", "SCHEMA", "Spec", "schema_markdown"]
 
-REQUIRED = object()
-
-
-@dataclass(frozen=True)
-class Spec:
-    kind: str
-    """``float``, ``int``, ``bool``, ``str``, ``vec3`` or ``path``."""
-    default: Any
-    doc: str
-    check: Callable[[Any], bool] | None = None
-    allowed: str = ""
-    """Words for the allowed range, used in error messages."""
-    choices: tuple[str, ...] = ()
-
-
-def _pos(doc, default=REQUIRED, unit=""):
-    return Spec("float", default, doc, lambda v: v > 0, f"a number > 0{unit}")
-
-
-def _nonneg(doc, default, unit=""):
-    return Spec("float", default, doc, lambda v: v >= 0, f"a number >= 0{unit}")
-
+_P, _G, _I = ProvotParams(), GroundParams(), ImplicitParams()
+"""Defaults come from the option dataclasses (:mod:`jellysim.params`), the one source."""
 
 SCHEMA: dict[str, dict[str, Spec]] = {
     "body": {
@@ -110,13 +93,13 @@ SCHEMA: dict[str, dict[str, Spec]] = {
     },
     "mass": {
         "density": _pos("Density [kg/m^3]; total mass = density x volume, split evenly.",
-                        1141.0, " (kg/m^3)"),
+                        REPORT_DENSITY, " (kg/m^3)"),
         "point_mass": Spec("float", None, "Mass of every point [kg] (overrides density).",
                            lambda v: v > 0, "a number > 0 (kg)"),
     },
     "physics": {
         "damping": _nonneg("Velocity damping delta [kg/s] (report eq. 1).", 0.0, " (kg/s)"),
-        "gravity": Spec("vec3", [0.0, -9.8, 0.0], "Gravitational acceleration [m/s^2]."),
+        "gravity": Spec("vec3", list(GRAVITY), "Gravitational acceleration [m/s^2]."),
     },
     "integrator": {
         "name": Spec("str", "symplectic", "'paper' (report order: x, v, then a), "
@@ -144,45 +127,45 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                                    "the forces at rest: gravity) or 'zero' (the report's "
                                    "code: a = 0 until the first force evaluation).",
                                    choices=("forces", "zero")),
-        "scheme": Spec("str", "theta", "Implicit: 'theta' (one step, see theta) or 'bdf2' "
+        "scheme": Spec("str", _I.scheme, "Implicit: 'theta' (one step, see theta) or 'bdf2' "
                        "(two-step, second order: keeps a frame-rate wobble, 0.90 of its "
                        "energy per period at 2.8 Hz and dt = 1/60 s; less robust through "
                        "impacts).",
                        choices=("theta", "bdf2")),
-        "theta": Spec("float", 1.0, "Implicit: 1 = backward Euler (robust, damps), 0.5 = "
+        "theta": Spec("float", _I.theta, "Implicit: 1 = backward Euler (robust, damps), 0.5 = "
                       "midpoint (no damping of linear vibrations).", lambda v: 0.5 <= v <= 1,
                       "a number in [0.5, 1]"),
-        "cg_tolerance": _pos("Implicit: relative residual at which CG stops.", 1e-3),
-        "cg_max_iterations": Spec("int", 300, "Implicit: CG iterations per step at most.",
+        "cg_tolerance": _pos("Implicit: relative residual at which CG stops.", _I.tolerance),
+        "cg_max_iterations": Spec("int", _I.max_iterations, "Implicit: CG iterations per step at most.",
                                   lambda v: v >= 1, "an integer >= 1"),
     },
     "provot": {
-        "enabled": Spec("bool", True, "Provot strain limiting on/off."),
-        "tau": Spec("float", 0.001, "Tolerance as a fraction of rest length (0.001 = 0.1 %).",
+        "enabled": Spec("bool", _P.enabled, "Provot strain limiting on/off."),
+        "tau": Spec("float", _P.tau, "Tolerance as a fraction of rest length (0.001 = 0.1 %).",
                     lambda v: 0 < v < 1, "a number in (0, 1)"),
-        "loops": Spec("int", 5, "Passes per step (report: 5).", lambda v: v >= 1,
+        "loops": Spec("int", _P.loops, "Passes per step (report: 5).", lambda v: v >= 1,
                       "an integer >= 1"),
-        "pairs": Spec("str", "springs", "'springs' or 'all' (the report's O(n^2) hack).",
+        "pairs": Spec("str", _P.pairs.value, "'springs' or 'all' (the report's O(n^2) hack).",
                       choices=("springs", "all")),
-        "order": Spec("str", "jacobi", "'jacobi' (parallel, averaged) or 'gauss-seidel'.",
+        "order": Spec("str", _P.order.value, "'jacobi' (parallel, averaged) or 'gauss-seidel'.",
                       choices=("jacobi", "gauss-seidel")),
         "tolerance": _nonneg("Stop the loops once the largest correction is below this [m].",
-                             0.0, " (m)"),
-        "velocity_update": Spec("bool", True, "Add the correction / dt to the velocity."),
+                             _P.tolerance, " (m)"),
+        "velocity_update": Spec("bool", _P.velocity_update, "Add the correction / dt to the velocity."),
     },
     "ground": {
-        "enabled": Spec("bool", True, "The report's ground plane on/off."),
-        "model": Spec("str", "paper", "'paper': the report's mu/nu rule (eqs. 2, 3); "
+        "enabled": Spec("bool", _G.enabled, "The report's ground plane on/off."),
+        "model": Spec("str", _G.model.value, "'paper': the report's mu/nu rule (eqs. 2, 3); "
                       "'contact': non-penetration, restitution, Coulomb friction.",
                       choices=("paper", "contact")),
-        "height": Spec("float", 0.0, "Height of the plane y = height [m]."),
-        "mu": Spec("float", 0.1, "Factor on x/z velocity of a point on the ground.",
+        "height": Spec("float", _G.height, "Height of the plane y = height [m]."),
+        "mu": Spec("float", _G.mu, "Factor on x/z velocity of a point on the ground.",
                    lambda v: 0 <= v <= 1, "a number in [0, 1]"),
-        "nu": Spec("float", 0.2, "Fraction of y acceleration removed on the ground.",
+        "nu": Spec("float", _G.nu, "Fraction of y acceleration removed on the ground.",
                    lambda v: 0 <= v <= 1, "a number in [0, 1]"),
-        "restitution": Spec("float", 0.3, "Contact: coefficient of restitution e.",
+        "restitution": Spec("float", _G.restitution, "Contact: coefficient of restitution e.",
                             lambda v: 0 <= v <= 1, "a number in [0, 1]"),
-        "friction": _nonneg("Contact: kinetic Coulomb friction coefficient.", 0.6),
+        "friction": _nonneg("Contact: kinetic Coulomb friction coefficient.", _G.friction),
         "static_friction": Spec("float", None, "Contact: static Coulomb coefficient "
                                 "(default: friction).", lambda v: v >= 0, "a number >= 0"),
     },
@@ -203,9 +186,9 @@ OBSTACLE_SCHEMA: dict[str, Spec] = {
     "radius": Spec("float", None, "Sphere: radius [m].", lambda v: v > 0, "a number > 0 (m)"),
     "lower": Spec("vec3", None, "Box: lower corner [m]."),
     "upper": Spec("vec3", None, "Box: upper corner [m]."),
-    "restitution": Spec("float", 0.3, "Coefficient of restitution e.", lambda v: 0 <= v <= 1,
+    "restitution": Spec("float", _G.restitution, "Coefficient of restitution e.", lambda v: 0 <= v <= 1,
                         "a number in [0, 1]"),
-    "friction": Spec("float", 0.6, "Kinetic Coulomb friction coefficient.", lambda v: v >= 0,
+    "friction": Spec("float", _G.friction, "Kinetic Coulomb friction coefficient.", lambda v: v >= 0,
                      "a number >= 0"),
     "static_friction": Spec("float", None, "Static Coulomb coefficient (default: friction).",
                             lambda v: v >= 0, "a number >= 0"),
@@ -216,131 +199,16 @@ OBSTACLE_KEYS = {"plane": ("point", "normal"), "sphere": ("center", "radius"),
                  "box": ("lower", "upper")}
 
 
-def check_backend(backend: str, integrator: str, device: str = "auto",
-                  precision: str = "float64", *, where: str = "", physical: bool = False) -> None:
-    """Refuse combinations the backends do not implement (a :class:`SceneError` naming the
-    ``[integrator]`` keys).  ``physical``: the scene asks for the FEM material."""
-    from .kernels import WARP_INTEGRATORS
-
-    at = f"{where}: " if where else ""
-    if backend == "warp" and physical:
-        raise SceneError(
-            f"{at}[integrator] backend = 'warp' supports integrators "
-            f"{' and '.join(WARP_INTEGRATORS)} on spring bodies; the physical path ([material] "
-            "youngs_modulus with model 'fem' or 'auto': tets, damping, handles) is not "
-            "implemented on Warp: use backend = 'numba' (the default), or [material] model = "
-            "'springs'")
-    if backend == "warp" and integrator not in WARP_INTEGRATORS:
-        raise SceneError(
-            f"{at}[integrator] backend = 'warp' supports integrators "
-            f"{' and '.join(WARP_INTEGRATORS)}; name = {integrator!r} is not implemented on "
-            "Warp: use backend = 'numba' (the default) or an explicit integrator")
-    if backend != "warp" and (precision != "float64" or device not in ("auto", "", None)):
-        raise SceneError(f"{at}[integrator] device and precision apply to backend = 'warp' "
-                         f"only (backend = {backend!r} computes in float64 on the CPU)")
-
-
 def _wants_fem(params: dict) -> bool:
     mat = params["material"]
     return mat["youngs_modulus"] is not None and mat["model"] != "springs"
 
 
 def schema_markdown() -> str:
-    """The scene format as a Markdown table (for docs/scene.md)."""
-    lines = []
-    for section, keys in SCHEMA.items():
-        lines += [f"### `[{section}]`", "", "| key | type | default | allowed | meaning |",
-                  "|---|---|---|---|---|"]
-        for key, spec in keys.items():
-            default = "**required**" if spec.default is REQUIRED else f"`{spec.default!r}`"
-            allowed = spec.allowed or (", ".join(f"`{c}`" for c in spec.choices))
-            lines.append(f"| `{key}` | {spec.kind} | {default} | {allowed} | {spec.doc} |")
-        lines.append("")
-    lines += ["### `[[obstacle]]` (any number)", "",
-              "Static obstacles with restitution and Coulomb friction.  A plane takes `point` "
-              "and `normal`, a sphere `center` and `radius`, a box `lower` and `upper`.", "",
-              "| key | type | default | allowed | meaning |", "|---|---|---|---|---|"]
-    for key, spec in OBSTACLE_SCHEMA.items():
-        default = "**required**" if spec.default is REQUIRED else f"`{spec.default!r}`"
-        allowed = spec.allowed or (", ".join(f"`{c}`" for c in spec.choices))
-        lines.append(f"| `{key}` | {spec.kind} | {default} | {allowed} | {spec.doc} |")
-    lines += ["", "### `[[handle]]` (any number; physical path)", "",
-              "Hold or push chosen points (:mod:`jellysim.handles`).  Exactly one selection "
-              "per handle, taken at the start positions.", "",
-              "| key | type | meaning |", "|---|---|---|",
-              "| `kind` | str | 'pin' (fix the points, or move them along `path`), 'force' "
-              "(a constant total `force`), 'gravity' (multiply gravity by `scale`). |",
-              "| `box` | [[x0, y0, z0], [x1, y1, z1]] | Select the points in this box [m]. |",
-              "| `sphere` | {center = [x, y, z], radius = r} | Select the points in this "
-              "sphere [m]. |",
-              "| `indices` | [i, ...] | Select these points. |",
-              "| `path` | [[t, dx, dy, dz], ...] | Pin: offsets [m] from the start positions "
-              "at times [s], linear between rows. |",
-              "| `force` | [fx, fy, fz] | Force: total force [N], split evenly. |",
-              "| `scale` | float | Gravity: factor on gravity [-]. |"]
-    return "\n".join(lines)
+    """The scene format as Markdown (docs/scene.md; :mod:`jellysim.scene_doc`)."""
+    from .scene_doc import schema_markdown as make
 
-
-def _check(name: str, section: str, key: str, spec: Spec, value: Any) -> Any:
-    label = section if section.startswith("[") else f"[{section}]"
-    where = f"{name}: {label} {key}"
-    kind = spec.kind
-
-    def fail(problem: str, allowed: str) -> SceneError:
-        return SceneError(f"{where} = {value!r}: {problem}; expected {allowed}")
-
-    if kind == "float":
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise fail("wrong type", spec.allowed or "a number")
-        value = float(value)
-        if not math.isfinite(value):
-            raise fail("not a finite number", spec.allowed or "a finite number")
-    elif kind == "int":
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise fail("wrong type", spec.allowed or "an integer")
-    elif kind == "bool":
-        if not isinstance(value, bool):
-            raise fail("wrong type", "true or false")
-    elif kind == "str":
-        if not isinstance(value, str):
-            raise fail("wrong type", spec.allowed or
-                       "one of " + ", ".join(repr(c) for c in spec.choices))
-        if spec.choices and value not in spec.choices:
-            raise fail("unknown choice", "one of " + ", ".join(repr(c) for c in spec.choices))
-    elif kind == "vec3":
-        ok = (isinstance(value, list) and len(value) == 3 and all(
-            isinstance(c, (int, float)) and not isinstance(c, bool) for c in value))
-        if not ok:
-            raise fail("wrong type", "a list of three numbers, e.g. [0.0, -9.8, 0.0]")
-        value = [float(c) for c in value]
-        if not all(math.isfinite(c) for c in value):
-            raise fail("not finite", "three finite numbers")
-    if spec.check is not None and not spec.check(value):
-        raise fail("out of range", spec.allowed)
-    return value
-
-
-def _table(name: str, label: str, given: dict, keys: dict[str, Spec]) -> dict:
-    """One table checked against ``keys``: unknown keys, missing required values and each
-    value (:func:`_check`); defaults filled in.  ``label`` names it (``[section]``)."""
-    for key in given:
-        if key not in keys:
-            near = difflib.get_close_matches(key, keys, n=1)
-            hint = f" (did you mean '{near[0]}'?)" if near else ""
-            raise SceneError(f"{name}: {label} unknown key '{key}'{hint}; allowed: "
-                             + ", ".join(keys))
-    values = {}
-    for key, spec in keys.items():
-        if key in given and given[key] is None and spec.default is None:
-            values[key] = None  # "not set" (only reachable from Python dicts)
-        elif key in given:
-            values[key] = _check(name, label, key, spec, given[key])
-        elif spec.default is REQUIRED:
-            raise SceneError(f"{name}: {label} missing value '{key}': {spec.doc} "
-                             f"Expected {spec.allowed or spec.kind}.")
-        else:
-            values[key] = spec.default
-    return values
+    return make()
 
 
 class Scene:
@@ -352,7 +220,9 @@ class Scene:
         self.name = name
 
     @classmethod
-    def load(cls, path) -> "Scene":
+    def load(cls, path, *, overrides=()) -> "Scene":
+        """Read and validate a TOML scene file (also :meth:`from_file`).  ``overrides``:
+        ``"section.key=value"`` strings (TOML values) applied over the file's values."""
         path = Path(path)
         try:
             text = path.read_text(encoding="utf-8")
@@ -360,18 +230,32 @@ class Scene:
             raise SceneError(f"{path}: scene file not found") from None
         except (OSError, UnicodeDecodeError) as exc:
             raise SceneError(f"{path}: cannot read the scene file ({exc})") from None
-        return cls.from_text(text, name=str(path))
+        return cls.from_text(text, name=str(path), overrides=overrides)
 
     @classmethod
-    def from_text(cls, text: str, *, name: str = "<scene>") -> "Scene":
+    def from_text(cls, text: str, *, name: str = "<scene>", overrides=()) -> "Scene":
         try:
             raw = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise SceneError(f"{name}: not valid TOML: {exc}") from None
+        for item in overrides:
+            _override(raw, item, name)
+        if overrides:   # the recorded text says what ran
+            text += "\n# overridden on the command line:\n" + "".join(
+                f"#   --set {item}\n" for item in overrides)
         return cls(cls._validate(raw, name), text=text, name=name)
 
     @classmethod
+    def from_file(cls, path, *, overrides=()) -> "Scene":
+        """Read and validate a TOML scene file (the same as :meth:`load`)."""
+        return cls.load(path, overrides=overrides)
+
+    @classmethod
     def from_dict(cls, raw: dict, *, name: str = "<scene>") -> "Scene":
+        """A scene from a dictionary shaped like the TOML file: ``{"body": {...},
+        "springs": {...}, "integrator": {...}, "obstacle": [{...}, ...]}`` (keys and defaults:
+        ``jellysim scene-help``).  Relative paths are relative to the current directory;
+        errors name ``name``."""
         return cls(cls._validate(raw, name), name=name)
 
     @staticmethod
@@ -600,38 +484,24 @@ class Scene:
                 body = replace(body, stiffness=calibrate_springs(
                     body, mat["youngs_modulus"], point_volume=pv), masses=masses)
             return finalize(body, stiffness=self.params["springs"]["stiffness"],
-                            density=density, point_mass=m["point_mass"],
+                            density=density if body.masses is None else None,
+                            point_mass=m["point_mass"] if body.masses is None else None,
                             damping=ph["damping"], gravity=ph["gravity"])
         except ValueError as exc:
             raise SceneError(f"{self.name}: {exc}") from None
 
     def material(self):
         """The scene's :class:`~jellysim.params.Material` (``None`` without youngs_modulus)."""
-        from .params import Material
+        from .physics.policy import scene_material
 
-        mat = self.params["material"]
-        if mat["youngs_modulus"] is None:
-            return None
-        density = mat["density"] if mat["density"] is not None else (
-            self.params["mass"]["density"])
-        return Material(density=density, youngs_modulus=mat["youngs_modulus"],
-                        poisson_ratio=mat["poisson_ratio"], damping_ratio=mat["damping_ratio"],
-                        damping_frequency=mat["damping_frequency"],
-                        model="springs" if mat["model"] == "springs" else "fem")
+        return scene_material(self.params)
 
     def _material_model(self, body):
         """The fem model of the body (``[material] model`` 'fem', or 'auto' with tets), else
-        ``None`` (the springs path below)."""
-        mat = self.params["material"]
-        material = self.material()
-        if material is None or mat["model"] == "springs":
-            return None
-        if mat["model"] == "auto" and (body.tets is None or len(body.tets) == 0):
-            return None
-        from .physics.policy import physical_model
+        ``None`` (the springs path)."""
+        from .physics.policy import scene_fem_model
 
-        ph = self.params["physics"]
-        return physical_model(body, material, gravity=ph["gravity"], damping=ph["damping"])
+        return scene_fem_model(self.params, body)
 
     def provot_params(self):
         from .params import ProvotOrder, ProvotPairs, ProvotParams

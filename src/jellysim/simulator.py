@@ -69,7 +69,11 @@ class Simulator:
     model: the body.
     dt: time step [s], > 0.
     integrator: :class:`~jellysim.params.Integrator`.
-    provot, ground: correction options.
+    provot: :class:`~jellysim.params.ProvotParams` to turn on the report's strain limiting
+        (``ProvotParams()`` = its defaults, as in a scene: tau = 0.1 %, 5 loops); ``None``
+        (default): none.
+    ground: :class:`~jellysim.params.GroundParams` for a ground plane (``GroundParams()`` =
+        the report's mu/nu ground at y = 0, as in a scene); ``None`` (default): none.
     backend: ``"numba"`` (default), ``"numpy"`` (the reference) or ``"warp"`` (NVIDIA Warp,
         integrators ``paper`` and ``symplectic``; ``pip install 'jellysim[gpu]'``).
     device, precision: Warp only: ``"auto"`` (a GPU when present, else Warp's CPU device),
@@ -91,8 +95,8 @@ class Simulator:
     """
 
     def __init__(self, model, *, dt: float, integrator: Integrator | str = Integrator.SYMPLECTIC,
-                 provot: ProvotParams = ProvotParams(enabled=False),
-                 ground: GroundParams = GroundParams(enabled=False),
+                 provot: ProvotParams | None = None,
+                 ground: GroundParams | None = None,
                  backend: Backend | str = Backend.NUMBA, threads: int | None = None,
                  runaway_distance: float | None = None, check_stability: bool = True,
                  state=None, substeps: int | str = "auto",
@@ -104,6 +108,8 @@ class Simulator:
         self.model = model
         self.dt = float(dt)
         self.integrator = Integrator(integrator)
+        provot = ProvotParams(enabled=False) if provot is None else provot
+        ground = GroundParams(enabled=False) if ground is None else ground
         self.provot = provot
         self.ground = ground
         self.physical = getattr(model, "fem", None) is not None

@@ -35,17 +35,14 @@ Conventions shared by all builders (SI units):
 """
 from __future__ import annotations
 
-import itertools
 import math
-import os
-import tempfile
 from collections.abc import Callable
-from pathlib import Path
 
 import numpy as np
 
 from jellysim.body import Body
 from jellysim.errors import BuildError
+from jellysim.params import REPORT_DENSITY
 
 __all__ = [
     "marching_grid",
@@ -65,7 +62,7 @@ __all__ = [
 InsideFn = Callable[[np.ndarray], np.ndarray]
 
 #: Default mass density [kg/m^3]: the report's figure for jello (section 6.4).
-DEFAULT_DENSITY = 1141.0
+DEFAULT_DENSITY = REPORT_DENSITY
 
 #: Default sliver threshold of :func:`delaunay_body` on :func:`tet_quality` (1 = regular tet).
 DEFAULT_MIN_QUALITY = 0.05
@@ -305,110 +302,6 @@ def _as_faces(faces, n_vertices: int) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------------------------
-# Marching-tetrahedra grid
-# ----------------------------------------------------------------------------------------------
-def _kuhn_offsets() -> np.ndarray:
-    """The 6 Kuhn tets of the unit cube as corner bit-vectors, shape (6, 4, 3).
-
-    Tet ``p`` walks from corner 000 to 111 adding the unit vectors in the order of permutation
-    ``p``.  Every cube of the grid uses the same six, so the triangulation is conforming: each
-    square face is cut by the diagonal from its lowest to its highest corner in both cubes
-    sharing it.
-    """
-    out = []
-    for perm in itertools.permutations(range(3)):
-        c = np.zeros(3, dtype=np.int64)
-        path = [c.copy()]
-        for axis in perm:
-            c[axis] = 1
-            path.append(c.copy())
-        out.append(path)
-    return np.array(out, dtype=np.int64)
-
-
-def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
-                  density: float = DEFAULT_DENSITY) -> Body:
-    """Marching-tetrahedra grid body (report section 4.3).
-
-    The grid has ``n = ceil(extent / h)`` cubes of edge ``h`` along each axis, centred on the
-    bounding box of ``vertices`` (so it covers the box, overhanging equally on both sides).
-    Every cube is cut into the six Kuhn tetrahedra of :func:`_kuhn_offsets`; this split is the
-    same in every cube and therefore conforming (no T-junctions).
-
-    * A grid node is *inside* when ``inside_fn`` says so.
-    * A tet is kept when its four corners are inside (for mass, volume and skin).
-    * Points = inside nodes that are a corner of a kept tet (renumbered in grid order
-      ``i, j, k`` with ``k`` fastest).  Inside nodes in no kept tet would be massless and are
-      dropped (``meta["dropped_points"]``).
-    * Springs = every edge of the grid's tetrahedralization whose two end points are points:
-      the report's "edges whose end points are inside", restricted to points that carry mass.
-      These edges join node ``(i, j, k)`` to ``(i, j, k) + d``, ``d`` in ``{0, 1}^3 \\ {0}``.
-
-    Parameters
-    ----------
-    vertices, faces: the surface mesh (only its bounding box is used here).
-    inside_fn: point-in-mesh test, ``(n, 3) float64 -> (n,) bool``.
-    h: cube edge length [m], > 0.
-    density: mass density [kg/m^3].
-    """
-    v = _as_vertices(vertices)
-    nf = int(np.asarray(faces).shape[0]) if faces is not None else 0
-    h = float(h)
-    if not (math.isfinite(h) and h > 0):
-        raise BuildError(f"h must be a positive finite length [m], got {h!r}")
-    lo, hi = v.min(axis=0), v.max(axis=0)
-    ext = hi - lo
-    ncell = np.maximum(1, np.ceil(ext / h - 1e-9).astype(np.int64))
-    if int(np.prod(ncell + 1)) > 50_000_000:
-        raise BuildError(f"h={h} gives a {tuple(int(c) for c in ncell)} grid; too many nodes")
-    origin = lo - (ncell * h - ext) / 2.0
-    nx, ny, nz = (int(c) + 1 for c in ncell)  # node counts
-
-    gi, gj, gk = np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij")
-    ijk = np.stack([gi.ravel(), gj.ravel(), gk.ravel()], axis=1)
-    nodes = origin + ijk * h
-    inside = _check_inside(inside_fn, nodes, "grid nodes")
-
-    # cubes: base node (i, j, k) with i < nx-1 etc.; only cubes with >= 4 inside corners matter
-    strides = np.array([ny * nz, nz, 1], dtype=np.int64)
-    ins3 = inside.reshape(nx, ny, nz)
-    count = np.zeros((nx - 1, ny - 1, nz - 1), dtype=np.int8)
-    for dx, dy, dz in itertools.product((0, 1), repeat=3):
-        count += ins3[dx:nx - 1 + dx, dy:ny - 1 + dy, dz:nz - 1 + dz]
-    ci, cj, ck = np.nonzero(count >= 4)
-    base = ci * strides[0] + cj * strides[1] + ck * strides[2]
-    corner = _kuhn_offsets() @ strides  # (6, 4) node-id offsets
-    tets = (base[:, None, None] + corner[None]).reshape(-1, 4)
-    tets = tets[inside[tets].all(axis=1)]
-
-    kept = np.zeros(nodes.shape[0], dtype=bool)
-    kept[tets.ravel()] = True
-    springs = []
-    for d in itertools.product((0, 1), repeat=3):
-        if d == (0, 0, 0):
-            continue
-        d = np.array(d)
-        sub = kept.reshape(nx, ny, nz)
-        a = sub[: nx - d[0], : ny - d[1], : nz - d[2]]
-        b = sub[d[0]:, d[1]:, d[2]:]
-        ii, jj, kk = np.nonzero(a & b)
-        src = ii * strides[0] + jj * strides[1] + kk * strides[2]
-        springs.append(np.stack([src, src + int(d @ strides)], axis=1))
-    springs = np.concatenate(springs, axis=0)
-
-    meta = {
-        "builder": "marching_grid",
-        "h": h,
-        "grid_origin": [float(x) for x in origin],
-        "grid_cells": [int(c) for c in ncell],
-        "split": "kuhn6",
-        "surface_vertices": int(v.shape[0]),
-        "surface_faces": nf,
-    }
-    return _finish(nodes, tets, density, meta, springs=springs)
-
-
-# ----------------------------------------------------------------------------------------------
 # Delaunay
 # ----------------------------------------------------------------------------------------------
 def _default_epsilon(tree, pts: np.ndarray) -> float:
@@ -562,185 +455,17 @@ def delaunay_body(points, vertices, faces, inside_fn: InsideFn, *, epsilon: floa
     return body
 
 
-# ----------------------------------------------------------------------------------------------
-# TetGen
-# ----------------------------------------------------------------------------------------------
-def _winding_numbers(v: np.ndarray, f: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Generalized winding number of a few query points (exact solid-angle sum, O(n f))."""
-    out = np.empty(q.shape[0], dtype=np.float64)
-    for s in range(0, q.shape[0], 64):
-        qq = q[s:s + 64]
-        a = v[f[:, 0]][None] - qq[:, None]
-        b = v[f[:, 1]][None] - qq[:, None]
-        c = v[f[:, 2]][None] - qq[:, None]
-        la, lb, lc = (np.linalg.norm(x, axis=2) for x in (a, b, c))
-        det = np.einsum("ijk,ijk->ij", a, np.cross(b, c))
-        den = (la * lb * lc + np.einsum("ijk,ijk->ij", a, b) * lc
-               + np.einsum("ijk,ijk->ij", a, c) * lb + np.einsum("ijk,ijk->ij", b, c) * la)
-        out[s:s + 64] = (2.0 * np.arctan2(det, den)).sum(axis=1) / (4.0 * math.pi)
-    return out
+_MOVED = {"marching_grid": "tet_marching", "tetgen_body": "tet_tetgen",
+          "surface_defects": "tet_tetgen"}
 
 
-def surface_defects(faces: np.ndarray) -> dict:
-    """Edge-topology defects of a triangle surface (vertices already merged by position).
+def __getattr__(name: str):
+    """The marching-grid and TetGen builders live in their own modules (imported on first use,
+    so that they can import this module's helpers without a cycle)."""
+    if name in _MOVED:
+        import importlib
 
-    Returns counts: ``boundary_edges`` (used by one face), ``nonmanifold_edges`` (used by more
-    than two), ``misoriented_edges`` (two faces traverse it in the same direction) and
-    ``degenerate_faces`` (a repeated vertex index).
-    """
-    f = np.asarray(faces, dtype=np.int64)
-    degenerate = (f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 0] == f[:, 2])
-    f = f[~degenerate]
-    directed = f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    n = int(f.max()) + 1 if f.size else 0
-    und = np.sort(directed, axis=1)
-    _, _, cnt = _unique_rows_sorted(und, n, return_counts=True)
-    _, _, dcnt = _unique_rows_sorted(directed, n, return_counts=True)
-    return {
-        "boundary_edges": int((cnt == 1).sum()),
-        "nonmanifold_edges": int((cnt > 2).sum()),
-        "misoriented_edges": int((dcnt > 1).sum()),
-        "degenerate_faces": int(degenerate.sum()),
-    }
-
-
-def _count_skipped_faces(path: Path) -> int:
-    try:
-        with open(path) as fh:
-            return int(fh.readline().split()[0])
-    except (OSError, ValueError, IndexError):
-        return 0
-
-
-def tetgen_body(vertices, faces, *, max_volume: float | None = None, quality: bool = True,
-                closed_check: bool = True, inside_fn: InsideFn | None = None,
-                holes=None, density: float = DEFAULT_DENSITY) -> Body:
-    """Constrained tetrahedralization of a closed surface with TetGen.
-
-    The tets fill the surface exactly (boundary conforming; with ``quality=True`` TetGen adds
-    Steiner points, on the surface only inside its facets), so ``Body.volume`` equals the
-    enclosed volume up to rounding.  Points = TetGen's nodes (the surface vertices first).
-
-    Requirements: a closed, consistently oriented, non-self-intersecting surface.  Vertices
-    are merged by exact position first.  With ``closed_check`` the edge topology is checked
-    before TetGen runs (open boundary edges, non-manifold edges, inconsistent orientation,
-    degenerate faces); TetGen itself reports self-intersections.  Every failure is a
-    :class:`~jellysim.errors.BuildError` naming the defect and suggesting
-    ``connect="delaunay"`` (which only needs an inside test).
-
-    Cavities: TetGen fills every region the surface encloses, including cavities (e.g. the
-    inside of an inward-facing inner shell).  Each TetGen region (tets connected without
-    crossing the surface) is therefore kept or dropped as a whole: by majority vote of
-    ``inside_fn`` over its tets' centroids when ``inside_fn`` is given, otherwise by the
-    generalized winding number of the surface at the centroid of the region's largest tet
-    (nonzero rule, ``w > 0.5``, the same rule as libigl).  ``holes`` (points [m], (h, 3))
-    are passed to TetGen as hole seeds in addition.
-
-    Parameters
-    ----------
-    vertices, faces: the surface, (n, 3) float [m] and (f, 3) int.
-    max_volume: TetGen's maximum tet volume [m^3] (``-a``), ``None`` for no limit.  TetGen's
-        final mesh smoothing may leave a few tets somewhat (observed: < 2x) above it.
-    quality: TetGen quality refinement (``-q``; radius-edge ratio <= 2).
-    closed_check: check the edge topology before calling TetGen.
-    inside_fn: optional point-in-mesh test to decide which regions are solid.
-    holes: optional hole seed points.
-    density: mass density [kg/m^3].
-    """
-    v = _as_vertices(vertices)
-    f = _as_faces(faces, v.shape[0])
-    if max_volume is not None and not (math.isfinite(float(max_volume)) and max_volume > 0):
-        raise BuildError(f"max_volume must be a positive volume [m^3], got {max_volume!r}")
-    # merge vertices by exact position; drop unused vertices
-    uv, inv = np.unique(v, axis=0, return_inverse=True)
-    f = inv.reshape(-1)[f]
-    used = np.unique(f)
-    remap = np.full(uv.shape[0], -1, dtype=np.int64)
-    remap[used] = np.arange(used.size)
-    v, f = uv[used], remap[f]
-
-    hint = 'use connect="delaunay" (points inside + an inside test) instead'
-    if closed_check:
-        d = surface_defects(f)
-        bad = [f"{val} {key.replace('_', ' ')}" for key, val in d.items() if val]
-        if bad:
-            raise BuildError(
-                "tetgen needs a closed, manifold, consistently oriented surface; this one has "
-                + ", ".join(bad) + f"; repair the mesh or {hint}"
-            )
-    try:
-        import tetgen
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise BuildError(
-            "tetgen_body needs the optional package 'tetgen' (pip install 'jellysim[mesh]'); "
-            f"or {hint}"
-        ) from exc
-
-    tg = tetgen.TetGen(v, f.astype(np.int32))
-    for hp in np.asarray(holes if holes is not None else np.empty((0, 3)), float).reshape(-1, 3):
-        tg.add_hole(hp)
-    # TetGen writes the faces it found intersecting to ./_skipped.{node,face}; run it in a
-    # scratch directory so nothing lands in the caller's working directory, and use the file
-    # to say how many faces are involved.
-    old_cwd = os.getcwd()
-    scratch = tempfile.TemporaryDirectory(prefix="jellysim-tetgen-")
-    os.chdir(scratch.name)
-    try:
-        res = tg.tetrahedralize(
-            quality=quality,
-            regionattrib=True,
-            maxvolume=float(max_volume) if max_volume is not None else -1.0,
-            fixedvolume=max_volume is not None,  # without it TetGen ignores maxvolume
-            nomergefacet=True,  # merged near-coplanar facets would move the surface
-            quiet=True,
-            nowarning=True,
-        )
-    except RuntimeError as exc:
-        msg = str(exc)
-        if "self-intersection" in msg:
-            defect = "the surface intersects itself (TetGen: " + msg.strip()
-            n_bad = _count_skipped_faces(Path(scratch.name) / "_skipped.face")
-            defect += f"; {n_bad} faces involved)" if n_bad else ")"
-        elif "manifold" in msg:
-            defect = "the surface is not a closed manifold (TetGen: " + msg.strip() + ")"
-        else:
-            defect = "TetGen failed: " + msg.strip()
-        raise BuildError(f"tetgen could not tetrahedralize the surface: {defect}; {hint}") from exc
-    finally:
-        os.chdir(old_cwd)
-        scratch.cleanup()
-    nodes = np.asarray(res[0], dtype=np.float64)
-    elem = np.asarray(res[1], dtype=np.int64)
-    attr = np.asarray(res[2]).reshape(elem.shape[0], -1)
-    region = attr[:, 0] if attr.shape[1] else np.zeros(elem.shape[0])
-    if elem.shape[0] == 0:
-        raise BuildError(f"tetgen produced no tetrahedra; {hint}")
-
-    cent = nodes[elem].mean(axis=1)
-    vol = np.abs(tet_signed_volumes(nodes, elem))
-    reg_ids, reg_of = np.unique(region, return_inverse=True)
-    if inside_fn is not None:
-        ins = _check_inside(inside_fn, cent, "tet centroids").astype(np.float64)
-        frac = np.bincount(reg_of, weights=ins) / np.bincount(reg_of)
-        solid = frac > 0.5
-        rule = "inside_fn majority per region"
-    else:
-        order = np.lexsort((-vol, reg_of))
-        first = order[np.searchsorted(reg_of[order], np.arange(reg_ids.size))]
-        solid = _winding_numbers(v, f, cent[first]) > 0.5
-        rule = "winding number > 0.5 per region"
-    keep = solid[reg_of]
-
-    meta = {
-        "builder": "tetgen",
-        "max_volume": None if max_volume is None else float(max_volume),
-        "quality": bool(quality),
-        "closed_check": bool(closed_check),
-        "regions": int(reg_ids.size),
-        "regions_dropped": int((~solid).sum()),
-        "region_rule": rule,
-        "holes": int(np.asarray(holes).reshape(-1, 3).shape[0]) if holes is not None else 0,
-        "surface_vertices": int(v.shape[0]),
-        "surface_faces": int(f.shape[0]),
-    }
-    return _finish(nodes, elem[keep], density, meta)
+        value = getattr(importlib.import_module(f"jellysim.geometry.{_MOVED[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,4 +1,10 @@
-"""Atomic file writes: a failed or interrupted write never leaves a half-written file."""
+"""Atomic file writes: a failed or interrupted write never leaves a half-written file.
+
+The one place jellysim writes files atomically (trajectories, ParaView frames, USD, glTF,
+videos, body files): the data goes to a temporary file in the target's folder, which then
+replaces the target with :func:`os.replace`.  File mode: an existing target's mode is kept;
+a new file gets ``0o666 & ~umask`` (rw-r--r-- under the usual umask), like ``open(path, "w")``.
+"""
 from __future__ import annotations
 
 import os
@@ -6,24 +12,48 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["atomic_path"]
+__all__ = ["atomic_path", "atomic_write"]
+
+
+def _final_mode(path: Path) -> int:
+    try:
+        return path.stat().st_mode & 0o7777
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
 
 
 @contextmanager
-def atomic_path(path, suffix: str | None = None):
-    """Yield a temporary path next to ``path``; on success it replaces ``path`` at once."""
+def atomic_path(path, suffix: str | None = None, *, fsync: bool = False):
+    """Yield a temporary path next to ``path`` (same suffix, so writers that pick the format
+    by name work); on success it replaces ``path`` at once, on an exception it is deleted.
+    ``fsync``: flush the data to disk before the replace (durable across a power cut)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix,
                                dir=path.parent)
     os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)   # mkstemp makes 0600; outputs are meant to be shared
+    os.chmod(tmp, _final_mode(path))   # mkstemp makes 0600
     try:
         yield Path(tmp)
+        if fsync and os.path.exists(tmp):
+            fd = os.open(tmp, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def atomic_write(path, write, *, fsync: bool = True) -> Path:
+    """Call ``write(fh)`` with a binary file handle, atomically replacing ``path``."""
+    path = Path(path)
+    with atomic_path(path, fsync=fsync) as tmp:
+        with open(tmp, "wb") as fh:
+            write(fh)
+    return path

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import JellysimError
 from .atomic import atomic_path
+from .timing import default_fps
 
 __all__ = ["export_usd", "surface_of"]
 
@@ -55,8 +56,6 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello") -> 
     except ImportError as exc:
         raise JellysimError(f"USD export needs usd-core: pip install 'jellysim[usd]' ({exc})"
                             ) from None
-    from ..render.video import default_fps
-
     path = Path(path)
     if path.suffix.lower() not in (".usdc", ".usda", ".usd"):
         raise JellysimError(f"{path}: a USD file name must end in .usdc, .usda or .usd")

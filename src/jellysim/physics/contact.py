@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..params import CONTACT_FRICTION, CONTACT_RESTITUTION
+
 __all__ = ["Plane", "Sphere", "Box", "pack_obstacles", "OBSTACLE_KINDS"]
 
 OBSTACLE_KINDS = {"plane": 0, "sphere": 1, "box": 2}
@@ -33,9 +35,9 @@ OBSTACLE_KINDS = {"plane": 0, "sphere": 1, "box": 2}
 
 @dataclass(frozen=True, kw_only=True)
 class _Surface:
-    restitution: float = 0.3
+    restitution: float = CONTACT_RESTITUTION
     """Coefficient of restitution e in [0, 1]."""
-    friction: float = 0.6
+    friction: float = CONTACT_FRICTION
     """Kinetic Coulomb coefficient mu_k >= 0."""
     static_friction: float | None = None
     """Static Coulomb coefficient mu_s >= mu_k (default: ``friction``)."""

@@ -18,12 +18,12 @@ import warnings
 
 import numpy as np
 
-from ..params import Material, MaterialModel
+from ..params import GRAVITY, Material, MaterialModel
 
-__all__ = ["physical_model"]
+__all__ = ["physical_model", "scene_material", "scene_fem_model"]
 
 
-def physical_model(body, material: Material = Material(), *, gravity=(0.0, -9.8, 0.0),
+def physical_model(body, material: Material = Material(), *, gravity=GRAVITY,
                    damping: float = 0.0, point_volume=None):
     """A :class:`~jellysim.model.Model` of ``body`` made of ``material``.
 
@@ -70,3 +70,29 @@ def physical_model(body, material: Material = Material(), *, gravity=(0.0, -9.8,
         mass = material.density * point_volumes(dataclasses.replace(body, masses=None))
     body = dataclasses.replace(body, masses=mass, stiffness=k)
     return finalize(body, gravity=gravity, damping=damping)
+
+
+def scene_material(params: dict):
+    """The :class:`~jellysim.params.Material` of validated scene ``params`` (``None``
+    without ``[material] youngs_modulus``)."""
+    mat = params["material"]
+    if mat["youngs_modulus"] is None:
+        return None
+    density = mat["density"] if mat["density"] is not None else params["mass"]["density"]
+    return Material(density=density, youngs_modulus=mat["youngs_modulus"],
+                    poisson_ratio=mat["poisson_ratio"], damping_ratio=mat["damping_ratio"],
+                    damping_frequency=mat["damping_frequency"],
+                    model="springs" if mat["model"] == "springs" else "fem")
+
+
+def scene_fem_model(params: dict, body):
+    """The FEM model of ``body`` for scene ``params`` (``[material] model`` 'fem', or 'auto'
+    and the body has tets), else ``None`` (the scene's springs path)."""
+    mat = params["material"]
+    material = scene_material(params)
+    if material is None or mat["model"] == "springs":
+        return None
+    if mat["model"] == "auto" and (body.tets is None or len(body.tets) == 0):
+        return None
+    ph = params["physics"]
+    return physical_model(body, material, gravity=ph["gravity"], damping=ph["damping"])

@@ -7,19 +7,10 @@ import numpy as np
 
 from ..errors import JellysimError
 from ..io.atomic import atomic_path
+from ..io.timing import default_fps
 from .offscreen import RenderOptions, Renderer
 
 __all__ = ["default_fps", "render_trajectory", "output_kind"]
-
-
-def default_fps(times: np.ndarray) -> float:
-    """Frames per second that play the run in real time, clamped to [5, 60] (30 if unknown)."""
-    if len(times) < 2:
-        return 30.0
-    dt = float(np.median(np.diff(times)))
-    if not dt > 0:
-        return 30.0
-    return float(min(60.0, max(5.0, 1.0 / dt)))
 
 
 def output_kind(path) -> str:

@@ -1,0 +1,119 @@
+"""The report's marching-tetrahedra grid builder (section 4.3), split from
+:mod:`jellysim.geometry.tetra` (import it from there).  Conventions: see that module."""
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+from jellysim.body import Body
+from jellysim.errors import BuildError
+from jellysim.geometry.tetra import (DEFAULT_DENSITY, InsideFn, _as_vertices, _check_inside,
+                                     _finish)
+
+
+# ----------------------------------------------------------------------------------------------
+# Marching-tetrahedra grid
+# ----------------------------------------------------------------------------------------------
+def _kuhn_offsets() -> np.ndarray:
+    """The 6 Kuhn tets of the unit cube as corner bit-vectors, shape (6, 4, 3).
+
+    Tet ``p`` walks from corner 000 to 111 adding the unit vectors in the order of permutation
+    ``p``.  Every cube of the grid uses the same six, so the triangulation is conforming: each
+    square face is cut by the diagonal from its lowest to its highest corner in both cubes
+    sharing it.
+    """
+    out = []
+    for perm in itertools.permutations(range(3)):
+        c = np.zeros(3, dtype=np.int64)
+        path = [c.copy()]
+        for axis in perm:
+            c[axis] = 1
+            path.append(c.copy())
+        out.append(path)
+    return np.array(out, dtype=np.int64)
+
+
+def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
+                  density: float = DEFAULT_DENSITY) -> Body:
+    """Marching-tetrahedra grid body (report section 4.3).
+
+    The grid has ``n = ceil(extent / h)`` cubes of edge ``h`` along each axis, centred on the
+    bounding box of ``vertices`` (so it covers the box, overhanging equally on both sides).
+    Every cube is cut into the six Kuhn tetrahedra of :func:`_kuhn_offsets`; this split is the
+    same in every cube and therefore conforming (no T-junctions).
+
+    * A grid node is *inside* when ``inside_fn`` says so.
+    * A tet is kept when its four corners are inside (for mass, volume and skin).
+    * Points = inside nodes that are a corner of a kept tet (renumbered in grid order
+      ``i, j, k`` with ``k`` fastest).  Inside nodes in no kept tet would be massless and are
+      dropped (``meta["dropped_points"]``).
+    * Springs = every edge of the grid's tetrahedralization whose two end points are points:
+      the report's "edges whose end points are inside", restricted to points that carry mass.
+      These edges join node ``(i, j, k)`` to ``(i, j, k) + d``, ``d`` in ``{0, 1}^3 \\ {0}``.
+
+    Parameters
+    ----------
+    vertices, faces: the surface mesh (only its bounding box is used here).
+    inside_fn: point-in-mesh test, ``(n, 3) float64 -> (n,) bool``.
+    h: cube edge length [m], > 0.
+    density: mass density [kg/m^3].
+    """
+    v = _as_vertices(vertices)
+    nf = int(np.asarray(faces).shape[0]) if faces is not None else 0
+    h = float(h)
+    if not (math.isfinite(h) and h > 0):
+        raise BuildError(f"h must be a positive finite length [m], got {h!r}")
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    ext = hi - lo
+    ncell = np.maximum(1, np.ceil(ext / h - 1e-9).astype(np.int64))
+    if int(np.prod(ncell + 1)) > 50_000_000:
+        raise BuildError(f"h={h} gives a {tuple(int(c) for c in ncell)} grid; too many nodes")
+    origin = lo - (ncell * h - ext) / 2.0
+    nx, ny, nz = (int(c) + 1 for c in ncell)  # node counts
+
+    gi, gj, gk = np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij")
+    ijk = np.stack([gi.ravel(), gj.ravel(), gk.ravel()], axis=1)
+    nodes = origin + ijk * h
+    inside = _check_inside(inside_fn, nodes, "grid nodes")
+
+    # cubes: base node (i, j, k) with i < nx-1 etc.; only cubes with >= 4 inside corners matter
+    strides = np.array([ny * nz, nz, 1], dtype=np.int64)
+    ins3 = inside.reshape(nx, ny, nz)
+    count = np.zeros((nx - 1, ny - 1, nz - 1), dtype=np.int8)
+    for dx, dy, dz in itertools.product((0, 1), repeat=3):
+        count += ins3[dx:nx - 1 + dx, dy:ny - 1 + dy, dz:nz - 1 + dz]
+    ci, cj, ck = np.nonzero(count >= 4)
+    base = ci * strides[0] + cj * strides[1] + ck * strides[2]
+    corner = _kuhn_offsets() @ strides  # (6, 4) node-id offsets
+    tets = (base[:, None, None] + corner[None]).reshape(-1, 4)
+    tets = tets[inside[tets].all(axis=1)]
+
+    kept = np.zeros(nodes.shape[0], dtype=bool)
+    kept[tets.ravel()] = True
+    springs = []
+    for d in itertools.product((0, 1), repeat=3):
+        if d == (0, 0, 0):
+            continue
+        d = np.array(d)
+        sub = kept.reshape(nx, ny, nz)
+        a = sub[: nx - d[0], : ny - d[1], : nz - d[2]]
+        b = sub[d[0]:, d[1]:, d[2]:]
+        ii, jj, kk = np.nonzero(a & b)
+        src = ii * strides[0] + jj * strides[1] + kk * strides[2]
+        springs.append(np.stack([src, src + int(d @ strides)], axis=1))
+    springs = np.concatenate(springs, axis=0)
+
+    meta = {
+        "builder": "marching_grid",
+        "h": h,
+        "grid_origin": [float(x) for x in origin],
+        "grid_cells": [int(c) for c in ncell],
+        "split": "kuhn6",
+        "surface_vertices": int(v.shape[0]),
+        "surface_faces": nf,
+    }
+    return _finish(nodes, tets, density, meta, springs=springs)
+
+

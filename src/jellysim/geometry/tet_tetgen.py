@@ -1,0 +1,201 @@
+"""TetGen builder (constrained tetrahedralization of a closed surface) and surface-defect
+counts, split from :mod:`jellysim.geometry.tetra` (import them from there).  Conventions: see
+that module."""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from jellysim.body import Body
+from jellysim.errors import BuildError
+from jellysim.geometry.tetra import (DEFAULT_DENSITY, InsideFn, _as_faces, _as_vertices,
+                                     _check_inside, _finish, _unique_rows_sorted,
+                                     tet_signed_volumes)
+
+
+# ----------------------------------------------------------------------------------------------
+# TetGen
+# ----------------------------------------------------------------------------------------------
+def _winding_numbers(v: np.ndarray, f: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Generalized winding number of a few query points (exact solid-angle sum, O(n f))."""
+    out = np.empty(q.shape[0], dtype=np.float64)
+    for s in range(0, q.shape[0], 64):
+        qq = q[s:s + 64]
+        a = v[f[:, 0]][None] - qq[:, None]
+        b = v[f[:, 1]][None] - qq[:, None]
+        c = v[f[:, 2]][None] - qq[:, None]
+        la, lb, lc = (np.linalg.norm(x, axis=2) for x in (a, b, c))
+        det = np.einsum("ijk,ijk->ij", a, np.cross(b, c))
+        den = (la * lb * lc + np.einsum("ijk,ijk->ij", a, b) * lc
+               + np.einsum("ijk,ijk->ij", a, c) * lb + np.einsum("ijk,ijk->ij", b, c) * la)
+        out[s:s + 64] = (2.0 * np.arctan2(det, den)).sum(axis=1) / (4.0 * math.pi)
+    return out
+
+
+def surface_defects(faces: np.ndarray) -> dict:
+    """Edge-topology defects of a triangle surface (vertices already merged by position).
+
+    Returns counts: ``boundary_edges`` (used by one face), ``nonmanifold_edges`` (used by more
+    than two), ``misoriented_edges`` (two faces traverse it in the same direction) and
+    ``degenerate_faces`` (a repeated vertex index).
+    """
+    f = np.asarray(faces, dtype=np.int64)
+    degenerate = (f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 0] == f[:, 2])
+    f = f[~degenerate]
+    directed = f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    n = int(f.max()) + 1 if f.size else 0
+    und = np.sort(directed, axis=1)
+    _, _, cnt = _unique_rows_sorted(und, n, return_counts=True)
+    _, _, dcnt = _unique_rows_sorted(directed, n, return_counts=True)
+    return {
+        "boundary_edges": int((cnt == 1).sum()),
+        "nonmanifold_edges": int((cnt > 2).sum()),
+        "misoriented_edges": int((dcnt > 1).sum()),
+        "degenerate_faces": int(degenerate.sum()),
+    }
+
+
+def _count_skipped_faces(path: Path) -> int:
+    try:
+        with open(path) as fh:
+            return int(fh.readline().split()[0])
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
+def tetgen_body(vertices, faces, *, max_volume: float | None = None, quality: bool = True,
+                closed_check: bool = True, inside_fn: InsideFn | None = None,
+                holes=None, density: float = DEFAULT_DENSITY) -> Body:
+    """Constrained tetrahedralization of a closed surface with TetGen.
+
+    The tets fill the surface exactly (boundary conforming; with ``quality=True`` TetGen adds
+    Steiner points, on the surface only inside its facets), so ``Body.volume`` equals the
+    enclosed volume up to rounding.  Points = TetGen's nodes (the surface vertices first).
+
+    Requirements: a closed, consistently oriented, non-self-intersecting surface.  Vertices
+    are merged by exact position first.  With ``closed_check`` the edge topology is checked
+    before TetGen runs (open boundary edges, non-manifold edges, inconsistent orientation,
+    degenerate faces); TetGen itself reports self-intersections.  Every failure is a
+    :class:`~jellysim.errors.BuildError` naming the defect and suggesting
+    ``connect="delaunay"`` (which only needs an inside test).
+
+    Cavities: TetGen fills every region the surface encloses, including cavities (e.g. the
+    inside of an inward-facing inner shell).  Each TetGen region (tets connected without
+    crossing the surface) is therefore kept or dropped as a whole: by majority vote of
+    ``inside_fn`` over its tets' centroids when ``inside_fn`` is given, otherwise by the
+    generalized winding number of the surface at the centroid of the region's largest tet
+    (nonzero rule, ``w > 0.5``, the same rule as libigl).  ``holes`` (points [m], (h, 3))
+    are passed to TetGen as hole seeds in addition.
+
+    Parameters
+    ----------
+    vertices, faces: the surface, (n, 3) float [m] and (f, 3) int.
+    max_volume: TetGen's maximum tet volume [m^3] (``-a``), ``None`` for no limit.  TetGen's
+        final mesh smoothing may leave a few tets somewhat (observed: < 2x) above it.
+    quality: TetGen quality refinement (``-q``; radius-edge ratio <= 2).
+    closed_check: check the edge topology before calling TetGen.
+    inside_fn: optional point-in-mesh test to decide which regions are solid.
+    holes: optional hole seed points.
+    density: mass density [kg/m^3].
+    """
+    v = _as_vertices(vertices)
+    f = _as_faces(faces, v.shape[0])
+    if max_volume is not None and not (math.isfinite(float(max_volume)) and max_volume > 0):
+        raise BuildError(f"max_volume must be a positive volume [m^3], got {max_volume!r}")
+    # merge vertices by exact position; drop unused vertices
+    uv, inv = np.unique(v, axis=0, return_inverse=True)
+    f = inv.reshape(-1)[f]
+    used = np.unique(f)
+    remap = np.full(uv.shape[0], -1, dtype=np.int64)
+    remap[used] = np.arange(used.size)
+    v, f = uv[used], remap[f]
+
+    hint = 'use connect="delaunay" (points inside + an inside test) instead'
+    if closed_check:
+        d = surface_defects(f)
+        bad = [f"{val} {key.replace('_', ' ')}" for key, val in d.items() if val]
+        if bad:
+            raise BuildError(
+                "tetgen needs a closed, manifold, consistently oriented surface; this one has "
+                + ", ".join(bad) + f"; repair the mesh or {hint}"
+            )
+    try:
+        import tetgen
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise BuildError(
+            "tetgen_body needs the optional package 'tetgen' (pip install 'jellysim[mesh]'); "
+            f"or {hint}"
+        ) from exc
+
+    tg = tetgen.TetGen(v, f.astype(np.int32))
+    for hp in np.asarray(holes if holes is not None else np.empty((0, 3)), float).reshape(-1, 3):
+        tg.add_hole(hp)
+    # TetGen writes the faces it found intersecting to ./_skipped.{node,face}; run it in a
+    # scratch directory so nothing lands in the caller's working directory, and use the file
+    # to say how many faces are involved.
+    old_cwd = os.getcwd()
+    scratch = tempfile.TemporaryDirectory(prefix="jellysim-tetgen-")
+    os.chdir(scratch.name)
+    try:
+        res = tg.tetrahedralize(
+            quality=quality,
+            regionattrib=True,
+            maxvolume=float(max_volume) if max_volume is not None else -1.0,
+            fixedvolume=max_volume is not None,  # without it TetGen ignores maxvolume
+            nomergefacet=True,  # merged near-coplanar facets would move the surface
+            quiet=True,
+            nowarning=True,
+        )
+    except RuntimeError as exc:
+        msg = str(exc)
+        if "self-intersection" in msg:
+            defect = "the surface intersects itself (TetGen: " + msg.strip()
+            n_bad = _count_skipped_faces(Path(scratch.name) / "_skipped.face")
+            defect += f"; {n_bad} faces involved)" if n_bad else ")"
+        elif "manifold" in msg:
+            defect = "the surface is not a closed manifold (TetGen: " + msg.strip() + ")"
+        else:
+            defect = "TetGen failed: " + msg.strip()
+        raise BuildError(f"tetgen could not tetrahedralize the surface: {defect}; {hint}") from exc
+    finally:
+        os.chdir(old_cwd)
+        scratch.cleanup()
+    nodes = np.asarray(res[0], dtype=np.float64)
+    elem = np.asarray(res[1], dtype=np.int64)
+    attr = np.asarray(res[2]).reshape(elem.shape[0], -1)
+    region = attr[:, 0] if attr.shape[1] else np.zeros(elem.shape[0])
+    if elem.shape[0] == 0:
+        raise BuildError(f"tetgen produced no tetrahedra; {hint}")
+
+    cent = nodes[elem].mean(axis=1)
+    vol = np.abs(tet_signed_volumes(nodes, elem))
+    reg_ids, reg_of = np.unique(region, return_inverse=True)
+    if inside_fn is not None:
+        ins = _check_inside(inside_fn, cent, "tet centroids").astype(np.float64)
+        frac = np.bincount(reg_of, weights=ins) / np.bincount(reg_of)
+        solid = frac > 0.5
+        rule = "inside_fn majority per region"
+    else:
+        order = np.lexsort((-vol, reg_of))
+        first = order[np.searchsorted(reg_of[order], np.arange(reg_ids.size))]
+        solid = _winding_numbers(v, f, cent[first]) > 0.5
+        rule = "winding number > 0.5 per region"
+    keep = solid[reg_of]
+
+    meta = {
+        "builder": "tetgen",
+        "max_volume": None if max_volume is None else float(max_volume),
+        "quality": bool(quality),
+        "closed_check": bool(closed_check),
+        "regions": int(reg_ids.size),
+        "regions_dropped": int((~solid).sum()),
+        "region_rule": rule,
+        "holes": int(np.asarray(holes).reshape(-1, 3).shape[0]) if holes is not None else 0,
+        "surface_vertices": int(v.shape[0]),
+        "surface_faces": int(f.shape[0]),
+    }
+    return _finish(nodes, elem[keep], density, meta)

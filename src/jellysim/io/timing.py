@@ -1,0 +1,18 @@
+"""Frame timing shared by the exporters (:mod:`jellysim.io`) and the renderers."""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["default_fps"]
+
+
+def default_fps(times: np.ndarray) -> float:
+    """Frames per second that play the run in real time, clamped to [5, 60] (30 if unknown).
+
+    ``times``: frame times [s], shape (f,)."""
+    if len(times) < 2:
+        return 30.0
+    dt = float(np.median(np.diff(times)))
+    if not dt > 0:
+        return 30.0
+    return float(min(60.0, max(5.0, 1.0 / dt)))

@@ -1,0 +1,43 @@
+"""``jellysim scene-help``: the scene format as Markdown, generated from the schema."""
+from __future__ import annotations
+
+__all__ = ["schema_markdown"]
+
+
+def schema_markdown() -> str:
+    """The scene format as a Markdown table (for docs/scene.md)."""
+    from .scene import OBSTACLE_SCHEMA, SCHEMA
+    from .scene_spec import REQUIRED
+
+    lines = []
+    for section, keys in SCHEMA.items():
+        lines += [f"### `[{section}]`", "", "| key | type | default | allowed | meaning |",
+                  "|---|---|---|---|---|"]
+        for key, spec in keys.items():
+            default = "**required**" if spec.default is REQUIRED else f"`{spec.default!r}`"
+            allowed = spec.allowed or (", ".join(f"`{c}`" for c in spec.choices))
+            lines.append(f"| `{key}` | {spec.kind} | {default} | {allowed} | {spec.doc} |")
+        lines.append("")
+    lines += ["### `[[obstacle]]` (any number)", "",
+              "Static obstacles with restitution and Coulomb friction.  A plane takes `point` "
+              "and `normal`, a sphere `center` and `radius`, a box `lower` and `upper`.", "",
+              "| key | type | default | allowed | meaning |", "|---|---|---|---|---|"]
+    for key, spec in OBSTACLE_SCHEMA.items():
+        default = "**required**" if spec.default is REQUIRED else f"`{spec.default!r}`"
+        allowed = spec.allowed or (", ".join(f"`{c}`" for c in spec.choices))
+        lines.append(f"| `{key}` | {spec.kind} | {default} | {allowed} | {spec.doc} |")
+    lines += ["", "### `[[handle]]` (any number; physical path)", "",
+              "Hold or push chosen points (:mod:`jellysim.handles`).  Exactly one selection "
+              "per handle, taken at the start positions.", "",
+              "| key | type | meaning |", "|---|---|---|",
+              "| `kind` | str | 'pin' (fix the points, or move them along `path`), 'force' "
+              "(a constant total `force`), 'gravity' (multiply gravity by `scale`). |",
+              "| `box` | [[x0, y0, z0], [x1, y1, z1]] | Select the points in this box [m]. |",
+              "| `sphere` | {center = [x, y, z], radius = r} | Select the points in this "
+              "sphere [m]. |",
+              "| `indices` | [i, ...] | Select these points. |",
+              "| `path` | [[t, dx, dy, dz], ...] | Pin: offsets [m] from the start positions "
+              "at times [s], linear between rows. |",
+              "| `force` | [fx, fy, fz] | Force: total force [N], split evenly. |",
+              "| `scale` | float | Gravity: factor on gravity [-]. |"]
+    return "\n".join(lines)

@@ -1,0 +1,143 @@
+"""The building blocks of the scene format (:mod:`jellysim.scene`): one :class:`Spec` per key,
+and the checks that turn a parsed TOML table into validated values with one-line errors.
+
+The table of keys itself, ``SCHEMA``, lives in :mod:`jellysim.scene`: a new key is one row
+``"key": Spec(kind, default, doc, check, allowed, choices)`` in its section there.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+import tomllib
+from dataclasses import dataclass
+from typing import Any, Callable
+
+from .errors import SceneError
+
+__all__ = ["REQUIRED", "Spec", "check_table", "check_value", "apply_override",
+           "check_backend"]
+
+REQUIRED = object()
+
+
+@dataclass(frozen=True)
+class Spec:
+    kind: str
+    """``float``, ``int``, ``bool``, ``str``, ``vec3`` or ``path``."""
+    default: Any
+    doc: str
+    check: Callable[[Any], bool] | None = None
+    allowed: str = ""
+    """Words for the allowed range, used in error messages."""
+    choices: tuple[str, ...] = ()
+
+
+def _pos(doc, default=REQUIRED, unit=""):
+    return Spec("float", default, doc, lambda v: v > 0, f"a number > 0{unit}")
+
+
+def _nonneg(doc, default, unit=""):
+    return Spec("float", default, doc, lambda v: v >= 0, f"a number >= 0{unit}")
+
+
+def check_value(name: str, section: str, key: str, spec: Spec, value: Any) -> Any:
+    label = section if section.startswith("[") else f"[{section}]"
+    where = f"{name}: {label} {key}"
+    kind = spec.kind
+
+    def fail(problem: str, allowed: str) -> SceneError:
+        return SceneError(f"{where} = {value!r}: {problem}; expected {allowed}")
+
+    if kind == "float":
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise fail("wrong type", spec.allowed or "a number")
+        value = float(value)
+        if not math.isfinite(value):
+            raise fail("not a finite number", spec.allowed or "a finite number")
+    elif kind == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise fail("wrong type", spec.allowed or "an integer")
+    elif kind == "bool":
+        if not isinstance(value, bool):
+            raise fail("wrong type", "true or false")
+    elif kind == "str":
+        if not isinstance(value, str):
+            raise fail("wrong type", spec.allowed or
+                       "one of " + ", ".join(repr(c) for c in spec.choices))
+        if spec.choices and value not in spec.choices:
+            raise fail("unknown choice", "one of " + ", ".join(repr(c) for c in spec.choices))
+    elif kind == "vec3":
+        ok = (isinstance(value, list) and len(value) == 3 and all(
+            isinstance(c, (int, float)) and not isinstance(c, bool) for c in value))
+        if not ok:
+            raise fail("wrong type", "a list of three numbers, e.g. [0.0, -9.8, 0.0]")
+        value = [float(c) for c in value]
+        if not all(math.isfinite(c) for c in value):
+            raise fail("not finite", "three finite numbers")
+    if spec.check is not None and not spec.check(value):
+        raise fail("out of range", spec.allowed)
+    return value
+
+
+def check_table(name: str, label: str, given: dict, keys: dict[str, Spec]) -> dict:
+    """One table checked against ``keys``: unknown keys, missing required values and each
+    value (:func:`check_value`); defaults filled in.  ``label`` names it (``[section]``)."""
+    for key in given:
+        if key not in keys:
+            near = difflib.get_close_matches(key, keys, n=1)
+            hint = f" (did you mean '{near[0]}'?)" if near else ""
+            raise SceneError(f"{name}: {label} unknown key '{key}'{hint}; allowed: "
+                             + ", ".join(keys))
+    values = {}
+    for key, spec in keys.items():
+        if key in given and given[key] is None and spec.default is None:
+            values[key] = None  # "not set" (only reachable from Python dicts)
+        elif key in given:
+            values[key] = check_value(name, label, key, spec, given[key])
+        elif spec.default is REQUIRED:
+            raise SceneError(f"{name}: {label} missing value '{key}': {spec.doc} "
+                             f"Expected {spec.allowed or spec.kind}.")
+        else:
+            values[key] = spec.default
+    return values
+
+
+def apply_override(raw: dict, item: str, name: str) -> None:
+    """Apply one ``section.key=value`` (TOML value) to a parsed scene, in place."""
+    where, sep, value = item.partition("=")
+    section, dot, key = where.strip().partition(".")
+    if not (sep and dot and section and key):
+        raise SceneError(f"{name}: --set {item!r}: expected SECTION.KEY=VALUE, e.g. "
+                         "body.points=500")
+    try:
+        parsed = tomllib.loads(f"v = {value.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        parsed = value.strip()      # a bare word: a string (e.g. integrator.name=implicit)
+    table = raw.setdefault(section, {})
+    if not isinstance(table, dict):
+        raise SceneError(f"{name}: --set {item!r}: [{section}] is not a table")
+    table[key] = parsed
+
+
+def check_backend(backend: str, integrator: str, device: str = "auto",
+                  precision: str = "float64", *, where: str = "", physical: bool = False) -> None:
+    """Refuse combinations the backends do not implement (a :class:`SceneError` naming the
+    ``[integrator]`` keys).  ``physical``: the scene asks for the FEM material."""
+    from .kernels import WARP_INTEGRATORS
+
+    at = f"{where}: " if where else ""
+    if backend == "warp" and physical:
+        raise SceneError(
+            f"{at}[integrator] backend = 'warp' supports integrators "
+            f"{' and '.join(WARP_INTEGRATORS)} on spring bodies; the physical path ([material] "
+            "youngs_modulus with model 'fem' or 'auto': tets, damping, handles) is not "
+            "implemented on Warp: use backend = 'numba' (the default), or [material] model = "
+            "'springs'")
+    if backend == "warp" and integrator not in WARP_INTEGRATORS:
+        raise SceneError(
+            f"{at}[integrator] backend = 'warp' supports integrators "
+            f"{' and '.join(WARP_INTEGRATORS)}; name = {integrator!r} is not implemented on "
+            "Warp: use backend = 'numba' (the default) or an explicit integrator")
+    if backend != "warp" and (precision != "float64" or device not in ("auto", "", None)):
+        raise SceneError(f"{at}[integrator] device and precision apply to backend = 'warp' "
+                         f"only (backend = {backend!r} computes in float64 on the CPU)")

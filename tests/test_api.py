@@ -1,0 +1,104 @@
+"""The Python API: top-level names, Body.from_mesh, sizes and units, finalize's traps."""
+import dataclasses
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import jellysim
+from conftest import mesh_path
+
+
+def test_every_public_name_resolves_and_import_stays_light():
+    for name in jellysim.__all__:
+        assert getattr(jellysim, name) is not None, name
+    from jellysim.build import build_body
+    from jellysim.physics.contact import Plane
+    from jellysim.scene import Scene
+
+    assert jellysim.build_body is build_body and jellysim.Plane is Plane
+    assert jellysim.Scene is Scene
+    paper = Path(__file__).resolve().parents[1] / "examples" / "paper_cube.toml"
+    assert Scene.from_file(paper).params == Scene.load(paper).params
+    assert set(jellysim.__all__) <= set(dir(jellysim))
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        jellysim.nope  # noqa: B018
+    code = ("import sys, jellysim; jellysim.GroundModel; heavy = [m for m in ('numba', 'scipy', "
+            "'meshio', 'trimesh', 'pyvista') if m in sys.modules]; print(heavy)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.strip() == "[]"
+
+
+@pytest.fixture(scope="module")
+def spot():
+    from jellysim.geometry import load_mesh
+
+    return load_mesh(mesh_path("sphere.obj"))
+
+
+def test_body_from_mesh_scales_to_size_and_masses_follow(spot):
+    base = (0.0, 0.02, 0.0)
+    body = jellysim.Body.from_mesh(mesh_path("sphere.obj"), size=0.1, points=300, seed=1,
+                                   base=base)
+    lo, hi = body.points.min(axis=0), body.points.max(axis=0)
+    # the surface vertices are among the points: the body spans the scaled mesh exactly
+    assert np.ptp(body.points, axis=0).max() == pytest.approx(0.1, rel=1e-12)
+    assert [0.5 * (lo[0] + hi[0]), lo[1], 0.5 * (lo[2] + hi[2])] == pytest.approx(base, abs=1e-12)
+    factor = 0.1 / np.ptp(spot.vertices, axis=0).max()
+    volume = abs(spot.defects.volume) * factor**3
+    assert body.volume == pytest.approx(volume, rel=1e-12)
+    assert body.masses.sum() == pytest.approx(jellysim.REPORT_DENSITY * volume, rel=1e-9)
+    assert body.meta["density"] == jellysim.REPORT_DENSITY and body.meta["size"] == 0.1
+    # the density it was built with is accepted again; another one is an error, not ignored
+    assert jellysim.finalize(body, stiffness=1.0, density=1141.0).total_mass == pytest.approx(
+        body.masses.sum())
+    with pytest.raises(ValueError, match=r"density=500 .*masses is already set.*size="):
+        jellysim.finalize(body, stiffness=1.0, density=500.0)
+    with pytest.raises(ValueError, match="point_mass given, but body.masses"):
+        jellysim.finalize(body, stiffness=1.0, point_mass=0.1)
+    light = jellysim.finalize(dataclasses.replace(body, masses=None), stiffness=1.0,
+                              density=500.0)
+    assert light.total_mass == pytest.approx(500.0 * volume, rel=1e-12)
+
+
+def test_finalize_takes_a_stiffness_per_spring():
+    pts = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    springs = np.array([[2, 3], [0, 1], [0, 2]])        # not sorted: finalize sorts them
+    body = jellysim.Body(points=pts, springs=springs, volume=1.0)
+    model = jellysim.finalize(body, stiffness=np.array([3.0, 1.0, 2.0]))
+    got = {tuple(ij): k for ij, k in zip(model.spring_ij.tolist(), model.spring_stiffness)}
+    assert got == {(0, 1): 1.0, (0, 2): 2.0, (2, 3): 3.0}
+    with pytest.raises(ValueError, match=r"shape \(3,\)"):
+        jellysim.finalize(body, stiffness=np.ones(2))
+    with pytest.raises(ValueError, match=">= 0 N/m"):
+        jellysim.finalize(body, stiffness=np.array([1.0, -1.0, 1.0]))
+    with pytest.raises(ValueError, match="body.stiffness is already set and differs"):
+        jellysim.finalize(dataclasses.replace(body, stiffness=np.ones(3)), stiffness=2.0)
+
+
+def test_gelatin_path_from_python_reaches_the_asked_modulus():
+    """Body.from_mesh -> calibrate_springs -> finalize(stiffness=array): the network's
+    modulus is the one asked for and the masses are the body's."""
+    body = jellysim.Body.from_mesh(mesh_path("sphere.obj"), size=0.1, points=200, seed=2)
+    k = jellysim.calibrate_springs(body, 1.0e4)
+    model = jellysim.finalize(body, stiffness=k)
+    assert model.total_mass == pytest.approx(body.masses.sum())
+    E = jellysim.network_youngs_modulus(body, k)
+    assert E == pytest.approx(1.0e4, rel=0.02)
+
+
+def test_cli_build_size_and_inspect_units(tmp_path):
+    from jellysim.cli import cli
+    from jellysim.geometry.jellyfile import read_body
+
+    out = tmp_path / "s.jello"
+    res = CliRunner().invoke(cli, ["build", str(mesh_path("sphere.obj")), "--size", "0.05",
+                                   "--points", "200", "--connect", "delaunay", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    assert np.ptp(read_body(out).points, axis=0).max() == pytest.approx(0.05, rel=1e-12)
+    res = CliRunner().invoke(cli, ["inspect", str(mesh_path("sphere.obj"))])
+    assert res.exit_code == 0 and "read as metres" in res.output and "[m^3]" in res.output

@@ -1,0 +1,150 @@
+"""Command-line edges: ``python -m jellysim``, ``--show all``, ``--out`` / ``--overwrite``,
+exports that stay where they are told."""
+import os
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import jellysim
+from jellysim.cli import cli
+from jellysim.io.trajectory import load_trajectory
+
+SRC = str(Path(jellysim.__file__).resolve().parents[1])
+
+SCENE = """
+[body]
+points = 30
+lower = [0.0, 0.2, 0.0]
+upper = [0.2, 0.4, 0.2]
+seed = 1
+[springs]
+radius = 0.12
+stiffness = 50.0
+[mass]
+point_mass = 0.01
+[integrator]
+dt = 0.002
+steps = {steps}
+[provot]
+enabled = false
+[output]
+every = 5
+"""
+
+
+def _run(tmp_path, out, steps, *extra):
+    scene = tmp_path / "s.toml"
+    scene.write_text(SCENE.format(steps=steps))
+    return CliRunner().invoke(cli, ["run", str(scene), "--out", str(out), "--quiet", *extra])
+
+
+def test_python_dash_m_jellysim_is_the_cli(tmp_path):
+    env = dict(os.environ, PYTHONPATH=SRC + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    res = subprocess.run([sys.executable, "-m", "jellysim", "--version"], cwd=tmp_path,
+                         env=env, capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0, res.stderr
+    assert jellysim.__version__ in res.stdout
+
+
+@pytest.mark.parametrize("show, expect", [
+    ((), (True, False, False)),
+    (("springs",), (False, False, True)),
+    (("all",), (True, True, True)),
+    (("ALL", "skin"), (True, True, True)),
+])
+def test_show_all_shows_skin_points_and_springs(show, expect):
+    from jellysim.cli_visual import _options
+
+    o = _options("64x48", "#ff0000", 0.5, show, False)
+    assert (o.show_skin, o.show_points, o.show_springs) == expect
+
+
+def test_out_refuses_a_non_empty_folder_and_overwrite_clears_the_old_run(tmp_path):
+    out = tmp_path / "o"
+    assert _run(tmp_path, out, 40).exit_code == 0       # 9 frames: body_00000..00008.vtu
+    old_frames = sorted(p.name for p in out.glob("body_*.vtu"))
+    assert len(old_frames) == 9
+    (out / "notes.txt").write_text("mine")
+    res = _run(tmp_path, out, 10)
+    assert res.exit_code == 2 and "--overwrite" in res.output and "Traceback" not in res.output
+    assert sorted(p.name for p in out.glob("body_*.vtu")) == old_frames   # untouched
+    res = _run(tmp_path, out, 10, "--overwrite")                             # 3 frames
+    assert res.exit_code == 0, res.output
+    frames = sorted(p.name for p in out.glob("body_*.vtu"))
+    assert frames == [f"body_{k:05d}.vtu" for k in range(3)]              # no stale frame
+    assert load_trajectory(out / "trajectory.npz").frame_count == 3
+    assert (out / "notes.txt").read_text() == "mine"                       # not a run's file
+
+
+def test_demo_refuses_an_earlier_demo_without_overwrite(tmp_path):
+    from jellysim.demo import run_demo
+    from jellysim.errors import JellysimError
+
+    (tmp_path / "demo.mp4").write_bytes(b"old")
+    with pytest.raises(JellysimError, match="--overwrite"):
+        run_demo(tmp_path, frames=2, progress=False)
+    assert (tmp_path / "demo.mp4").read_bytes() == b"old"
+
+
+@pytest.fixture(scope="module")
+def traj_path(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("edge")
+    out = tmp / "run"
+    assert _run(tmp, out, 20, "--no-vtu").exit_code == 0
+    return out / "trajectory.npz"
+
+
+def test_export_pvd_keeps_its_frames_in_a_sibling_folder(traj_path, tmp_path, monkeypatch):
+    import meshio
+
+    monkeypatch.chdir(tmp_path)
+    res = CliRunner().invoke(cli, ["export", str(traj_path), "-o", "run.pvd"])
+    assert res.exit_code == 0, res.output
+    traj = load_trajectory(traj_path)
+    loose = sorted(p.name for p in tmp_path.iterdir() if p.is_file())
+    assert loose == ["run.pvd", "run_skin.pvd"]      # the frames did not spill into the CWD
+    for pvd, expected in (("run.pvd", traj.positions),
+                          ("run_skin.pvd", [traj.skin_positions(k)
+                                            for k in range(traj.frame_count)])):
+        files = [d.get("file") for d in ET.parse(pvd).getroot().iter("DataSet")]
+        assert len(files) == traj.frame_count and all(f.startswith("run/") for f in files)
+        for k, f in enumerate(files):
+            np.testing.assert_allclose(meshio.read(f).points, expected[k], atol=1e-12)
+
+
+def test_export_sequence_takes_the_folder_as_an_argument(traj_path, tmp_path):
+    import meshio
+
+    traj = load_trajectory(traj_path)
+    if traj.skin is None and not len(traj.triangles):
+        # a box run carries its box surface as the skin; nothing to export otherwise
+        pytest.fail("a box run should carry a skin")
+    folder = tmp_path / "frames"
+    res = CliRunner().invoke(cli, ["export", str(traj_path), "--sequence", "obj", str(folder)])
+    assert res.exit_code == 0, res.output
+    files = sorted(folder.glob("*.obj"))
+    assert len(files) == traj.frame_count
+    np.testing.assert_allclose(meshio.read(files[-1]).points, traj.skin_positions(traj.frame_count - 1), atol=1e-6)
+    res = CliRunner().invoke(cli, ["export", str(traj_path), "a.glb", "-o", "b.glb"])
+    assert res.exit_code == 2 and "two outputs" in res.output
+    res = CliRunner().invoke(cli, ["export", str(traj_path)])
+    assert res.exit_code == 2 and "no output" in res.output
+
+
+def test_run_set_overrides_a_scene_value_and_records_it(tmp_path):
+    out = tmp_path / "o"
+    res = _run(tmp_path, out, 10, "--set", "body.points=12", "--set", "physics.damping=0.5")
+    assert res.exit_code == 0, res.output
+    traj = load_trajectory(out / "trajectory.npz")
+    assert traj.positions.shape[1] == 12
+    assert traj.params["body"]["points"] == 12 and traj.params["physics"]["damping"] == 0.5
+    assert "--set body.points=12" in traj.scene_toml
+    res = _run(tmp_path, tmp_path / "p", 10, "--set", "bodypoints=3")
+    assert res.exit_code == 2 and "SECTION.KEY=VALUE" in res.output
+    res = _run(tmp_path, tmp_path / "q", 10, "--set", "body.pionts=3")
+    assert res.exit_code == 2 and "did you mean 'points'" in res.output
