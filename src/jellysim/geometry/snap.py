@@ -15,7 +15,7 @@ __all__ = ["snap_to_surface"]
 
 
 def snap_to_surface(points, tets, vertices, faces, h: float, *, reach: float = 0.75,
-                    min_quality: float = 0.3, seed: int = 0) -> np.ndarray:
+                    min_quality: float = 0.2, seed: int = 0) -> np.ndarray:
     """New positions [m], shape (n, 3), of ``points`` with the boundary nodes of ``tets`` on
     the surface ``(vertices, faces)`` where that keeps every tet's quality (normalised volume,
     :func:`~jellysim.geometry.tetra.tet_quality`) above ``min_quality`` and its orientation."""
