@@ -342,11 +342,25 @@ class WarpBackend:
                 for c in cmds:
                     c.launch()
 
-    def run_steps(self, nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
-                  spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other,
-                  provot_loops, tau, tolerance, all_pairs, gauss_seidel, velocity_update,
-                  ground, height, mu, nu, obstacle_kind, obstacle_data, rest_speed, center,
-                  bound2, spring_scalar, dx, count, max_corr, x_pre, provot_scalar):
+    def run_steps(self, nsteps, dt, integrator, x, v, a, springs, points, provot, ground,
+                  obstacles, scratch):
+        """The backend interface's explicit driver (:mod:`jellysim.kernels.records`): the
+        records unpacked into :meth:`run_steps_flat`."""
+        sp, pt, pv, g, ob, sc = springs, points, provot, ground, obstacles, scratch
+        return self.run_steps_flat(
+            nsteps, dt, integrator, x, v, a, pt.x0, pt.inv_mass, pt.damping, pt.gravity,
+            sp.ij, sp.rest, sp.stiff, sp.first_ptr, sp.second_ptr, sp.second_slot,
+            sp.second_other, pv.loops, pv.tau, pv.tolerance, pv.all_pairs, pv.gauss_seidel,
+            pv.velocity_update, g.paper, g.height, g.mu, g.nu, ob.kind, ob.data, ob.rest_speed,
+            g.center, g.bound2, sc.spring_scalar, sc.dx, sc.count, sc.max_corr, sc.x_pre,
+            sc.provot_scalar)
+
+    def run_steps_flat(self, nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
+                       spring_ij, rest, stiff, first_ptr, second_ptr, second_slot,
+                       second_other, provot_loops, tau, tolerance, all_pairs, gauss_seidel,
+                       velocity_update, ground, height, mu, nu, obstacle_kind, obstacle_data,
+                       rest_speed, center, bound2, spring_scalar, dx, count, max_corr, x_pre,
+                       provot_scalar):
         """:func:`jellysim.kernels.numba_backend.run_steps` on the device: same arguments
         (numpy arrays), same in-place results on x, v, a (and ``max_corr``); the other scratch
         arrays stay on the device.  Returns ``(steps_done, status)``."""
