@@ -16,7 +16,7 @@ import numpy as np
 from .errors import SceneError
 from .params import GRAVITY, REPORT_DENSITY, GroundParams, ImplicitParams, ProvotParams
 # Spec (one row of the schema) and the checks live in scene_spec; SCHEMA stays here
-from .scene_spec import REQUIRED, Spec, _nonneg, _pos, check_backend
+from .scene_spec import REQUIRED, Spec, _nonneg, _pos, check_backend, check_value
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
 
@@ -527,7 +527,8 @@ class Scene:
         for key, value in (("backend", backend), ("device", device),
                            ("precision", precision)):
             if value is not None:
-                it[key] = _check(self.name, "integrator", key, SCHEMA["integrator"][key], value)
+                it[key] = check_value(self.name, "integrator", key, SCHEMA["integrator"][key],
+                                      value)
         check_backend(it["backend"], it["name"], it["device"], it["precision"], where=self.name,
                       physical=_wants_fem(self.params))
         return Scene({**self.params, "integrator": it}, text=self.text, name=self.name)
