@@ -33,20 +33,41 @@ def cli() -> None:
               help="Also export the skin to this .usdc (see 'jellysim export').")
 @click.option("--glb", type=click.Path(dir_okay=False), default=None,
               help="Also export the skin to this glTF .glb.")
-def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None) -> None:
-    """Simulate SCENE_FILE (TOML) and write trajectory.npz and body.pvd."""
+@click.option("--resume", "resume_dir", type=click.Path(file_okay=False), default=None,
+              help="Continue the interrupted run in this output directory from its last "
+                   "checkpoint (same scene file; bit-identical to an uninterrupted run).")
+@click.option("--checkpoint-every", type=click.IntRange(min=0), default=None,
+              help="Steps between checkpoints (0: only when interrupted; default: the "
+                   "scene's [output] checkpoint_every, else about once a minute).")
+def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None,
+        resume_dir=None, checkpoint_every=None) -> None:
+    """Simulate SCENE_FILE (TOML) and write trajectory.npz and body.pvd.
+
+    Frames are streamed to OUT/trajectory.stream while the run goes; Ctrl-C (SIGINT) or
+    SIGTERM finishes the current frame, saves a checkpoint and says how to --resume."""
     from pathlib import Path
 
+    from .errors import RunInterrupted
     from .runner import run_scene
     from .scene import Scene
 
     try:
         scene = Scene.load(scene_file)
-        out = Path(out_dir) if out_dir else Path("out") / Path(scene_file).stem
+        if resume_dir and out_dir and Path(out_dir) != Path(resume_dir):
+            raise JellysimError(f"--resume {resume_dir} and --out {out_dir} differ: a run "
+                                "resumes in its own directory (give only --resume)")
+        out = (Path(resume_dir) if resume_dir else Path(out_dir) if out_dir
+               else Path("out") / Path(scene_file).stem)
         result = run_scene(scene, out, progress=not quiet, vtu=False if no_vtu else None,
-                           steps=steps)
+                           steps=steps, resume=resume_dir is not None,
+                           checkpoint_every=checkpoint_every)
+    except RunInterrupted as exc:
+        click.secho(str(exc), fg="yellow", err=True)
+        sys.exit(128 + exc.signal if exc.signal else 3)
     except JellysimError as exc:
         _fail(str(exc))
+    if result.resumed_from is not None:
+        click.echo(f"resumed from the checkpoint at step {result.resumed_from}")
     for w in result.warnings:
         click.secho(f"warning: {w}", fg="yellow", err=True)
     rate = result.steps / result.seconds if result.seconds > 0 else float("inf")

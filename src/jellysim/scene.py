@@ -164,6 +164,11 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "every": Spec("int", None, "Steps between saved frames (default: about 100 frames).",
                       lambda v: v >= 1, "an integer >= 1"),
         "vtu": Spec("bool", True, "Write the ParaView series body.pvd + one .vtu per frame."),
+        "checkpoint_every": Spec("int", None, "Steps between checkpoints (checkpoint.npz, for "
+                                 "'jellysim run --resume'), taken at the next saved frame; "
+                                 "0: only when interrupted; default: at a frame once a "
+                                 "minute of wall-clock time has passed.",
+                                 lambda v: v >= 0, "an integer >= 0"),
     },
 }
 REQUIRED_SECTIONS = ("body", "springs", "integrator")

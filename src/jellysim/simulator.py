@@ -172,6 +172,60 @@ class Simulator:
                 StabilityWarning, stacklevel=2)
         return est
 
+    _COUNTERS = ("cg_iterations", "cg_worst_residual")
+
+    def internal_state(self) -> dict[str, np.ndarray]:
+        """Every private array the simulator keeps between :meth:`advance` calls, copied.
+
+        Collected generically: each ``numpy`` array attribute whose name starts with ``_``
+        (``_hist``, ``_fresh``, ``_contact_state``, ``_cg``'s warm start and scratch...), each
+        list/tuple of arrays as ``name.i`` (``_cg.0``), ``_last`` when set, and the CG counters.
+        A new private array is therefore checkpointed without touching this method.  With
+        :attr:`state` (x, v, a, t, step) it is everything a bitwise resume needs."""
+        out: dict[str, np.ndarray] = {}
+        for name, value in vars(self).items():
+            if not name.startswith("_"):
+                continue
+            if isinstance(value, np.ndarray):
+                out[name] = value.copy()
+            elif isinstance(value, (list, tuple)) and value and all(
+                    isinstance(v, np.ndarray) for v in value):
+                for i, v in enumerate(value):
+                    out[f"{name}.{i}"] = v.copy()
+        for name in self._COUNTERS:
+            out[name] = np.array(getattr(self, name))
+        return out
+
+    def restore_internal_state(self, d) -> None:
+        """Inverse of :meth:`internal_state`: copy the arrays back in place.  Raises
+        :class:`SceneError` when ``d`` does not fit this simulator (another body or
+        integrator)."""
+        own = self.internal_state()
+        missing = sorted(set(own) - set(d) - {"_last.0", "_last.1"})
+        extra = sorted(set(d) - set(own) - {"_last.0", "_last.1"})
+        if missing or extra:
+            raise SceneError(f"saved simulator state does not fit this simulator (missing "
+                             f"{missing}, unexpected {extra}): same scene and integrator?")
+        for key in own:
+            if key in self._COUNTERS:
+                continue
+            if key.startswith("_last."):
+                continue
+            if own[key].shape != np.shape(d[key]) or own[key].dtype != np.asarray(d[key]).dtype:
+                raise SceneError(f"saved simulator state '{key}' has shape "
+                                 f"{np.shape(d[key])}, expected {own[key].shape}")
+        for key in own:
+            if key in self._COUNTERS or key.startswith("_last."):
+                continue
+            name, _, i = key.partition(".")
+            target = getattr(self, name)[int(i)] if i else getattr(self, name)
+            np.copyto(target, d[key])
+        if "_last" in vars(self):
+            self._last = ((np.array(d["_last.0"]), np.array(d["_last.1"]))
+                          if "_last.0" in d else None)
+        self.cg_iterations = int(d["cg_iterations"])
+        self.cg_worst_residual = float(d["cg_worst_residual"])
+
     def advance(self, steps: int = 1) -> None:
         """Take ``steps`` time steps.  Raises :class:`SimulationError` on blow-up, leaving
         the state as it was after the failing step."""
