@@ -70,8 +70,9 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         click.echo(f"resumed from the checkpoint at step {result.resumed_from}")
     for w in result.warnings:
         click.secho(f"warning: {w}", fg="yellow", err=True)
-    rate = result.steps / result.seconds if result.seconds > 0 else float("inf")
-    click.echo(f"{result.steps} steps, {result.frames} frames in {result.seconds:.3g} s "
+    taken = result.steps - (result.resumed_from or 0)
+    rate = taken / result.seconds if result.seconds > 0 else float("inf")
+    click.echo(f"{taken} steps, {result.frames} frames in {result.seconds:.3g} s "
                f"({rate:,.0f} steps/s)")
     click.echo(f"wrote {result.trajectory}")
     if result.pvd:

@@ -48,7 +48,7 @@ STREAM_DIR = "trajectory.stream"
 HEADER_BYTES = 128
 """Size of every growing ``.npy`` header (magic + version + length + padded dict)."""
 
-BLOCK_BYTES = 32 << 20
+BLOCK_BYTES = 8 << 20
 """Bytes copied per block when a stream is turned into ``trajectory.npz``."""
 
 
@@ -237,7 +237,7 @@ def finalize_stream(directory, npz_path, status: str) -> Path:
                 row = max(1, a[0].nbytes)
                 block = max(1, BLOCK_BYTES // row)
                 for i in range(0, a.shape[0], block):
-                    fh.write(np.ascontiguousarray(a[i:i + block]).tobytes())
+                    fh.write(memoryview(np.ascontiguousarray(a[i:i + block])).cast("B"))
     os.replace(part, npz_path)
     del d
     shutil.rmtree(directory)

@@ -185,8 +185,9 @@ def load_trajectory(path, *, mmap: bool = False) -> Trajectory:
     missing = {"positions", "times", "springs", "params_json"} - set(d)
     if missing:
         raise JellysimError(f"{path}: not a jellysim trajectory (missing {sorted(missing)})")
-    if len(d["times"]) == 0:
-        raise JellysimError(f"{path}: the trajectory holds no frame yet")
+    if path.is_dir() and len(d["times"]) == 0:
+        raise JellysimError(f"{path}: the run was stopped before its first frame was "
+                            "flushed: no frame to read")
     return Trajectory(
         positions=d["positions"], velocities=d["velocities"], times=d["times"],
         steps=d["steps"], rest_positions=d["rest_positions"], masses=d["masses"],
