@@ -237,3 +237,83 @@ def test_killed_run_leaves_its_frames_and_resumes_bitwise(tmp_path, sig):
                     progress=False, resume=True, steps=steps)
     assert res.resumed_from <= int(part.steps[-1])
     _same(load_trajectory(res.trajectory), ref)
+
+
+# -- solver honesty ----------------------------------------------------------------------
+
+GELATIN_SMALL = """
+[material]
+preset = "gelatin"
+[body]
+type = "box"
+points = 125
+distribution = "grid"
+lower = [0.0, 0.02, 0.0]
+upper = [0.1, 0.12, 0.1]
+[springs]
+connect = "radius"
+radius = 0.036
+[integrator]
+steps = 5
+"""
+
+
+def _gelatin(**integrator):
+    text = GELATIN_SMALL
+    for k, v in integrator.items():
+        text = text.replace("[integrator]\n", f"[integrator]\n{k} = {v}\n")
+    return Scene.from_text(text, name="gel.toml")
+
+
+def test_ten_times_the_preset_dt_is_caught_as_a_collapse():
+    """The preset's dt x 10 flattens the cube in one implicit step: a SimulationError naming
+    the extent, the accuracy estimate (no 'inf s') and the fix; the preset's dt runs."""
+    from jellysim.errors import SimulationError
+    from jellysim.simulator import STATUS_COLLAPSE
+
+    sim = _gelatin(dt=10.0 / 60.0).simulator()
+    with pytest.raises(SimulationError) as info:
+        sim.advance(1)
+    msg = str(info.value)
+    assert info.value.status == STATUS_COLLAPSE
+    assert "y extent went from 0.1 m" in msg and "smaller dt" in msg
+    assert "omega_max dt" in msg and "inf" not in msg
+    ok = _gelatin().simulator()
+    ok.advance(5)
+    assert np.ptp(ok.state.x[:, 1]) > 0.05   # landed and squashed, not flattened
+
+
+def test_unconverged_cg_warns_with_the_residual_and_fails_past_the_threshold():
+    import warnings
+
+    from jellysim.errors import SimulationError
+    from jellysim.simulator import CG_ERROR_RESIDUAL, SolverWarning
+
+    sim = _gelatin(cg_max_iterations=12).simulator()
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        sim.advance(5)
+    solver = [x for x in w if issubclass(x.category, SolverWarning)]
+    assert len(solver) == 1 and "cg_max_iterations" in str(solver[0].message)
+    assert 1e-3 < sim.cg_worst_residual < CG_ERROR_RESIDUAL
+    assert f"{sim.cg_worst_residual:.3g}" in str(solver[0].message)
+    with pytest.raises(SimulationError, match="cg_max_iterations"):
+        _gelatin(cg_max_iterations=1).simulator().advance(1)
+    quiet = _gelatin().simulator()          # the default iterations converge: no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SolverWarning)
+        quiet.advance(5)
+    assert quiet.cg_worst_residual <= 1e-3
+
+
+def test_implicit_accuracy_estimate_matches_the_amplification_factor():
+    """Backward Euler's |A| = 1/sqrt(1 + z^2); BDF2's principal root is closer to 1 than it
+    for small z (second order); the message never says 'inf'."""
+    from jellysim.stability import implicit_accuracy
+
+    z, loss, words = implicit_accuracy(100.0, 0.01, theta=1.0)
+    assert z == pytest.approx(1.0) and loss == pytest.approx(1 - 1 / np.sqrt(2))
+    _, loss2, words2 = implicit_accuracy(100.0, 0.001, scheme="bdf2")
+    _, loss1, _ = implicit_accuracy(100.0, 0.001, theta=1.0)
+    assert 0 < loss2 < loss1 / 10
+    assert "inf" not in words + words2 and "unconditionally stable" in words

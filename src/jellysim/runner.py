@@ -162,6 +162,9 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
         bar.start()
         task = bar.add_task("run", total=total, completed=min(done, total))
     last_wall, last_step = time.monotonic(), done
+    during = warnings.catch_warnings(record=True)
+    caught = during.__enter__()
+    warnings.simplefilter("always")
     try:
         try:
             while done < total:
@@ -203,6 +206,8 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
                 ckpt_path.unlink()
             raise
     finally:
+        during.__exit__(None, None, None)
+        messages += [str(w.message) for w in caught]
         for sig, handler in previous_handlers.items():
             signal.signal(sig, handler)
         if bar is not None:

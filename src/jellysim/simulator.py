@@ -19,9 +19,9 @@ from .errors import SceneError, SimulationError
 from .kernels import INTEGRATOR_CODES, STATUS_NONFINITE, STATUS_OK, Backend, get_backend
 from .params import (MAX_ALL_PAIRS_POINTS, GroundModel, GroundParams, ImplicitParams,
                      Integrator, ProvotOrder, ProvotPairs, ProvotParams)
-from .stability import StabilityEstimate, estimate_stability
+from .stability import StabilityEstimate, estimate_stability, implicit_accuracy
 
-__all__ = ["Simulator", "StabilityWarning", "auto_threads"]
+__all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads"]
 
 PARALLEL_MIN_POINTS = 500
 """Below this many points one thread is used.  From the paper scene's 600 points on, two
@@ -31,6 +31,25 @@ other core is busy they can lose badly: pass ``threads=1`` there."""
 
 class StabilityWarning(UserWarning):
     """The time step exceeds the estimated stable limit."""
+
+
+class SolverWarning(UserWarning):
+    """A linear solve stopped above its tolerance (see :data:`CG_ERROR_RESIDUAL`)."""
+
+
+CG_ERROR_RESIDUAL = 0.1
+"""A conjugate-gradient solve that stops with a relative residual above this is an error
+(:class:`SimulationError`); above the tolerance but below this, a :class:`SolverWarning`."""
+
+COLLAPSE_FRACTION = 0.02
+"""One :meth:`Simulator.advance` call that shrinks the body's extent along an axis below this
+fraction of its extent before the call is a blow-up (e.g. an implicit step far too large for
+the material, which flattens the body in one step)."""
+
+STATUS_NOT_CONVERGED = 101
+"""``SimulationError.status`` of a solve that did not converge (not a kernel code)."""
+STATUS_COLLAPSE = 102
+"""``SimulationError.status`` of a body that collapsed in one call (not a kernel code)."""
 
 
 def auto_threads(point_count: int) -> int:
@@ -111,6 +130,9 @@ class Simulator:
         """Conjugate-gradient iterations taken so far (implicit integrator)."""
         self.cg_worst_residual = 0.0
         """Largest relative residual a CG solve stopped at (implicit integrator)."""
+        self.cg_unconverged = 0
+        """Advance calls in which a CG solve stopped above its tolerance (implicit)."""
+        self._last_worst = 0.0
         self.backend = Backend(backend)
         self._k = get_backend(self.backend)
         n = model.particle_count
@@ -172,7 +194,7 @@ class Simulator:
                 StabilityWarning, stacklevel=2)
         return est
 
-    _COUNTERS = ("cg_iterations", "cg_worst_residual")
+    _COUNTERS = ("cg_iterations", "cg_worst_residual", "cg_unconverged")
 
     def internal_state(self) -> dict[str, np.ndarray]:
         """Every private array the simulator keeps between :meth:`advance` calls, copied.
@@ -225,6 +247,7 @@ class Simulator:
                           if "_last.0" in d else None)
         self.cg_iterations = int(d["cg_iterations"])
         self.cg_worst_residual = float(d["cg_worst_residual"])
+        self.cg_unconverged = int(d["cg_unconverged"])
 
     def advance(self, steps: int = 1) -> None:
         """Take ``steps`` time steps.  Raises :class:`SimulationError` on blow-up, leaving
@@ -232,6 +255,7 @@ class Simulator:
         if steps <= 0:
             return
         s = self.state
+        extent = np.ptp(s.x, axis=0) if len(s.x) else None
         import numba
 
         previous = numba.get_num_threads()
@@ -247,6 +271,53 @@ class Simulator:
         s.t += int(done) * self.dt
         if status != STATUS_OK:
             self._raise(status)
+        self._check_collapse(extent, int(done))
+        if self.integrator is Integrator.IMPLICIT:
+            self._check_solves()
+
+    def _check_collapse(self, before, steps) -> None:
+        if before is None or steps <= 0:
+            return
+        after = np.ptp(self.state.x, axis=0)
+        scale = float(before.max())
+        for axis in range(3):
+            if before[axis] > 1e-3 * scale and after[axis] < COLLAPSE_FRACTION * before[axis]:
+                s = self.state
+                name = "xyz"[axis]
+                if self.integrator is Integrator.IMPLICIT:
+                    est = self.stability or estimate_stability(
+                        self.model, self.integrator, self.dt_step, theta=self.implicit.theta,
+                        scheme=self.implicit.scheme)
+                    _, _, words = implicit_accuracy(
+                        est.omega_max, self.dt_step,
+                        theta=self.implicit.theta, scheme=self.implicit.scheme)
+                    fix = (f"the step is far too large for this material ({words}): use a "
+                           f"smaller dt or [integrator] substeps (omega_max dt below about 1)")
+                else:
+                    fix = "use a smaller dt"
+                raise SimulationError(
+                    f"the body collapsed at step {s.step} (t = {s.t:.6g} s): its {name} extent "
+                    f"went from {before[axis]:.4g} m to {after[axis]:.4g} m within {steps} "
+                    f"step(s); {fix}", step=s.step, status=STATUS_COLLAPSE)
+
+    def _check_solves(self) -> None:
+        worst = self._last_worst
+        tol = float(self.implicit.tolerance)
+        if not worst > tol * (1 + 1e-9):
+            return
+        s = self.state
+        fix = (f"raise [integrator] cg_max_iterations (now {self.implicit.max_iterations}), "
+               "or use a smaller dt (fewer iterations needed)")
+        what = (f"a conjugate-gradient solve stopped at relative residual {worst:.3g} "
+                f"(tolerance {tol:g}) after {self.implicit.max_iterations} iterations")
+        if worst > CG_ERROR_RESIDUAL:
+            raise SimulationError(f"{what} by step {s.step} (t = {s.t:.6g} s): the step is "
+                                  f"not solved; {fix}", step=s.step,
+                                  status=STATUS_NOT_CONVERGED)
+        self.cg_unconverged += 1
+        if self.cg_unconverged == 1:
+            warnings.warn(f"{what} by step {s.step} (t = {s.t:.6g} s); {fix} (later ones are "
+                          "counted in Simulator.cg_unconverged)", SolverWarning, stacklevel=3)
 
     def _advance_implicit(self, steps):
         m, g, s, im = self.model, self.ground, self.state, self.implicit
@@ -270,6 +341,7 @@ class Simulator:
         if bdf2:
             self._last = (s.x.copy(), s.v.copy())
         self.cg_iterations += int(iters)
+        self._last_worst = float(worst)
         self.cg_worst_residual = max(self.cg_worst_residual, float(worst))
         return (done + sub - 1) // sub, status
 
@@ -303,9 +375,14 @@ class Simulator:
                                                    theta=self.implicit.theta,
                                                    scheme=self.implicit.scheme)
         if self.integrator is Integrator.IMPLICIT:
-            hint = ("the implicit step is linearised: try a smaller dt, theta closer to 1 "
-                    "or a tighter CG tolerance")
-        elif est.dt_max > 0:
+            _, _, words = implicit_accuracy(est.omega_max, self.dt_step,
+                                            theta=self.implicit.theta,
+                                            scheme=self.implicit.scheme)
+            raise SimulationError(
+                f"simulation went unstable at step {failed} (t = {s.t:.6g} s): {what}; the "
+                "implicit step is linearised: try a smaller dt, theta closer to 1 or a tighter "
+                f"CG tolerance ({words})", step=failed, status=int(status))
+        if est.dt_max > 0:
             hint = f"try dt <= {0.5 * min(self.dt_step, est.dt_max):.3g} s"
         else:
             hint = "add damping or use integrator = 'symplectic'"
