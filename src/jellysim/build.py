@@ -134,6 +134,10 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     sampling = Sampling(sampling)
     if points < 4:
         raise BuildError(f"points must be >= 4, got {points}")
+    from .resources import check_body_memory
+
+    check_body_memory(points, neighbours=neighbours, tets=connect is not Connect.RADIUS,
+                      what=f"build_body(points={points})")
     if not (np.isfinite(density) and density > 0):
         raise BuildError(f"density must be a positive number of kg/m^3, got {density}")
     m = _mesh_of(mesh)

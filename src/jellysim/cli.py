@@ -13,6 +13,25 @@ def _fail(message: str) -> None:
     sys.exit(2)
 
 
+_max_memory = click.option(
+    "--max-memory", default=None, metavar="SIZE",
+    help="Refuse to build a body whose memory estimate exceeds SIZE (e.g. 4G; default: the "
+         "memory available). Sets JELLYSIM_MAX_MEMORY.")
+
+
+def _set_max_memory(value) -> None:
+    import os
+
+    if value is None:
+        return
+    from .resources import parse_size
+
+    try:
+        os.environ["JELLYSIM_MAX_MEMORY"] = str(parse_size(value))
+    except ValueError as exc:
+        _fail(f"--max-memory: {exc}")
+
+
 @click.group()
 @click.version_option(package_name="jellysim")
 def cli() -> None:
@@ -39,8 +58,9 @@ def cli() -> None:
 @click.option("--checkpoint-every", type=click.IntRange(min=0), default=None,
               help="Steps between checkpoints (0: only when interrupted; default: the "
                    "scene's [output] checkpoint_every, else about once a minute).")
+@_max_memory
 def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None,
-        resume_dir=None, checkpoint_every=None) -> None:
+        resume_dir=None, checkpoint_every=None, max_memory=None) -> None:
     """Simulate SCENE_FILE (TOML) and write trajectory.npz and body.pvd.
 
     Frames are streamed to OUT/trajectory.stream while the run goes; Ctrl-C (SIGINT) or
@@ -49,6 +69,8 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 
     from .errors import RunInterrupted
     from .runner import run_scene
+
+    _set_max_memory(max_memory)
     from .scene import Scene
 
     try:
@@ -111,10 +133,13 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 @click.option("--density", type=click.FloatRange(min=0, min_open=True), default=1141.0,
               show_default=True, help="Density [kg/m^3].")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@_max_memory
 def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
-          surface_vertices, surface_samples, density, seed) -> None:
+          surface_vertices, surface_samples, density, seed, max_memory=None) -> None:
     """Build a jello body from MESH_FILE and write it to a .jello or .npz file."""
     import warnings
+
+    _set_max_memory(max_memory)
 
     from .build import body_stats, build_body
     from .geometry.jellyfile import write_body

@@ -59,6 +59,29 @@ def _clean(out_dir: Path) -> None:
                 p.unlink()
 
 
+LARGE_TRAJECTORY_BYTES = 1 << 30
+"""A run whose trajectory will exceed this says so before it starts."""
+
+
+def _check_disk(out_dir: Path, total: int, every: int, n: int, messages: list) -> None:
+    """Refuse a run whose trajectory cannot fit the free disk space; note a large one."""
+    import shutil
+
+    from .errors import ResourceError
+
+    frames = total // every + 2
+    need = frames * n * 48 * 2  # positions + velocities, then the final .npz copy
+    free = shutil.disk_usage(out_dir).free
+    gib = need / (1 << 30)
+    if need > free:
+        raise ResourceError(f"{out_dir}: the trajectory ({frames:,} frames of {n:,} points) "
+                            f"needs about {gib:.3g} GiB on disk, {free / (1 << 30):.3g} GiB "
+                            "free; save fewer frames ([output] every) or free space")
+    if need > LARGE_TRAJECTORY_BYTES:
+        messages.append(f"the trajectory will take about {gib / 2:.3g} GiB ({frames:,} frames "
+                        f"of {n:,} points; [output] every = {every} steps)")
+
+
 def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
               steps: int | None = None, skin="auto", body=None, resume: bool = False,
               checkpoint_every: int | None = None, stop_after: int | None = None,
@@ -96,6 +119,7 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     if checkpoint_every is None:
         checkpoint_every = scene.params["output"].get("checkpoint_every")
     write_vtu = scene.params["output"]["vtu"] if vtu is None else vtu
+    _check_disk(out_dir, total, every, model.particle_count, messages)
     stream_dir = out_dir / STREAM_DIR
     ckpt_path = out_dir / CHECKPOINT
     npz_path = out_dir / "trajectory.npz"

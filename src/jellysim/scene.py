@@ -317,7 +317,7 @@ class Scene:
         if preset is not None:
             from .presets import PRESETS, apply_preset
 
-            if preset not in PRESETS:
+            if not isinstance(preset, str) or preset not in PRESETS:
                 raise SceneError(f"{name}: [material] preset = {preset!r}: unknown choice; "
                                  "expected one of " + ", ".join(repr(p) for p in PRESETS))
             raw = apply_preset(raw, preset)
@@ -448,6 +448,29 @@ class Scene:
         bottom = np.array([0.5 * (lo[0] + hi[0]), lo[1], 0.5 * (lo[2] + hi[2])])
         return points + (np.asarray(b["base"]) - bottom)
 
+    def _guard(self) -> None:
+        """Refuse before building what cannot run: all-pairs Provot above its point limit,
+        and bodies whose memory estimate exceeds the limit (:mod:`jellysim.resources`)."""
+        from .params import MAX_ALL_PAIRS_POINTS
+        from .resources import check_body_memory
+
+        b, s, p = self.params["body"], self.params["springs"], self.params["provot"]
+        if b["type"] == "file":
+            return
+        n = b["points"] if b["points"] is not None else 2000
+        if p["enabled"] and p["pairs"] == "all" and n > MAX_ALL_PAIRS_POINTS:
+            raise SceneError(f"{self.name}: [provot] pairs = 'all' is O(n^2) and limited to "
+                             f"{MAX_ALL_PAIRS_POINTS} points; [body] points = {n}. Use pairs = "
+                             "'springs' (and a stiffer material) or fewer points.")
+        if b["type"] == "box":
+            vol = float(np.prod(np.subtract(b["upper"], b["lower"])))
+            r = s["radius"]
+            nb = min(n - 1.0, n * 4.18879 * r ** 3 / vol) if (r and vol > 0) else 24.0
+            check_body_memory(n, neighbours=max(nb, 1.0), what=f"{self.name}: [body] points")
+        else:
+            check_body_memory(n, neighbours=s["neighbours"] or 24.0,
+                              tets=s["connect"] != "radius", what=f"{self.name}: [body] points")
+
     def build_body(self):
         from .body import Body
         from .errors import JellysimError
@@ -455,6 +478,7 @@ class Scene:
         from .geometry.sampling import box_field
 
         b, s = self.params["body"], self.params["springs"]
+        self._guard()
         if b["type"] == "file":
             from dataclasses import replace
 

@@ -176,11 +176,15 @@ def load_trajectory(path, *, mmap: bool = False) -> Trajectory:
 
             d = read_stream(path, mmap=mmap)
         else:
+            from .npzcheck import check_npz
+
+            check_npz(path)
             with np.load(path, allow_pickle=False) as z:
                 d = {k: z[k] for k in z.files}
     except FileNotFoundError as exc:
         raise JellysimError(f"{path}: trajectory incomplete ({exc.filename} not found)") from None
-    except (OSError, ValueError, KeyError, SyntaxError, zipfile.BadZipFile) as exc:
+    except (OSError, ValueError, KeyError, SyntaxError, EOFError, zipfile.BadZipFile,
+            NotImplementedError) as exc:
         raise JellysimError(f"{path}: not a jellysim trajectory ({exc})") from None
     missing = {"positions", "times", "springs", "params_json"} - set(d)
     if missing:
