@@ -294,7 +294,8 @@ class Simulator:
                     fix = (f"the step is far too large for this material ({words}): use a "
                            f"smaller dt or [integrator] substeps (omega_max dt below about 1)")
                 else:
-                    fix = "use a smaller dt"
+                    fix = ("the forces are far too strong for this dt or the body too soft: "
+                           "check [physics] gravity and the stiffness, or use a smaller dt")
                 raise SimulationError(
                     f"the body collapsed at step {s.step} (t = {s.t:.6g} s): its {name} extent "
                     f"went from {before[axis]:.4g} m to {after[axis]:.4g} m within {steps} "
@@ -307,7 +308,8 @@ class Simulator:
             return
         s = self.state
         fix = (f"raise [integrator] cg_max_iterations (now {self.implicit.max_iterations}), "
-               "or use a smaller dt (fewer iterations needed)")
+               "or use a smaller dt (fewer iterations needed); if neither helps, check the "
+               "material (Young's modulus, masses): the system may be ill-conditioned")
         what = (f"a conjugate-gradient solve stopped at relative residual {worst:.3g} "
                 f"(tolerance {tol:g}) after {self.implicit.max_iterations} iterations")
         if worst > CG_ERROR_RESIDUAL:
