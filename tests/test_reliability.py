@@ -276,7 +276,7 @@ def test_ten_times_the_preset_dt_is_caught_as_a_collapse():
         sim.advance(1)
     msg = str(info.value)
     assert info.value.status == STATUS_COLLAPSE
-    assert "y extent went from 0.1 m" in msg and "smaller dt" in msg
+    assert "thickness" in msg and "smaller dt" in msg
     assert "omega_max dt" in msg and "inf" not in msg
     ok = _gelatin().simulator()
     ok.advance(5)

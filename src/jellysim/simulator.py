@@ -42,9 +42,12 @@ CG_ERROR_RESIDUAL = 0.1
 (:class:`SimulationError`); above the tolerance but below this, a :class:`SolverWarning`."""
 
 COLLAPSE_FRACTION = 0.02
-"""One :meth:`Simulator.advance` call that shrinks the body's extent along an axis below this
-fraction of its extent before the call is a blow-up (e.g. an implicit step far too large for
-the material, which flattens the body in one step)."""
+"""One :meth:`Simulator.advance` call that shrinks the body's thickness (smallest principal
+spread of its points) below this fraction of its rest value is a blow-up (e.g. an implicit
+step far too large for the material, which flattens the body in one step)."""
+
+COLLAPSE_MIN_POINTS = 20
+"""Bodies with fewer points (or thin at rest: sheets, rods) are not checked for collapse."""
 
 STATUS_NOT_CONVERGED = 101
 """``SimulationError.status`` of a solve that did not converge (not a kernel code)."""
@@ -149,6 +152,10 @@ class Simulator:
             diag = float(np.linalg.norm(x0.max(axis=0) - x0.min(axis=0)))
             runaway_distance = max(100.0 * diag, 100.0)
         self.runaway_distance = float(runaway_distance)
+        spread = np.sqrt(np.maximum(np.linalg.eigvalsh(np.cov(x0, rowvar=False)), 0.0)) if (
+            n >= COLLAPSE_MIN_POINTS) else np.zeros(3)
+        self._rest_thin = float(spread[0])
+        self._collapse_check = bool(n >= COLLAPSE_MIN_POINTS and spread[0] > 0.1 * spread[2])
         k = model.spring_count
         self._scalar = np.zeros(k)
         self._dx = np.zeros((n, 3))
@@ -255,7 +262,7 @@ class Simulator:
         if steps <= 0:
             return
         s = self.state
-        extent = np.ptp(s.x, axis=0) if len(s.x) else None
+        thin_before = self._thinness(s.x) if self._collapse_check else None
         import numba
 
         previous = numba.get_num_threads()
@@ -271,35 +278,43 @@ class Simulator:
         s.t += int(done) * self.dt
         if status != STATUS_OK:
             self._raise(status)
-        self._check_collapse(extent, int(done))
+        self._check_collapse(thin_before, int(done))
         if self.integrator is Integrator.IMPLICIT:
             self._check_solves()
 
+    @staticmethod
+    def _thinness(x) -> float:
+        """The body's smallest principal standard deviation [m] (its thinnest direction)."""
+        c = np.cov(x, rowvar=False)
+        return float(np.sqrt(max(np.linalg.eigvalsh(c)[0], 0.0)))
+
     def _check_collapse(self, before, steps) -> None:
-        if before is None or steps <= 0:
+        """A 3D body (>= COLLAPSE_MIN_POINTS points, not thin at rest) whose thinnest
+        direction shrinks below COLLAPSE_FRACTION of its rest value within one call, having
+        been above a quarter of it before the call, collapsed: a blow-up."""
+        if before is None or steps <= 0 or before < 0.25 * self._rest_thin:
             return
-        after = np.ptp(self.state.x, axis=0)
-        scale = float(before.max())
-        for axis in range(3):
-            if before[axis] > 1e-3 * scale and after[axis] < COLLAPSE_FRACTION * before[axis]:
-                s = self.state
-                name = "xyz"[axis]
-                if self.integrator is Integrator.IMPLICIT:
-                    est = self.stability or estimate_stability(
-                        self.model, self.integrator, self.dt_step, theta=self.implicit.theta,
-                        scheme=self.implicit.scheme)
-                    _, _, words = implicit_accuracy(
-                        est.omega_max, self.dt_step,
-                        theta=self.implicit.theta, scheme=self.implicit.scheme)
-                    fix = (f"the step is far too large for this material ({words}): use a "
-                           f"smaller dt or [integrator] substeps (omega_max dt below about 1)")
-                else:
-                    fix = ("the forces are far too strong for this dt or the body too soft: "
-                           "check [physics] gravity and the stiffness, or use a smaller dt")
-                raise SimulationError(
-                    f"the body collapsed at step {s.step} (t = {s.t:.6g} s): its {name} extent "
-                    f"went from {before[axis]:.4g} m to {after[axis]:.4g} m within {steps} "
-                    f"step(s); {fix}", step=s.step, status=STATUS_COLLAPSE)
+        after = self._thinness(self.state.x)
+        if after >= COLLAPSE_FRACTION * self._rest_thin:
+            return
+        s = self.state
+        if self.integrator is Integrator.IMPLICIT:
+            est = self.stability or estimate_stability(
+                self.model, self.integrator, self.dt_step, theta=self.implicit.theta,
+                scheme=self.implicit.scheme)
+            _, _, words = implicit_accuracy(est.omega_max, self.dt_step,
+                                            theta=self.implicit.theta,
+                                            scheme=self.implicit.scheme)
+            fix = (f"the step is far too large for this material ({words}): use a smaller dt "
+                   "or [integrator] substeps (omega_max dt below about 1)")
+        else:
+            fix = ("the forces are far too strong for this dt or the body too soft: check "
+                   "[physics] gravity and the stiffness, or use a smaller dt")
+        raise SimulationError(
+            f"the body collapsed at step {s.step} (t = {s.t:.6g} s): its thickness (smallest "
+            f"principal spread) went from {before:.4g} m to {after:.4g} m within {steps} "
+            f"step(s), {self._rest_thin:.4g} m at rest; {fix}", step=s.step,
+            status=STATUS_COLLAPSE)
 
     def _check_solves(self) -> None:
         worst = self._last_worst
