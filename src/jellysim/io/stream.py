@@ -48,13 +48,15 @@ STREAM_DIR = "trajectory.stream"
 HEADER_BYTES = 128
 """Size of every growing ``.npy`` header (magic + version + length + padded dict)."""
 
-BLOCK_BYTES = 8 << 20
+BLOCK_BYTES = 4 << 20
 """Bytes copied per block when a stream is turned into ``trajectory.npz``."""
 
 
 def _header(dtype: np.dtype, shape: tuple) -> bytes:
+    dims = [str(int(s)) for s in shape]
+    text = "(" + ", ".join(dims) + ("," if len(dims) == 1 else "") + ")"
     d = "{'descr': %r, 'fortran_order': False, 'shape': %s, }" % (
-        np.lib.format.dtype_to_descr(dtype), repr(tuple(int(s) for s in shape)))
+        np.lib.format.dtype_to_descr(dtype), text)
     body = d.encode("latin1")
     room = HEADER_BYTES - 10 - 1
     if len(body) > room:
@@ -217,28 +219,51 @@ def read_stream(directory, *, mmap: bool = False) -> dict:
 
 
 def finalize_stream(directory, npz_path, status: str) -> Path:
-    """Copy a stream into one ``.npz`` (block by block: memory does not grow with the frame
-    count), written atomically, then remove the stream directory."""
+    """Copy a stream into one ``.npz`` (uncompressed), then remove the stream directory.
+
+    The per-frame arrays are copied as raw bytes in blocks of :data:`BLOCK_BYTES` with plain
+    reads (no memory map, whose pages would count in the resident set): memory does not grow
+    with the frame count.  Written through ``<npz>.partial`` and an atomic rename."""
     directory = Path(directory)
     npz_path = Path(npz_path)
-    d = read_stream(directory, mmap=True)
-    d["status"] = np.array(status)
+    with np.load(directory / "meta.npz", allow_pickle=False) as z:
+        meta = {k: z[k] for k in z.files}
+    frames = stream_frames(directory)
     part = npz_path.with_name(npz_path.name + ".partial")
+
+    def header(fh, dtype, shape):
+        np.lib.format.write_array_header_1_0(
+            fh, {"descr": np.lib.format.dtype_to_descr(np.dtype(dtype)),
+                 "fortran_order": False, "shape": tuple(shape)})
+
+    view = memoryview(bytearray(BLOCK_BYTES))   # one buffer, whatever the frame count
     with zipfile.ZipFile(part, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
-        for name, a in d.items():
+        for name, a in meta.items():
             with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
-                a = np.asarray(a) if not isinstance(a, np.memmap) else a
-                np.lib.format.write_array_header_1_0(
-                    fh, {"descr": np.lib.format.dtype_to_descr(a.dtype),
-                         "fortran_order": False, "shape": a.shape})
-                if a.ndim == 0 or a.shape[0] == 0:
-                    fh.write(np.ascontiguousarray(a).tobytes())
-                    continue
-                row = max(1, a[0].nbytes)
-                block = max(1, BLOCK_BYTES // row)
-                for i in range(0, a.shape[0], block):
-                    fh.write(memoryview(np.ascontiguousarray(a[i:i + block])).cast("B"))
+                header(fh, a.dtype, a.shape)
+                fh.write(np.ascontiguousarray(a).tobytes())
+        for name, dt, w in _FRAME_ARRAYS:
+            src = directory / f"{name}.npy"
+            fd = os.open(src, os.O_RDONLY)
+            try:
+                dtype, shape = _read_header(fd)
+                rows = tuple(shape[1:])
+                row_bytes = int(np.prod(rows, dtype=np.int64)) * dtype.itemsize
+                left = frames * row_bytes
+                offset = HEADER_BYTES
+                with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
+                    header(fh, dtype, (frames,) + rows)
+                    while left > 0:
+                        got = os.preadv(fd, [view[:min(BLOCK_BYTES, left)]], offset)
+                        if got <= 0:
+                            raise OSError(f"{src}: shorter than its header says")
+                        fh.write(view[:got])
+                        offset += got
+                        left -= got
+            finally:
+                os.close(fd)
+        with zf.open("status.npy", "w") as fh:
+            np.lib.format.write_array(fh, np.array(status), allow_pickle=False)
     os.replace(part, npz_path)
-    del d
     shutil.rmtree(directory)
     return Path(npz_path)
