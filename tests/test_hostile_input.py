@@ -351,3 +351,27 @@ def test_fuzz_only_jellysim_errors_escape(tmp_path, monkeypatch):
         assert time.perf_counter() - t0 < 5.0, f"case {case} ({kind}) took too long (hang?)"
     assert sum(counts.values()) == 2400
     assert time.perf_counter() - t_start < 60
+
+
+def test_overlapping_shells_are_reported_and_mass_follows_the_inside_rule(tmp_path):
+    """Two unit spheres 0.6 apart: the parity rule leaves their lens empty, so the body's
+    volume is 2 V - 2 V_lens (V_lens = pi (4 r + d)(2 r - d)^2 / 12), not the signed 2 V
+    (2.3x more); inspect says the shells overlap; a single sphere is not flagged."""
+    from jellysim.build import body_stats, build_body, shell_overlap
+    from jellysim.geometry.mesh import load_mesh
+
+    data = Path(__file__).parent / "data"
+    mesh = load_mesh(data / "overlapping_spheres.obj")
+    v_one = abs(load_mesh(data / "sphere.obj").defects.volume)     # the icosphere's volume
+    lens = np.pi * (4 + 0.6) * (2 - 0.6) ** 2 / 12
+    over, inside_vol, signed = shell_overlap(mesh)
+    assert over and signed == pytest.approx(2 * v_one, rel=1e-9)
+    assert inside_vol == pytest.approx(2 * v_one - 2 * lens, rel=0.03)
+    with pytest.warns(UserWarning, match="overlap or nest"):
+        body = build_body(mesh, points=300, connect="radius", density=1000.0, seed=1)
+    assert body_stats(body, density=1000.0)["mass"] == pytest.approx(1000.0 * inside_vol,
+                                                                    rel=0.01)
+    r = CliRunner().invoke(cli, ["inspect", str(data / "overlapping_spheres.obj")])
+    assert "shells overlap/nest:     yes" in r.output
+    assert shell_overlap(load_mesh(data / "sphere.obj")) is None
+    assert not shell_overlap(load_mesh(data / "hollow_sphere.obj"))[0]

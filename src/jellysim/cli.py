@@ -196,7 +196,15 @@ def inspect(path) -> None:
         else:
             from .geometry.mesh import load_mesh
 
-            click.echo(load_mesh(path).defects.describe())
+            mesh = load_mesh(path)
+            click.echo(mesh.defects.describe())
+            if mesh.defects.watertight and mesh.defects.shells > 1:
+                from .build import shell_overlap
+
+                over, inside_vol, signed = shell_overlap(mesh)
+                click.echo(f"shells overlap/nest:     {'yes' if over else 'no'} (inside-rule "
+                           f"volume {inside_vol:.6g}, signed {signed:.6g}"
+                           + ("; bodies take the inside rule's volume)" if over else ")"))
     except JellysimError as exc:
         _fail(str(exc))
 
