@@ -91,6 +91,8 @@ def test_stop_and_resume_is_bitwise_equal_to_an_uninterrupted_run(tmp_path, text
     assert res.resumed_from == 4 * every
     _same(load_trajectory(res.trajectory), ref)
     assert not (cut / STREAM_DIR).exists() and not (cut / CHECKPOINT).exists()
+    with pytest.raises(CheckpointError, match="nothing to resume"):
+        run_scene(scene, cut, progress=False, resume=True)
 
 
 def test_internal_state_round_trip_continues_bitwise():

@@ -126,6 +126,11 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     body = model.body
     resumed_from = None
     if resume:
+        if not ckpt_path.exists() and npz_path.exists() and not stream_dir.exists():
+            from .errors import CheckpointError
+
+            raise CheckpointError(f"{out_dir}: nothing to resume: the run has finished "
+                                  f"({npz_path}); run without --resume to start afresh")
         ck = read_checkpoint(ckpt_path, scene=scene, model=model)
         s = sim.state
         s.x[:], s.v[:], s.a[:] = ck.x, ck.v, ck.a
