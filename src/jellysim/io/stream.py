@@ -48,7 +48,7 @@ STREAM_DIR = "trajectory.stream"
 HEADER_BYTES = 128
 """Size of every growing ``.npy`` header (magic + version + length + padded dict)."""
 
-BLOCK_BYTES = 4 << 20
+BLOCK_BYTES = 1 << 20
 """Bytes copied per block when a stream is turned into ``trajectory.npz``."""
 
 
