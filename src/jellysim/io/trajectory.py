@@ -1,5 +1,8 @@
 """Trajectories: positions per frame plus everything needed to interpret them, in one ``.npz``.
 
+A run streams its frames to ``trajectory.stream/`` while it goes (:mod:`jellysim.io.stream`)
+and writes the ``.npz`` at the end; :func:`load_trajectory` reads either.
+
 Arrays stored (SI units):
 
 =================  ==============  =============================================
@@ -17,7 +20,8 @@ Arrays stored (SI units):
 ``tets``           (t, 4) i8       tetrahedra (may be empty)
 ``scene_toml``     str             the scene file's text
 ``params_json``    str             every resolved parameter, as JSON
-``status``         str             ``"complete"`` or ``"failed: <message>"``
+``status``         str             ``"complete"``, ``"failed: <message>"`` (or, read from a
+                                   stream: ``"interrupted: ..."``, ``"incomplete: ..."``)
 =================  ==============  =============================================
 
 Optional skin (:mod:`jellysim.skin`; absent in older files, which load with ``skin = None``):
