@@ -375,3 +375,8 @@ def test_overlapping_shells_are_reported_and_mass_follows_the_inside_rule(tmp_pa
     assert "shells overlap/nest:     yes" in r.output
     assert shell_overlap(load_mesh(data / "sphere.obj")) is None
     assert not shell_overlap(load_mesh(data / "hollow_sphere.obj"))[0]
+
+
+def test_surface_samples_on_a_box_scene_is_refused_not_ignored():
+    with pytest.raises(SceneError, match=r"\[body\] surface_samples is used only by"):
+        Scene.from_text(BOX.replace("[body]", "[body]\nsurface_samples = false"))

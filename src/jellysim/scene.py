@@ -353,6 +353,10 @@ class Scene:
             out["provot"]["enabled"] = False
         b, sp = out["body"], out["springs"]
         kind = b["type"]
+        if "surface_samples" in raw.get("body", {}) and (
+                kind != "mesh" or sp["connect"] != "delaunay"):
+            raise SceneError(f"{name}: [body] surface_samples is used only by type = 'mesh' "
+                             "with [springs] connect = 'delaunay'; remove it")
         if kind == "box":
             for key, sec in (("points", b), ("radius", sp)):
                 if sec[key] is None:
@@ -368,10 +372,6 @@ class Scene:
                                  f"{kind!r}): the {'mesh' if kind == 'mesh' else 'body'} file")
             if kind == "mesh" and b["points"] is None:
                 b["points"] = 2000
-            if "surface_samples" in raw.get("body", {}) and (
-                    kind != "mesh" or sp["connect"] != "delaunay"):
-                raise SceneError(f"{name}: [body] surface_samples is used only by type = 'mesh' "
-                                 "with [springs] connect = 'delaunay'; remove it")
             if kind == "file" and b["size"] is not None:
                 raise SceneError(f"{name}: [body] size is not used for type = 'file' (a body "
                                  "file has its own units); use base to place it")
