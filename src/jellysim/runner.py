@@ -213,7 +213,7 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
                     checkpoint()
                     how = (f"interrupted by {signal.Signals(stop[0]).name}"
                            if stop[0] is not None else f"stopped after {done} steps as asked")
-                    stream.set_status(f"interrupted: {how} at step {done}")
+                    stream.set_status(f"interrupted at step {done} ({how}); resumable")
                     raise RunInterrupted(
                         f"{how} at step {done} of {total} (t = {sim.state.t:.6g} s); "
                         f"{stream.frames} frames saved in {stream_dir} (jellysim render, "

@@ -21,7 +21,7 @@ Arrays stored (SI units):
 ``scene_toml``     str             the scene file's text
 ``params_json``    str             every resolved parameter, as JSON
 ``status``         str             ``"complete"``, ``"failed: <message>"`` (or, read from a
-                                   stream: ``"interrupted: ..."``, ``"incomplete: ..."``)
+                                   stream: ``"interrupted at step N ..."``, ``"incomplete: ..."``)
 =================  ==============  =============================================
 
 Optional skin (:mod:`jellysim.skin`; absent in older files, which load with ``skin = None``):
