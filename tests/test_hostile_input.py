@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from jellysim.body import Body
 from jellysim.cli import cli
 from jellysim.errors import (JelloFileError, JellysimError, ResourceError, SceneError)
 from jellysim.geometry.jellyfile import parse_jello, read_body, read_jello, write_body

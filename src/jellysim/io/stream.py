@@ -8,7 +8,7 @@ A run writes its frames into the directory ``<out>/trajectory.stream/``::
     velocities.npy    (F, n, 3) f8  velocities per frame [m/s]
     times.npy         (F,) f8       simulated time of each frame [s]
     steps.npy         (F,) i8       time-step index of each frame
-    status.txt        ``running``, ``interrupted at step N (...)`` (a resumable stop) or ``failed: ...``
+    status.txt        ``running``, ``interrupted at step N (...)`` (resumable) or ``failed: ...``
 
 Each ``.npy`` is an ordinary NumPy file (``np.load`` reads it, also with ``mmap_mode``) that
 grows in place: a frame's bytes are appended after the data, then the fixed-size header's frame
