@@ -170,6 +170,8 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     done = sim.state.step
     if not resume:
         emit()
+        if checkpoint_every != 0:
+            checkpoint()  # a killed run can always be resumed, from its start at least
     stepped = 0.0
     bar = None
     stop: list[int | None] = [None]
