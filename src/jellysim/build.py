@@ -186,7 +186,7 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     query = InsideQuery(m, rule=rule)
     lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)
     volume, exact = enclosed_volume(m, query, seed=seed)
-    if not exact:
+    if not exact and not m.defects.watertight:  # (closed, overlapping shells: warned above)
         warnings.warn(f"{name}: the surface is open, so its enclosed volume {volume:.6g} is a "
                       f"Monte-Carlo estimate ({VOLUME_SAMPLES} samples) with the "
                       f"{query.rule} rule", UserWarning, stacklevel=2)
