@@ -353,8 +353,10 @@ class Scene:
             out["provot"]["enabled"] = False
         b, sp = out["body"], out["springs"]
         kind = b["type"]
-        if "surface_samples" in raw.get("body", {}) and (
-                kind != "mesh" or sp["connect"] != "delaunay"):
+        given = raw.get("body", {}).get("surface_samples")
+        if given is not None and (kind != "mesh" or sp["connect"] != "delaunay") and (
+                kind != "box" or given is not SCHEMA["body"]["surface_samples"].default):
+            # (a box scene resolved by Scene.from_dict carries the default: not an error)
             raise SceneError(f"{name}: [body] surface_samples is used only by type = 'mesh' "
                              "with [springs] connect = 'delaunay'; remove it")
         if kind == "box":
