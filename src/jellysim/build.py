@@ -34,7 +34,7 @@ from .errors import BuildError
 from .geometry.sampling import Sampling
 from .params import REPORT_DENSITY
 
-__all__ = ["Connect", "build_body", "body_stats", "enclosed_volume"]
+__all__ = ["Connect", "build_body", "body_stats", "enclosed_volume", "shell_overlap"]
 
 VOLUME_SAMPLES = 400_000
 SURFACE_GAP = 0.5
@@ -76,18 +76,48 @@ def _mesh_of(mesh, size: float | None = None):
     return replace(m, vertices=m.vertices * factor, defects=defects)
 
 
-def enclosed_volume(mesh, query=None, *, seed: int = 0) -> tuple[float, bool]:
-    """(volume [m^3], exact?) enclosed by ``mesh``: the signed volume when it is closed,
-    else a seeded Monte-Carlo estimate over its bounding box with the inside test."""
-    if mesh.defects.watertight:
-        return abs(float(mesh.defects.volume)), True
-    from .geometry.inside import InsideQuery
-
-    query = InsideQuery(mesh) if query is None else query
+def _inside_volume(mesh, query, seed: int) -> tuple[float, float]:
+    """Seeded Monte-Carlo volume with the inside test: (volume, standard error) [m^3]."""
     lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
     u = np.random.default_rng(seed).random((VOLUME_SAMPLES, 3))
     frac = float(np.mean(query.query(lo + u * (hi - lo))))
-    return frac * float(np.prod(hi - lo)), False
+    box = float(np.prod(hi - lo))
+    return frac * box, box * float(np.sqrt(max(frac * (1 - frac), 0.0) / VOLUME_SAMPLES))
+
+
+def shell_overlap(mesh, query=None, *, seed: int = 0) -> tuple[bool, float, float] | None:
+    """For a closed mesh of several shells: (do the shells overlap or nest so that the inside
+    rule disagrees with the signed volume?, the inside rule's volume, the signed volume).
+    ``None`` for a single shell or an open mesh (nothing to compare)."""
+    d = mesh.defects
+    if not d.watertight or d.shells < 2:
+        return None
+    from .geometry.inside import InsideQuery
+
+    query = InsideQuery(mesh) if query is None else query
+    vol, err = _inside_volume(mesh, query, seed)
+    signed = abs(float(d.volume))
+    return abs(vol - signed) > 4.0 * err + 1e-3 * signed, vol, signed
+
+
+def enclosed_volume(mesh, query=None, *, seed: int = 0) -> tuple[float, bool]:
+    """(volume [m^3], exact?) enclosed by ``mesh`` as the inside test counts it: the signed
+    volume when it is closed (exact), else, and also when its shells overlap or nest so that
+    the inside rule leaves out what the signed volume counts (:func:`shell_overlap`; warned),
+    a seeded Monte-Carlo estimate over its bounding box with the inside test."""
+    if mesh.defects.watertight:
+        over = shell_overlap(mesh, query, seed=seed)
+        if over is None or not over[0]:
+            return abs(float(mesh.defects.volume)), True
+        warnings.warn(f"{getattr(mesh, 'path', None) or 'mesh'}: its {mesh.defects.shells} "
+                      f"shells overlap or nest: the inside rule encloses {over[1]:.6g}, the "
+                      f"signed volume says {over[2]:.6g}; the mass follows the inside rule",
+                      UserWarning, stacklevel=2)
+        return over[1], False
+    from .geometry.inside import InsideQuery
+
+    query = InsideQuery(mesh) if query is None else query
+    return _inside_volume(mesh, query, seed)[0], False
 
 
 def _warn_defects(m, name: str) -> None:
@@ -172,6 +202,10 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
     sampling = Sampling(sampling)
     if points < 4:
         raise BuildError(f"points must be >= 4, got {points}")
+    from .resources import check_body_memory
+
+    check_body_memory(points, neighbours=neighbours, tets=connect is not Connect.RADIUS,
+                      what=f"build_body(points={points})")
     if not (np.isfinite(density) and density > 0):
         raise BuildError(f"density must be a positive number of kg/m^3, got {density}")
     m = _mesh_of(mesh, size)
@@ -190,7 +224,7 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
     query = InsideQuery(m, rule=rule)
     lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)
     volume, exact = enclosed_volume(m, query, seed=seed)
-    if not exact:
+    if not exact and not m.defects.watertight:  # (closed, overlapping shells: warned above)
         warnings.warn(f"{name}: the surface is open, so its enclosed volume {volume:.6g} is a "
                       f"Monte-Carlo estimate ({VOLUME_SAMPLES} samples) with the "
                       f"{query.rule} rule", UserWarning, stacklevel=3)

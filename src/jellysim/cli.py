@@ -14,6 +14,25 @@ def _fail(message: str) -> None:
     sys.exit(2)
 
 
+_max_memory = click.option(
+    "--max-memory", default=None, metavar="SIZE",
+    help="Refuse to build a body whose memory estimate exceeds SIZE (e.g. 4G; default: the "
+         "memory available). Sets JELLYSIM_MAX_MEMORY.")
+
+
+def _set_max_memory(value) -> None:
+    import os
+
+    if value is None:
+        return
+    from .resources import parse_size
+
+    try:
+        os.environ["JELLYSIM_MAX_MEMORY"] = str(parse_size(value))
+    except ValueError as exc:
+        _fail(f"--max-memory: {exc}")
+
+
 @click.group()
 @click.version_option(package_name="jellysim")
 def cli() -> None:
@@ -52,11 +71,22 @@ def cli() -> None:
 @click.option("--set", "settings", multiple=True, metavar="SECTION.KEY=VALUE",
               help="Override one scene value (TOML syntax), e.g. --set body.points=500 "
                    "--set 'material.preset=\"gelatin\"'.  Repeatable.")
+@click.option("--resume", "resume_dir", type=click.Path(file_okay=False), default=None,
+              help="Continue the interrupted run in this output directory from its last "
+                   "checkpoint (same scene file; bit-identical to an uninterrupted run).")
+@click.option("--checkpoint-every", type=click.IntRange(min=0), default=None,
+              help="Steps between checkpoints (0: only when interrupted; default: the "
+                   "scene's [output] checkpoint_every, else about once a minute).")
+@_max_memory
 def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=None,
         partition="morton", backend=None, device=None, precision=None, threads=None,
-        overwrite=False, settings=()) -> None:
+        overwrite=False, settings=(), resume_dir=None, checkpoint_every=None,
+        max_memory=None) -> None:
     """Simulate SCENE_FILE (TOML) and write trajectory.npz and body.pvd (under
-    'mpiexec -n N': on N ranks, docs/mpi.md)."""
+    'mpiexec -n N': on N ranks, docs/mpi.md).
+
+    Frames are streamed to OUT/trajectory.stream while the run goes; Ctrl-C (SIGINT) or
+    SIGTERM finishes the current frame, saves a checkpoint and says how to --resume."""
     from pathlib import Path
 
     from .distributed.simulator import launched_under_mpi
@@ -67,24 +97,38 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         return cli_run(scene_file, out_dir, steps=steps, no_vtu=no_vtu, quiet=quiet,
                        partition=partition, video=video, usd=usd, glb=glb)
 
+    from .errors import RunInterrupted
     from .runner import prepare_out_dir, run_scene
     from .scene import Scene
 
+    _set_max_memory(max_memory)
     try:
         scene = Scene.load(scene_file, overrides=settings).with_backend(backend, device,
                                                                         precision)
         if threads is not None:
             scene.params["integrator"]["threads"] = threads
-        out = Path(out_dir) if out_dir else Path("out") / Path(scene_file).stem
-        prepare_out_dir(out, overwrite=overwrite)
+        if resume_dir and out_dir and Path(out_dir) != Path(resume_dir):
+            raise JellysimError(f"--resume {resume_dir} and --out {out_dir} differ: a run "
+                                "resumes in its own directory (give only --resume)")
+        out = (Path(resume_dir) if resume_dir else Path(out_dir) if out_dir
+               else Path("out") / Path(scene_file).stem)
+        if not resume_dir:
+            prepare_out_dir(out, overwrite=overwrite)
         result = run_scene(scene, out, progress=not quiet, vtu=False if no_vtu else None,
-                           steps=steps)
+                           steps=steps, resume=resume_dir is not None,
+                           checkpoint_every=checkpoint_every)
+    except RunInterrupted as exc:
+        click.secho(str(exc), fg="yellow", err=True)
+        sys.exit(128 + exc.signal if exc.signal else 3)
     except JellysimError as exc:
         _fail(str(exc))
+    if result.resumed_from is not None:
+        click.echo(f"resumed from the checkpoint at step {result.resumed_from}")
     for w in result.warnings:
         click.secho(f"warning: {w}", fg="yellow", err=True)
-    rate = result.steps / result.seconds if result.seconds > 0 else float("inf")
-    click.echo(f"{result.steps} steps, {result.frames} frames in {result.seconds:.3g} s "
+    taken = result.steps - (result.resumed_from or 0)
+    rate = taken / result.seconds if result.seconds > 0 else float("inf")
+    click.echo(f"{taken} steps, {result.frames} frames in {result.seconds:.3g} s "
                f"({rate:,.0f} steps/s)")
     click.echo(f"wrote {result.trajectory}")
     if result.pvd:
@@ -126,12 +170,15 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
               help="Scale the mesh so its largest extent is SIZE metres (default: its "
                    "coordinates are read as metres).")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@_max_memory
 def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
-          surface_vertices, surface_samples, density, size, seed) -> None:
+          surface_vertices, surface_samples, density, size, seed, max_memory=None) -> None:
     """Build a jello body from MESH_FILE and write it to a .jello or .npz file.
 
     The mesh's coordinates are read as metres unless --size scales it."""
     import warnings
+
+    _set_max_memory(max_memory)
 
     from .build import body_stats, build_body
     from .geometry.jellyfile import write_body
@@ -197,6 +244,13 @@ def inspect(path) -> None:
                        "--size S scales its largest extent to S m)")
             click.echo(f"extent [m]:              {ext[0]:.6g} x {ext[1]:.6g} x {ext[2]:.6g}")
             click.echo(mesh.defects.describe())
+            if mesh.defects.watertight and mesh.defects.shells > 1:
+                from .build import shell_overlap
+
+                over, inside_vol, signed = shell_overlap(mesh)
+                click.echo(f"shells overlap/nest:     {'yes' if over else 'no'} (inside-rule "
+                           f"volume {inside_vol:.6g}, signed {signed:.6g}"
+                           + ("; bodies take the inside rule's volume)" if over else ")"))
     except JellysimError as exc:
         _fail(str(exc))
 

@@ -127,7 +127,7 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
 
 
 @click.command()
-@click.argument("trajectory", type=click.Path(dir_okay=False))
+@click.argument("trajectory", type=click.Path())
 @click.option("-o", "--output", required=True, type=click.Path(),
               help="video.mp4, anim.gif, picture.png (last frame, or --frame) or a folder "
                    "(PNG frames).")
@@ -169,7 +169,7 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
 
 
 @click.command()
-@click.argument("trajectory", type=click.Path(dir_okay=False))
+@click.argument("trajectory", type=click.Path())
 @click.argument("target", required=False, type=click.Path(), metavar="[OUTPUT]")
 @click.option("-o", "--output", default=None, type=click.Path(),
               help="run.usdc / .usda (USD), run.glb (glTF), run.pvd (ParaView series; its "
@@ -228,7 +228,7 @@ def export(trajectory, target, output, sequence, fps, max_frames):
 
 
 @click.command()
-@click.argument("trajectory", type=click.Path(dir_okay=False))
+@click.argument("trajectory", type=click.Path())
 @_show
 @_size_opt
 @_color
@@ -267,7 +267,7 @@ def view(trajectory, show, size, color, opacity, no_floor, fps, screenshot):
 
 
 @click.command()
-@click.argument("trajectory", type=click.Path(dir_okay=False))
+@click.argument("trajectory", type=click.Path())
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
               help="energy.png or .svg / .pdf")
 def plot(trajectory, output):

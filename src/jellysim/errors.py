@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 __all__ = ["JellysimError", "SceneError", "SimulationError", "MeshError", "BuildError",
-           "JelloFileError"]
+           "JelloFileError", "RunInterrupted", "CheckpointError", "ResourceError"]
 
 
 class JellysimError(Exception):
@@ -32,3 +32,22 @@ class BuildError(JellysimError, ValueError):
 
 class JelloFileError(JellysimError, ValueError):
     """A ``.jello`` / body file is malformed."""
+
+
+class RunInterrupted(JellysimError):
+    """A run stopped early on request (SIGINT, SIGTERM, ``stop_after``) after saving its frames
+    and a checkpoint; ``jellysim run --resume`` continues it."""
+
+    def __init__(self, message: str, *, step: int, signal: int | None, out_dir):
+        super().__init__(message)
+        self.step = step
+        self.signal = signal
+        self.out_dir = out_dir
+
+
+class CheckpointError(JellysimError, ValueError):
+    """A checkpoint is missing, damaged or belongs to another scene or version."""
+
+
+class ResourceError(JellysimError, ValueError):
+    """A request would need more memory (or work) than allowed; nothing was built."""

@@ -1,27 +1,44 @@
-"""Run a scene: build, simulate frame by frame, record, write outputs.
+"""Run a scene: build, simulate frame by frame, stream frames to disk, write outputs.
 
 Outputs in ``out_dir``: ``trajectory.npz`` (see :mod:`jellysim.io.trajectory`) and, unless
 disabled, the ParaView series ``body.pvd`` + ``body_NNNNN.vtu`` (and ``skin.pvd`` +
-``skin_NNNNN.vtu`` when the body carries a skin, see :mod:`jellysim.skin`).  If the run goes
-unstable, the frames written so far are kept (the trajectory is saved with
-``status = "failed: ..."``) and the :class:`~jellysim.errors.SimulationError` is re-raised.
+``skin_NNNNN.vtu`` when the body carries a skin, see :mod:`jellysim.skin`).
+
+Frames go to disk as they are produced (``trajectory.stream/``, :mod:`jellysim.io.stream`):
+memory does not grow with the frame count, and a run stopped at any moment leaves every
+flushed frame readable.  When the run ends the stream becomes ``trajectory.npz``.  If the run
+goes unstable, the frames so far are kept (``status = "failed: ..."``) and the
+:class:`~jellysim.errors.SimulationError` is re-raised.  SIGINT / SIGTERM finish the current
+frame, write a checkpoint (``checkpoint.npz``, :mod:`jellysim.io.checkpoint`) and raise
+:class:`~jellysim.errors.RunInterrupted`; ``run_scene(..., resume=True)`` continues from the
+last checkpoint bit-identically.
 """
 from __future__ import annotations
 
 import fnmatch
+import signal
+import threading
 import time
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import JellysimError, SimulationError
-from .io.trajectory import Recorder
+from .errors import JellysimError, RunInterrupted, SimulationError
+from .io.checkpoint import CHECKPOINT, read_checkpoint, write_checkpoint
+from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream
+from .io.trajectory import trajectory_meta
 from .io.vtk import PVDSeries
 
-__all__ = ["RUN_FILES", "RunResult", "prepare_out_dir", "run_scene"]
+__all__ = ["RUN_FILES", "RunResult", "prepare_out_dir", "run_scene",
+           "AUTO_CHECKPOINT_SECONDS"]
+
+AUTO_CHECKPOINT_SECONDS = 60.0
+"""Without ``[output] checkpoint_every``: a checkpoint at the first frame after this much
+wall-clock time since the last one."""
+
 
 RUN_FILES = ("trajectory.npz", "body.pvd", "body_*.vtu", "skin.pvd", "skin_*.vtu",
-             ".trajectory.npz.*", ".body*", ".skin*")
+             ".trajectory.npz.*", ".body*", ".skin*", "checkpoint.npz")
 """Names (glob patterns) of the files a run writes into its folder: what ``--overwrite``
 removes before a new run (nothing else in the folder is touched)."""
 
@@ -44,6 +61,10 @@ def prepare_out_dir(out_dir, *, overwrite: bool = False, owned=RUN_FILES,
     for p in present:
         if p.is_file() and any(fnmatch.fnmatchcase(p.name, pat) for pat in owned):
             p.unlink()
+        elif p.is_dir() and p.name == STREAM_DIR:  # an interrupted run's frames
+            import shutil
+
+            shutil.rmtree(p)
     out_dir.mkdir(parents=True, exist_ok=True)
     return out_dir
 
@@ -58,17 +79,61 @@ class RunResult:
     seconds: float
     """Wall-clock time of the stepping alone [s]."""
     warnings: list[str] = field(default_factory=list)
+    resumed_from: int | None = None
+    """Step of the checkpoint the run continued from (``resume=True``), else ``None``."""
+
+
+def _clean(out_dir: Path) -> None:
+    """Remove what an earlier killed run may have left half-written: ``*.partial`` files
+    and the hidden temporaries of atomic writes of the run's own outputs."""
+    for pattern in ("*.partial", f"{STREAM_DIR}/*.partial", ".trajectory.npz.*",
+                    ".body_*.vtu.*", ".skin_*.vtu.*", ".body.pvd.*", ".skin.pvd.*"):
+        for p in out_dir.glob(pattern):
+            if p.is_file():
+                p.unlink()
+
+
+LARGE_TRAJECTORY_BYTES = 1 << 30
+"""A run whose trajectory will exceed this says so before it starts."""
+
+
+def _check_disk(out_dir: Path, total: int, every: int, n: int, messages: list) -> None:
+    """Refuse a run whose trajectory cannot fit the free disk space; note a large one."""
+    import shutil
+
+    from .errors import ResourceError
+
+    frames = total // every + 2
+    need = frames * n * 48 * 2  # positions + velocities, then the final .npz copy
+    free = shutil.disk_usage(out_dir).free
+    gib = need / (1 << 30)
+    if need > free:
+        raise ResourceError(f"{out_dir}: the trajectory ({frames:,} frames of {n:,} points) "
+                            f"needs about {gib:.3g} GiB on disk, {free / (1 << 30):.3g} GiB "
+                            "free; save fewer frames ([output] every) or free space")
+    if need > LARGE_TRAJECTORY_BYTES:
+        messages.append(f"the trajectory will take about {gib / 2:.3g} GiB ({frames:,} frames "
+                        f"of {n:,} points; [output] every = {every} steps)")
 
 
 def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
-              steps: int | None = None, skin="auto", body=None) -> RunResult:
+              steps: int | None = None, skin="auto", body=None, resume: bool = False,
+              checkpoint_every: int | None = None, stop_after: int | None = None,
+              handle_signals: bool = True) -> RunResult:
     """Simulate ``scene`` (a :class:`~jellysim.scene.Scene`) and write its outputs.
 
     ``skin``: a :class:`~jellysim.skin.Skin` to carry, ``None`` for none, or ``"auto"``
     (:func:`jellysim.skin.default_skin`: the box surface for box scenes).
-    ``body``: a :class:`~jellysim.body.Body` to simulate instead of the scene's own."""
+    ``body``: a :class:`~jellysim.body.Body` to simulate instead of the scene's own.
+    ``resume``: continue the run in ``out_dir`` from its checkpoint (same scene; validated).
+    ``checkpoint_every``: steps between checkpoints (overrides ``[output] checkpoint_every``;
+    0: only when interrupted).
+    ``stop_after``: stop (checkpoint, :class:`RunInterrupted`) at the first frame once this
+    many steps are done, e.g. to split a long run into jobs.
+    ``handle_signals``: catch SIGINT/SIGTERM (main thread only) to stop cleanly."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    _clean(out_dir)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         model = scene.build_model(body)
@@ -85,23 +150,74 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
             skin = None
     total = scene.steps if steps is None else int(steps)
     every = scene.frame_every
-    recorder = Recorder(model, scene_text=scene.text, params=scene.params, skin=skin)
+    if checkpoint_every is None:
+        checkpoint_every = scene.params["output"].get("checkpoint_every")
     write_vtu = scene.params["output"]["vtu"] if vtu is None else vtu
-    series = PVDSeries(out_dir) if write_vtu else None
-    skin_series = PVDSeries(out_dir, "skin") if write_vtu and skin is not None else None
+    _check_disk(out_dir, total, every, model.particle_count, messages)
+    stream_dir = out_dir / STREAM_DIR
+    ckpt_path = out_dir / CHECKPOINT
+    npz_path = out_dir / "trajectory.npz"
     body = model.body
+    resumed_from = None
+    if resume:
+        if not ckpt_path.exists() and npz_path.exists() and not stream_dir.exists():
+            from .errors import CheckpointError
+
+            raise CheckpointError(f"{out_dir}: nothing to resume: the run has finished "
+                                  f"({npz_path}); run without --resume to start afresh")
+        ck = read_checkpoint(ckpt_path, scene=scene, model=model)
+        s = sim.state
+        s.x[:], s.v[:], s.a[:] = ck.x, ck.v, ck.a
+        s.t, s.step = ck.t, ck.step
+        sim.restore_internal_state(ck.internal)
+        try:
+            stream = TrajectoryStream(stream_dir, model.particle_count, keep=ck.frames)
+        except (OSError, ValueError) as exc:
+            from .errors import CheckpointError
+
+            raise CheckpointError(f"{stream_dir}: cannot continue the trajectory stream "
+                                  f"({exc}); start afresh without --resume") from None
+        keep = ck.frames
+        resumed_from = ck.step
+    else:
+        for stale in (npz_path, ckpt_path):
+            if stale.exists():
+                stale.unlink()
+        meta = trajectory_meta(model, scene_text=scene.text, params=scene.params, skin=skin)
+        stream = TrajectoryStream(stream_dir, model.particle_count, meta)
+        keep = None
+    series = PVDSeries(out_dir, keep=keep) if write_vtu else None
+    skin_series = (PVDSeries(out_dir, "skin", keep=keep)
+                   if write_vtu and skin is not None else None)
 
     def emit():
-        recorder.record(sim.state)
+        stream.record(sim.state)
         if series is not None:
             series.add(sim.state.t, sim.state.x, model.spring_ij, velocities=sim.state.v,
                        triangles=body.triangles)
         if skin_series is not None:
             skin_series.add_surface(sim.state.t, skin.deform(sim.state.x), skin.faces)
 
-    emit()
+    def checkpoint():
+        write_checkpoint(ckpt_path, sim, frames=stream.frames, scene=scene, model=model)
+
+    done = sim.state.step
+    if not resume:
+        emit()
+        if checkpoint_every != 0:
+            checkpoint()  # a killed run can always be resumed, from its start at least
     stepped = 0.0
     bar = None
+    stop: list[int | None] = [None]
+    previous_handlers = {}
+    if handle_signals and threading.current_thread() is threading.main_thread():
+        def on_signal(signum, frame):
+            if stop[0] is not None:
+                raise KeyboardInterrupt  # a second signal: stop at once
+            stop[0] = signum
+
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous_handlers[sig] = signal.signal(sig, on_signal)
     if progress:
         from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
                                    TimeRemainingColumn)
@@ -109,27 +225,62 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
         bar = Progress(TextColumn("[bold]simulating"), BarColumn(), MofNCompleteColumn(),
                        TextColumn("steps"), TimeRemainingColumn(), transient=False)
         bar.start()
-        task = bar.add_task("run", total=total)
+        task = bar.add_task("run", total=total, completed=min(done, total))
+    last_wall, last_step = time.monotonic(), done
+    during = warnings.catch_warnings(record=True)
+    caught = during.__enter__()
+    warnings.simplefilter("always")
     try:
-        done = 0
-        while done < total:
-            n = min(every, total - done)
-            t0 = time.perf_counter()
-            try:
-                sim.advance(n)
-            finally:
-                stepped += time.perf_counter() - t0
-            done += n
+        try:
+            while done < total:
+                n = min(every - done % every, total - done)  # frames stay on multiples
+                t0 = time.perf_counter()
+                try:
+                    sim.advance(n)
+                finally:
+                    stepped += time.perf_counter() - t0
+                done += n
+                emit()
+                if bar is not None:
+                    bar.update(task, completed=done)
+                if done >= total:
+                    break
+                if stop[0] is not None or (stop_after is not None and done >= stop_after):
+                    checkpoint()
+                    how = (f"interrupted by {signal.Signals(stop[0]).name}"
+                           if stop[0] is not None else f"stopped after {done} steps as asked")
+                    stream.set_status(f"interrupted at step {done} ({how}); resumable")
+                    raise RunInterrupted(
+                        f"{how} at step {done} of {total} (t = {sim.state.t:.6g} s); "
+                        f"{stream.frames} frames saved in {stream_dir} (jellysim render, "
+                        f"plot and export read it: pass {out_dir}); continue with: jellysim "
+                        f"run {scene.name} --resume {out_dir}",
+                        step=done, signal=stop[0], out_dir=out_dir)
+                if checkpoint_every is None:
+                    due = time.monotonic() - last_wall >= AUTO_CHECKPOINT_SECONDS
+                else:
+                    due = checkpoint_every > 0 and done - last_step >= checkpoint_every
+                if due:
+                    checkpoint()
+                    last_wall, last_step = time.monotonic(), done
+        except SimulationError as exc:
             emit()
-            if bar is not None:
-                bar.update(task, completed=done)
-    except SimulationError as exc:
-        emit()
-        recorder.save(out_dir / "trajectory.npz", status=f"failed: {exc}")
-        raise
+            stream.close()
+            finalize_stream(stream_dir, npz_path, status=f"failed: {exc}")
+            if ckpt_path.exists():
+                ckpt_path.unlink()
+            raise
     finally:
+        during.__exit__(None, None, None)
+        messages += [str(w.message) for w in caught]
+        for sig, handler in previous_handlers.items():
+            signal.signal(sig, handler)
         if bar is not None:
             bar.stop()
-    path = recorder.save(out_dir / "trajectory.npz")
+        stream.close()
+    frames = stream.frames
+    path = finalize_stream(stream_dir, npz_path, status="complete")
+    if ckpt_path.exists():
+        ckpt_path.unlink()
     return RunResult(out_dir, path, series.pvd_path if series else None,
-                     len(recorder.times), total, stepped, messages)
+                     frames, total, stepped, messages, resumed_from)

@@ -173,6 +173,11 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "every": Spec("int", None, "Steps between saved frames (default: about 100 frames).",
                       lambda v: v >= 1, "an integer >= 1"),
         "vtu": Spec("bool", True, "Write the ParaView series body.pvd + one .vtu per frame."),
+        "checkpoint_every": Spec("int", None, "Steps between checkpoints (checkpoint.npz, for "
+                                 "'jellysim run --resume'), taken at the next saved frame; "
+                                 "0: only when interrupted; default: at a frame once a "
+                                 "minute of wall-clock time has passed.",
+                                 lambda v: v >= 0, "an integer >= 0"),
     },
 }
 REQUIRED_SECTIONS = ("body", "springs", "integrator")
@@ -265,7 +270,7 @@ class Scene:
         if preset is not None:
             from .presets import PRESETS, apply_preset
 
-            if preset not in PRESETS:
+            if not isinstance(preset, str) or preset not in PRESETS:
                 raise SceneError(f"{name}: [material] preset = {preset!r}: unknown choice; "
                                  "expected one of " + ", ".join(repr(p) for p in PRESETS))
             raw = apply_preset(raw, preset)
@@ -306,6 +311,12 @@ class Scene:
                       physical=_wants_fem(out))
         b, sp = out["body"], out["springs"]
         kind = b["type"]
+        given = raw.get("body", {}).get("surface_samples")
+        if given is not None and (kind != "mesh" or sp["connect"] != "delaunay") and (
+                kind != "box" or given is not SCHEMA["body"]["surface_samples"].default):
+            # (a box scene resolved by Scene.from_dict carries the default: not an error)
+            raise SceneError(f"{name}: [body] surface_samples is used only by type = 'mesh' "
+                             "with [springs] connect = 'delaunay'; remove it")
         if kind == "box":
             for key, sec in (("points", b), ("radius", sp)):
                 if sec[key] is None:
@@ -321,10 +332,6 @@ class Scene:
                                  f"{kind!r}): the {'mesh' if kind == 'mesh' else 'body'} file")
             if kind == "mesh" and b["points"] is None:
                 b["points"] = 2000
-            if "surface_samples" in raw.get("body", {}) and (
-                    kind != "mesh" or sp["connect"] != "delaunay"):
-                raise SceneError(f"{name}: [body] surface_samples is used only by type = 'mesh' "
-                                 "with [springs] connect = 'delaunay'; remove it")
             if kind == "file" and b["size"] is not None:
                 raise SceneError(f"{name}: [body] size is not used for type = 'file' (a body "
                                  "file has its own units); use base to place it")
@@ -402,6 +409,29 @@ class Scene:
         bottom = np.array([0.5 * (lo[0] + hi[0]), lo[1], 0.5 * (lo[2] + hi[2])])
         return points + (np.asarray(b["base"]) - bottom)
 
+    def _guard(self) -> None:
+        """Refuse before building what cannot run: all-pairs Provot above its point limit,
+        and bodies whose memory estimate exceeds the limit (:mod:`jellysim.resources`)."""
+        from .params import MAX_ALL_PAIRS_POINTS
+        from .resources import check_body_memory
+
+        b, s, p = self.params["body"], self.params["springs"], self.params["provot"]
+        if b["type"] == "file":
+            return
+        n = b["points"] if b["points"] is not None else 2000
+        if p["enabled"] and p["pairs"] == "all" and n > MAX_ALL_PAIRS_POINTS:
+            raise SceneError(f"{self.name}: [provot] pairs = 'all' is O(n^2) and limited to "
+                             f"{MAX_ALL_PAIRS_POINTS} points; [body] points = {n}. Use pairs = "
+                             "'springs' (and a stiffer material) or fewer points.")
+        if b["type"] == "box":
+            vol = float(np.prod(np.subtract(b["upper"], b["lower"])))
+            r = s["radius"]
+            nb = min(n - 1.0, n * 4.18879 * r ** 3 / vol) if (r and vol > 0) else 24.0
+            check_body_memory(n, neighbours=max(nb, 1.0), what=f"{self.name}: [body] points")
+        else:
+            check_body_memory(n, neighbours=s["neighbours"] or 24.0,
+                              tets=s["connect"] != "radius", what=f"{self.name}: [body] points")
+
     def build_body(self):
         from .body import Body
         from .errors import JellysimError
@@ -409,6 +439,7 @@ class Scene:
         from .geometry.sampling import box_field
 
         b, s = self.params["body"], self.params["springs"]
+        self._guard()
         if b["type"] == "file":
             from dataclasses import replace
 

@@ -19,9 +19,9 @@ from .errors import SceneError, SimulationError
 from .kernels import INTEGRATOR_CODES, STATUS_NONFINITE, STATUS_OK, Backend, get_backend
 from .params import (MAX_ALL_PAIRS_POINTS, GroundModel, GroundParams, ImplicitParams,
                      Integrator, ProvotOrder, ProvotPairs, ProvotParams)
-from .stability import StabilityEstimate, estimate_stability
+from .stability import StabilityEstimate, estimate_stability, implicit_accuracy
 
-__all__ = ["Simulator", "StabilityWarning", "auto_threads"]
+__all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads"]
 
 PARALLEL_MIN_POINTS = 500
 """Below this many points one thread is used.  From the paper scene's 600 points on, two
@@ -38,6 +38,28 @@ small body (and far more when another process competes for the cores)."""
 
 class StabilityWarning(UserWarning):
     """The time step exceeds the estimated stable limit."""
+
+
+class SolverWarning(UserWarning):
+    """A linear solve stopped above its tolerance (see :data:`CG_ERROR_RESIDUAL`)."""
+
+
+CG_ERROR_RESIDUAL = 0.1
+"""A conjugate-gradient solve that stops with a relative residual above this is an error
+(:class:`SimulationError`); above the tolerance but below this, a :class:`SolverWarning`."""
+
+COLLAPSE_FRACTION = 0.02
+"""One :meth:`Simulator.advance` call that shrinks the body's thickness (smallest principal
+spread of its points) below this fraction of its rest value is a blow-up (e.g. an implicit
+step far too large for the material, which flattens the body in one step)."""
+
+COLLAPSE_MIN_POINTS = 20
+"""Bodies with fewer points (or thin at rest: sheets, rods) are not checked for collapse."""
+
+STATUS_NOT_CONVERGED = 101
+"""``SimulationError.status`` of a solve that did not converge (not a kernel code)."""
+STATUS_COLLAPSE = 102
+"""``SimulationError.status`` of a body that collapsed in one call (not a kernel code)."""
 
 
 def auto_threads(point_count: int) -> int:
@@ -165,6 +187,9 @@ class Simulator:
         """Conjugate-gradient iterations taken so far (implicit integrator)."""
         self.cg_worst_residual = 0.0
         """Largest relative residual a CG solve stopped at (implicit integrator)."""
+        self.cg_unconverged = 0
+        """Advance calls in which a CG solve stopped above its tolerance (implicit)."""
+        self._last_worst = 0.0
         try:
             self.backend = Backend(backend)
         except ValueError:
@@ -193,6 +218,10 @@ class Simulator:
             diag = float(np.linalg.norm(x0.max(axis=0) - x0.min(axis=0)))
             runaway_distance = max(100.0 * diag, 100.0)
         self.runaway_distance = float(runaway_distance)
+        spread = np.sqrt(np.maximum(np.linalg.eigvalsh(np.cov(x0, rowvar=False)), 0.0)) if (
+            n >= COLLAPSE_MIN_POINTS) else np.zeros(3)
+        self._rest_thin = float(spread[0])
+        self._collapse_check = bool(n >= COLLAPSE_MIN_POINTS and spread[0] > 0.1 * spread[2])
         k = model.spring_count
         # the backend interface (kernels/records.py): records built once, the drivers called
         # with them and the state arrays only
@@ -404,12 +433,68 @@ class Simulator:
                 StabilityWarning, stacklevel=2)
         return est
 
+    _COUNTERS = ("cg_iterations", "cg_worst_residual", "cg_unconverged")
+
+    def internal_state(self) -> dict[str, np.ndarray]:
+        """Every private array the simulator keeps between :meth:`advance` calls, copied.
+
+        Collected generically: each ``numpy`` array attribute whose name starts with ``_``
+        (``_hist``, ``_fresh``, ``_contact_state``, ``_cg``'s warm start and scratch...), each
+        list/tuple of arrays as ``name.i`` (``_cg.0``), ``_last`` when set, and the CG counters.
+        A new private array is therefore checkpointed without touching this method.  With
+        :attr:`state` (x, v, a, t, step) it is everything a bitwise resume needs."""
+        out: dict[str, np.ndarray] = {}
+        for name, value in vars(self).items():
+            if not name.startswith("_"):
+                continue
+            if isinstance(value, np.ndarray):
+                out[name] = value.copy()
+            elif isinstance(value, (list, tuple)) and value and all(
+                    isinstance(v, np.ndarray) for v in value):
+                for i, v in enumerate(value):
+                    out[f"{name}.{i}"] = v.copy()
+        for name in self._COUNTERS:
+            out[name] = np.array(getattr(self, name))
+        return out
+
+    def restore_internal_state(self, d) -> None:
+        """Inverse of :meth:`internal_state`: copy the arrays back in place.  Raises
+        :class:`SceneError` when ``d`` does not fit this simulator (another body or
+        integrator)."""
+        own = self.internal_state()
+        missing = sorted(set(own) - set(d) - {"_last.0", "_last.1"})
+        extra = sorted(set(d) - set(own) - {"_last.0", "_last.1"})
+        if missing or extra:
+            raise SceneError(f"saved simulator state does not fit this simulator (missing "
+                             f"{missing}, unexpected {extra}): same scene and integrator?")
+        for key in own:
+            if key in self._COUNTERS:
+                continue
+            if key.startswith("_last."):
+                continue
+            if own[key].shape != np.shape(d[key]) or own[key].dtype != np.asarray(d[key]).dtype:
+                raise SceneError(f"saved simulator state '{key}' has shape "
+                                 f"{np.shape(d[key])}, expected {own[key].shape}")
+        for key in own:
+            if key in self._COUNTERS or key.startswith("_last."):
+                continue
+            name, _, i = key.partition(".")
+            target = getattr(self, name)[int(i)] if i else getattr(self, name)
+            np.copyto(target, d[key])
+        if "_last" in vars(self):
+            self._last = ((np.array(d["_last.0"]), np.array(d["_last.1"]))
+                          if "_last.0" in d else None)
+        self.cg_iterations = int(d["cg_iterations"])
+        self.cg_worst_residual = float(d["cg_worst_residual"])
+        self.cg_unconverged = int(d["cg_unconverged"])
+
     def advance(self, steps: int = 1) -> None:
         """Take ``steps`` time steps.  Raises :class:`SimulationError` on blow-up, leaving
         the state as it was after the failing step."""
         if steps <= 0:
             return
         s = self.state
+        thin_before = self._thinness(s.x) if self._collapse_check else None
         import numba
 
         previous = numba.get_num_threads()
@@ -427,6 +512,63 @@ class Simulator:
         s.t += int(done) * self.dt
         if status != STATUS_OK:
             self._raise(status)
+        self._check_collapse(thin_before, int(done))
+        if self.integrator is Integrator.IMPLICIT:
+            self._check_solves()
+
+    @staticmethod
+    def _thinness(x) -> float:
+        """The body's smallest principal standard deviation [m] (its thinnest direction)."""
+        c = np.cov(x, rowvar=False)
+        return float(np.sqrt(max(np.linalg.eigvalsh(c)[0], 0.0)))
+
+    def _check_collapse(self, before, steps) -> None:
+        """A 3D body (>= COLLAPSE_MIN_POINTS points, not thin at rest) whose thinnest
+        direction shrinks below COLLAPSE_FRACTION of its rest value within one call, having
+        been above a quarter of it before the call, collapsed: a blow-up."""
+        if before is None or steps <= 0 or before < 0.25 * self._rest_thin:
+            return
+        after = self._thinness(self.state.x)
+        if after >= COLLAPSE_FRACTION * self._rest_thin:
+            return
+        s = self.state
+        if self.integrator is Integrator.IMPLICIT:
+            est = self.stability or estimate_stability(
+                self.model, self.integrator, self.dt_step, theta=self.implicit.theta,
+                scheme=self.implicit.scheme)
+            _, _, words = implicit_accuracy(est.omega_max, self.dt_step,
+                                            theta=self.implicit.theta,
+                                            scheme=self.implicit.scheme)
+            fix = (f"the step is far too large for this material ({words}): use a smaller dt "
+                   "or [integrator] substeps (omega_max dt below about 1)")
+        else:
+            fix = ("the forces are far too strong for this dt or the body too soft: check "
+                   "[physics] gravity and the stiffness, or use a smaller dt")
+        raise SimulationError(
+            f"the body collapsed at step {s.step} (t = {s.t:.6g} s): its thickness (smallest "
+            f"principal spread) went from {before:.4g} m to {after:.4g} m within {steps} "
+            f"step(s), {self._rest_thin:.4g} m at rest; {fix}", step=s.step,
+            status=STATUS_COLLAPSE)
+
+    def _check_solves(self) -> None:
+        worst = self._last_worst
+        tol = float(self.implicit.tolerance)
+        if not worst > tol * (1 + 1e-9):
+            return
+        s = self.state
+        fix = (f"raise [integrator] cg_max_iterations (now {self.implicit.max_iterations}), "
+               "or use a smaller dt (fewer iterations needed); if neither helps, check the "
+               "material (Young's modulus, masses): the system may be ill-conditioned")
+        what = (f"a conjugate-gradient solve stopped at relative residual {worst:.3g} "
+                f"(tolerance {tol:g}) after {self.implicit.max_iterations} iterations")
+        if worst > CG_ERROR_RESIDUAL:
+            raise SimulationError(f"{what} by step {s.step} (t = {s.t:.6g} s): the step is "
+                                  f"not solved; {fix}", step=s.step,
+                                  status=STATUS_NOT_CONVERGED)
+        self.cg_unconverged += 1
+        if self.cg_unconverged == 1:
+            warnings.warn(f"{what} by step {s.step} (t = {s.t:.6g} s); {fix} (later ones are "
+                          "counted in Simulator.cg_unconverged)", SolverWarning, stacklevel=3)
 
     def _advance_implicit(self, steps):
         s = self.state
@@ -441,6 +583,7 @@ class Simulator:
         if bdf2:
             self._last = (s.x.copy(), s.v.copy())
         self.cg_iterations += int(iters)
+        self._last_worst = float(worst)
         self.cg_worst_residual = max(self.cg_worst_residual, float(worst))
         return (done + sub - 1) // sub, status
 
@@ -464,9 +607,14 @@ class Simulator:
                                                    theta=self.implicit.theta,
                                                    scheme=self.implicit.scheme)
         if self.integrator is Integrator.IMPLICIT:
-            hint = ("the implicit step is linearised: try a smaller dt, theta closer to 1 "
-                    "or a tighter CG tolerance")
-        elif est.dt_max > 0:
+            _, _, words = implicit_accuracy(est.omega_max, self.dt_step,
+                                            theta=self.implicit.theta,
+                                            scheme=self.implicit.scheme)
+            raise SimulationError(
+                f"simulation went unstable at step {failed} (t = {s.t:.6g} s): {what}; the "
+                "implicit step is linearised: try a smaller dt, theta closer to 1 or a tighter "
+                f"CG tolerance ({words})", step=failed, status=int(status))
+        if est.dt_max > 0:
             hint = f"try dt <= {0.5 * min(self.dt_step, est.dt_max):.3g} s"
         else:
             hint = "add damping or use integrator = 'symplectic'"

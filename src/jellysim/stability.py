@@ -138,3 +138,35 @@ def estimate_stability(model, integrator: Integrator, dt: float, *,
         return StabilityEstimate(lam, method, float(spring_limit),
                                  "forward Euler: dt < (delta/m) / omega_max^2")
     return StabilityEstimate(lam, method, float(damping_limit), "damping: delta dt / m < 2")
+
+
+def implicit_accuracy(omega_max: float, dt: float, *, theta: float = 1.0,
+                      scheme: str = "theta") -> tuple[float, float, str]:
+    """Accuracy of the implicit step for the body's highest mode (linearised, undamped).
+
+    Returns ``(z, loss, words)``: ``z = omega_max dt`` (the mode is resolved when ``z`` is
+    well below 1: fewer than ``2 pi / z`` steps per period otherwise), ``loss`` the fraction of
+    that mode's amplitude the scheme removes per step (``1 - |A|``; theta method:
+    ``|A|^2 = (1 + (1 - theta)^2 z^2) / (1 + theta^2 z^2)``; BDF2: the largest root of
+    ``(3/2 - i z) r^2 - 2 r + 1/2 = 0``) and a sentence for messages."""
+    z = float(omega_max) * float(dt)
+    if scheme == "bdf2":
+        roots = np.roots([1.5 - 1j * z, -2.0, 0.5])
+        amp = float(np.max(np.abs(roots)))
+        name = "BDF2"
+    else:
+        amp = float(np.sqrt((1 + (1 - theta) ** 2 * z * z) / (1 + theta * theta * z * z)))
+        name = f"theta = {theta:g}"
+    loss = 1.0 - amp
+    if scheme != "bdf2" and theta < 0.5 and z > 0:
+        return z, loss, (f"implicit {name} < 1/2: not stable for undamped modes (grows "
+                         f"{-loss:.1%} per step at omega_max dt = {z:.3g}); use theta >= 1/2")
+    if z == 0:
+        words = f"implicit {name}: unconditionally stable; no spring mode to resolve"
+    else:
+        steps = 2 * np.pi / z
+        words = (f"implicit {name}: unconditionally stable; accuracy: omega_max dt = {z:.3g} "
+                 f"({steps:.3g} steps per period of the highest mode, "
+                 f"{'resolved' if z < 1 else 'not resolved'}), which loses {loss:.1%} of its "
+                 "amplitude per step")
+    return z, loss, words

@@ -34,13 +34,18 @@ import numpy as np
 from jellysim.body import Body
 from jellysim.errors import JelloFileError
 
-__all__ = ["MAGIC", "VERSION", "read_jello", "write_jello", "read_body", "write_body"]
+__all__ = ["MAGIC", "VERSION", "read_jello", "parse_jello", "write_jello", "read_body",
+           "write_body"]
 
 MAGIC = "jello"
 VERSION = 1
 NPZ_FORMAT = "jello-npz 1"
 
-_TOKEN = re.compile(r"\S+")
+_TOKEN = re.compile(r"[^ \t]+")  # the spec: tokens are separated by spaces or tabs only
+MAX_COUNT_DIGITS = 15
+"""Row counts and indices longer than this many digits are refused before ``int()``."""
+MAX_META_DEPTH = 64
+"""Deepest nesting of arrays/objects accepted in ``meta``."""
 # section -> (fixed fields, allowed optional columns)
 _SECTIONS = {
     "points": (("x", "y", "z"), ("mass",)),
@@ -62,13 +67,25 @@ class _Lines:
     def __init__(self, path: str, text: str):
         self.path = path
         self.rows: list[tuple[int, list[tuple[int, str]], str]] = []
-        for no, raw in enumerate(text.splitlines(), start=1):
+        # line breaks are '\n' and '\r\n' only (the spec): no splitlines(), which also breaks
+        # at form feeds, U+2028, '\x85' ...; a bare '\r' is an error
+        self.raw = text.split("\n")
+        if self.raw and self.raw[-1] == "":
+            self.raw.pop()
+        for no, raw in enumerate(self.raw, start=1):
+            if raw.endswith("\r"):
+                raw = raw[:-1]
+                self.raw[no - 1] = raw
+            cr = raw.find("\r")
+            if cr >= 0:
+                raise self.error(no, cr + 1, "bare carriage return (CR) in a line; lines end "
+                                 "with LF or CR LF only")
             body = raw.split("#", 1)[0]
             toks = [(m.start() + 1, m.group()) for m in _TOKEN.finditer(body)]
             if toks:
                 self.rows.append((no, toks, body))
         self.pos = 0
-        self.last_line = text.count("\n") + (0 if text.endswith("\n") or not text else 1)
+        self.last_line = len(self.raw)
 
     def next(self, expected: str):
         if self.pos >= len(self.rows):
@@ -82,7 +99,7 @@ class _Lines:
         return JelloFileError(f"{self.path}:{line}:{col}: {msg}")
 
 
-_FLOAT = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+_FLOAT = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _NONFINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
 
 
@@ -98,8 +115,11 @@ def _parse_float(lines: _Lines, line: int, col: int, tok: str, what: str) -> flo
 
 
 def _parse_int(lines: _Lines, line: int, col: int, tok: str, what: str, n: int) -> int:
-    if not re.fullmatch(r"[+-]?\d+", tok):
+    if not re.fullmatch(r"[+-]?[0-9]+", tok):
         raise lines.error(line, col, f"cannot parse {tok!r} as an integer; expected {what}")
+    if len(tok.lstrip("+-").lstrip("0")) > MAX_COUNT_DIGITS:
+        raise lines.error(line, col, f"index of {len(tok)} digits out of range; expected "
+                          f"{what} in 0..{max(n - 1, 0)}")
     val = int(tok)
     if not 0 <= val < n:
         raise lines.error(line, col, f"index {val} out of range; expected {what} in 0..{n - 1}"
@@ -111,10 +131,78 @@ def _parse_count(lines: _Lines, line: int, col: int, tok: str | None, name: str)
     if tok is None:
         raise lines.error(line, col, f"missing row count after '{name}'; expected "
                           f"'{name} <count>'")
-    if not re.fullmatch(r"\+?\d+", tok):
+    if not re.fullmatch(r"\+?[0-9]+", tok):
         raise lines.error(line, col, f"bad row count {tok!r} for section '{name}'; expected a "
                           "non-negative integer")
-    return int(tok)
+    if len(tok.lstrip("+").lstrip("0")) > MAX_COUNT_DIGITS:
+        raise lines.error(line, col, f"row count of {len(tok)} digits for section '{name}' is "
+                          f"too large; expected at most {MAX_COUNT_DIGITS} digits")
+    val = int(tok)
+    if name == "points" and val == 0:
+        raise lines.error(line, col, "'points 0': a body needs at least one point")
+    return val
+
+
+def _json_depth(js: str) -> int:
+    """Deepest bracket nesting of a JSON text (outside strings), without parsing it."""
+    depth = best = 0
+    in_str = esc = False
+    for ch in js:
+        if in_str:
+            if esc:
+                esc = False
+            elif ch == "\\":
+                esc = True
+            elif ch == '"':
+                in_str = False
+        elif ch == '"':
+            in_str = True
+        elif ch in "[{":
+            depth += 1
+            best = max(best, depth)
+        elif ch in "]}":
+            depth -= 1
+    return best
+
+
+def _finite_float(tok: str) -> float:
+    v = float(tok)
+    if not math.isfinite(v):
+        raise ValueError(f"number {tok[:20]} is not finite")
+    return v
+
+
+def _no_constant(tok: str):
+    raise ValueError(f"{tok} is not allowed (JSON numbers must be finite)")
+
+
+def _meta_json(js: str):
+    """Parse ``meta`` JSON strictly: finite numbers only (no NaN/Infinity), integers of at most
+    :data:`MAX_COUNT_DIGITS` x 20 digits, nesting at most :data:`MAX_META_DEPTH`.  Raises
+    ``ValueError`` (with ``pos`` when the JSON itself is bad)."""
+    if _json_depth(js) > MAX_META_DEPTH:
+        raise ValueError(f"nested deeper than {MAX_META_DEPTH} levels")
+
+    def big_int(tok: str) -> int:
+        if len(tok) > 300:
+            raise ValueError(f"an integer of {len(tok)} digits")
+        return int(tok)
+
+    return json.loads(js, parse_float=_finite_float, parse_int=big_int,
+                      parse_constant=_no_constant)
+
+
+def _parse_meta(lines, no: int, col: int, js: str) -> dict:
+    try:
+        meta = _meta_json(js)
+    except json.JSONDecodeError as exc:
+        raise lines.error(no, col + exc.pos, f"bad JSON in 'meta': {exc.msg}") from None
+    except (ValueError, RecursionError) as exc:
+        raise lines.error(no, col, f"'meta' JSON refused: {exc}; expected a JSON object "
+                          "of finite numbers, strings, lists and objects") from None
+    if not isinstance(meta, dict):
+        raise lines.error(no, col, "expected a JSON object after 'meta'")
+    return meta
 
 
 def read_jello(path) -> Body:
@@ -126,13 +214,26 @@ def read_jello(path) -> Body:
     path = Path(path)
     name = str(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as exc:
-        raise JelloFileError(f"{name}: not a UTF-8 text file ({exc})") from None
+        data_bytes = path.read_bytes()
     except FileNotFoundError:
         raise JelloFileError(f"{name}: file not found") from None
     except OSError as exc:
         raise JelloFileError(f"{name}: cannot read ({exc.strerror})") from None
+    return parse_jello(data_bytes, name=name)
+
+
+def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
+    """Parse the bytes of a ``.jello`` file (see :func:`read_jello`); ``name`` is used in
+    error messages."""
+    try:
+        text = data_bytes.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        start = data_bytes.rfind(b"\n", 0, exc.start) + 1
+        line = data_bytes.count(b"\n", 0, exc.start) + 1
+        col = len(data_bytes[start:exc.start].decode("utf-8", errors="replace")) + 1
+        raise JelloFileError(f"{name}:{line}:{col}: not UTF-8 text (byte "
+                             f"0x{data_bytes[exc.start]:02x}: {exc.reason}); .jello files are "
+                             "UTF-8") from None
     lines = _Lines(name, text)
 
     # header
@@ -179,13 +280,9 @@ def read_jello(path) -> Body:
             continue
         if word == "meta":
             # the rest of the raw line is JSON ('#' is no comment here: it may be in a string)
-            raw = text.splitlines()[no - 1]
+            raw = lines.raw[no - 1]
             js = raw[toks[1][0] - 1:].strip() if len(toks) > 1 else ""
-            try:
-                meta = json.loads(js)
-            except json.JSONDecodeError as exc:
-                raise lines.error(no, (toks[1][0] if len(toks) > 1 else col) + exc.pos,
-                                  f"bad JSON in 'meta': {exc.msg}") from None
+            meta = _parse_meta(lines, no, toks[1][0] if len(toks) > 1 else col, js)
             if not isinstance(meta, dict):
                 raise lines.error(no, toks[1][0], "expected a JSON object after 'meta'")
             data["meta"] = meta
@@ -338,6 +435,8 @@ def _validate(src: str, points, springs, rest_length=None, stiffness=None, masse
 
     points = floats("points", points, (None, 3))
     n = points.shape[0]
+    if n == 0:
+        raise err("points", "no rows; a body needs at least one point")
     springs = ints("springs", springs, 2, n)
     k = springs.shape[0]
     if k:
@@ -448,15 +547,27 @@ def write_npz(path, body: Body) -> None:
 
 
 def read_npz(path) -> Body:
-    """Read a body written by :func:`write_npz`, validated like the text format."""
-    path = Path(path)
-    src = str(path)
+    """Read a body written by :func:`write_npz`, validated like the text format.  ``path``
+    may also be a binary file object (error messages then use its ``name``, if any)."""
+    if hasattr(path, "read"):
+        src = str(getattr(path, "name", "<npz>"))
+    else:
+        path = Path(path)
+        src = str(path)
+    from zipfile import BadZipFile
+
+    from jellysim.io.npzcheck import check_npz
+
     try:
+        check_npz(path)
+        if hasattr(path, "seek"):
+            path.seek(0)
         with np.load(path, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
     except FileNotFoundError:
         raise JelloFileError(f"{src}: file not found") from None
-    except (OSError, ValueError, EOFError) as exc:
+    except (OSError, ValueError, EOFError, BadZipFile, KeyError, SyntaxError,
+            NotImplementedError, MemoryError) as exc:
         raise JelloFileError(f"{src}: not a readable .npz file ({exc})") from None
     fmt = arrays.pop("format", None)
     if fmt is None or fmt.shape != () or str(fmt) != NPZ_FORMAT:
@@ -475,9 +586,12 @@ def read_npz(path) -> Body:
     meta = {}
     if meta_s is not None:
         try:
-            meta = json.loads(str(meta_s))
+            meta = _meta_json(str(meta_s))
         except json.JSONDecodeError as exc:
             raise JelloFileError(f"{src}: array 'meta': bad JSON ({exc.msg})") from None
+        except (ValueError, RecursionError) as exc:
+            raise JelloFileError(f"{src}: array 'meta': refused ({exc}); expected a JSON "
+                                 "object of finite values") from None
         if not isinstance(meta, dict):
             raise JelloFileError(f"{src}: array 'meta': expected a JSON object")
     a = _validate(src, **arrays)

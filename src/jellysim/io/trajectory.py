@@ -1,5 +1,8 @@
 """Trajectories: positions per frame plus everything needed to interpret them, in one ``.npz``.
 
+A run streams its frames to ``trajectory.stream/`` while it goes (:mod:`jellysim.io.stream`)
+and writes the ``.npz`` at the end; :func:`load_trajectory` reads either.
+
 Arrays stored (SI units):
 
 =================  ==============  =============================================
@@ -17,7 +20,8 @@ Arrays stored (SI units):
 ``tets``           (t, 4) i8       tetrahedra (may be empty)
 ``scene_toml``     str             the scene file's text
 ``params_json``    str             every resolved parameter, as JSON
-``status``         str             ``"complete"`` or ``"failed: <message>"``
+``status``         str             ``"complete"``, ``"failed: <message>"`` (or, read from a
+                                   stream: ``"interrupted at step N ..."``, ``"incomplete: ..."``)
 =================  ==============  =============================================
 
 Optional skin (:mod:`jellysim.skin`; absent in older files, which load with ``skin = None``):
@@ -32,6 +36,7 @@ Optional skin (:mod:`jellysim.skin`; absent in older files, which load with ``sk
 from __future__ import annotations
 
 import json
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -39,11 +44,12 @@ import numpy as np
 
 from .atomic import atomic_path
 
-__all__ = ["Recorder", "Trajectory", "load_trajectory"]
+__all__ = ["Recorder", "Trajectory", "load_trajectory", "resolve_trajectory", "trajectory_meta"]
 
 
 class Recorder:
-    """Collects frames of one run in memory and writes them as one ``.npz``."""
+    """Collects frames in memory and writes them as one ``.npz`` (for short runs from Python;
+    ``jellysim run`` streams its frames to disk instead, :mod:`jellysim.io.stream`)."""
 
     def __init__(self, model, *, scene_text: str = "", params: dict | None = None,
                  skin=None):
@@ -63,12 +69,9 @@ class Recorder:
         self.steps.append(int(state.step))
 
     def save(self, path, *, status: str = "complete") -> Path:
-        m = self.model
-        body = m.body
-        empty3 = np.zeros((0, 3), dtype=np.int64)
-        empty4 = np.zeros((0, 4), dtype=np.int64)
-        n = m.particle_count
-        extra = self.skin.arrays() if self.skin is not None else {}
+        n = self.model.particle_count
+        meta = trajectory_meta(self.model, scene_text=self.scene_text, params=self.params,
+                               skin=self.skin)
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as fh:
                 np.savez_compressed(
@@ -77,15 +80,25 @@ class Recorder:
                     velocities=np.asarray(self.velocities, dtype=np.float64).reshape(-1, n, 3),
                     times=np.asarray(self.times, dtype=np.float64),
                     steps=np.asarray(self.steps, dtype=np.int64),
-                    rest_positions=m.particle_x0, masses=m.particle_mass,
-                    springs=m.spring_ij, rest_length=m.spring_rest_length,
-                    stiffness=m.spring_stiffness, gravity=m.gravity,
-                    triangles=body.triangles if body.triangles is not None else empty3,
-                    tets=body.tets if body.tets is not None else empty4,
-                    scene_toml=np.array(self.scene_text),
-                    params_json=np.array(json.dumps(self.params, sort_keys=True)),
-                    status=np.array(status), **extra)
+                    status=np.array(status), **meta)
         return Path(path)
+
+
+def trajectory_meta(model, *, scene_text: str = "", params: dict | None = None,
+                    skin=None) -> dict[str, np.ndarray]:
+    """The arrays of a trajectory that do not change from frame to frame (module table)."""
+    m = model
+    body = m.body
+    empty3 = np.zeros((0, 3), dtype=np.int64)
+    empty4 = np.zeros((0, 4), dtype=np.int64)
+    extra = skin.arrays() if skin is not None else {}
+    return dict(rest_positions=m.particle_x0, masses=m.particle_mass,
+                springs=m.spring_ij, rest_length=m.spring_rest_length,
+                stiffness=m.spring_stiffness, gravity=m.gravity,
+                triangles=body.triangles if body.triangles is not None else empty3,
+                tets=body.tets if body.tets is not None else empty4,
+                scene_toml=np.array(scene_text),
+                params_json=np.array(json.dumps(params or {}, sort_keys=True)), **extra)
 
 
 @dataclass
@@ -127,21 +140,62 @@ class Trajectory:
         return self.skin.deform(x)
 
 
-def load_trajectory(path) -> Trajectory:
-    """Read a trajectory written by :class:`Recorder`."""
+def resolve_trajectory(path) -> Path:
+    """The file or stream directory a trajectory argument names.
+
+    Accepted: a ``trajectory.npz`` file; a stream directory (``trajectory.stream``, see
+    :mod:`jellysim.io.stream`); a run's output directory (its ``trajectory.npz``, else its
+    stream); a missing ``.npz`` whose directory holds a stream (a run that was interrupted or
+    killed before it could write the ``.npz``)."""
     from ..errors import JellysimError
+    from .stream import STREAM_DIR
 
     path = Path(path)
+    if path.is_dir():
+        if (path / "meta.npz").is_file():
+            return path
+        for cand in (path / "trajectory.npz", path / STREAM_DIR):
+            if cand.exists():
+                return cand
+        raise JellysimError(f"{path}: directory holds no trajectory.npz and no {STREAM_DIR}")
+    if not path.exists() and (path.parent / STREAM_DIR / "meta.npz").is_file():
+        return path.parent / STREAM_DIR
+    if not path.exists():
+        raise JellysimError(f"{path}: trajectory file not found")
+    return path
+
+
+def load_trajectory(path, *, mmap: bool = False) -> Trajectory:
+    """Read a trajectory written by :class:`Recorder`, by a run (``trajectory.npz``) or a run's
+    stream of frames (interrupted or killed runs), see :func:`resolve_trajectory`.
+
+    ``mmap``: stream directories only: map the per-frame arrays read-only from disk instead of
+    reading them (memory independent of the frame count)."""
+    from ..errors import JellysimError
+
+    path = resolve_trajectory(path)
     try:
-        with np.load(path, allow_pickle=False) as z:
-            d = {k: z[k] for k in z.files}
-    except FileNotFoundError:
-        raise JellysimError(f"{path}: trajectory file not found") from None
-    except (OSError, ValueError) as exc:
+        if path.is_dir():
+            from .stream import read_stream
+
+            d = read_stream(path, mmap=mmap)
+        else:
+            from .npzcheck import check_npz
+
+            check_npz(path)
+            with np.load(path, allow_pickle=False) as z:
+                d = {k: z[k] for k in z.files}
+    except FileNotFoundError as exc:
+        raise JellysimError(f"{path}: trajectory incomplete ({exc.filename} not found)") from None
+    except (OSError, ValueError, KeyError, SyntaxError, EOFError, zipfile.BadZipFile,
+            NotImplementedError) as exc:
         raise JellysimError(f"{path}: not a jellysim trajectory ({exc})") from None
     missing = {"positions", "times", "springs", "params_json"} - set(d)
     if missing:
         raise JellysimError(f"{path}: not a jellysim trajectory (missing {sorted(missing)})")
+    if path.is_dir() and len(d["times"]) == 0:
+        raise JellysimError(f"{path}: the run was stopped before its first frame was "
+                            "flushed: no frame to read")
     return Trajectory(
         positions=d["positions"], velocities=d["velocities"], times=d["times"],
         steps=d["steps"], rest_positions=d["rest_positions"], masses=d["masses"],

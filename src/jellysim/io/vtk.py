@@ -3,8 +3,8 @@
 A skin (:mod:`jellysim.skin`) is written as its own series (``skin.pvd``) because its vertices
 are not the body's points.  :func:`export_pvd` writes both series from a saved trajectory.
 
-The ``.pvd`` file is rewritten (atomically) after every frame, so a run that stops early still
-leaves a valid series of the frames written so far.
+The ``.pvd`` index grows by one in-place write per frame, after that frame's ``.vtu`` is
+complete, so a run that stops early (even killed) leaves a valid series of the frames so far.
 """
 from __future__ import annotations
 
@@ -19,8 +19,9 @@ __all__ = ["PVDSeries", "export_pvd", "export_pvd_file", "write_vtu"]
 
 
 def write_vtu(path, points: np.ndarray, springs: np.ndarray, *, point_data=None,
-              triangles: np.ndarray | None = None) -> None:
-    """One frame: points [m] (n, 3), springs (k, 2) as VTK lines (+ optional triangles)."""
+              triangles: np.ndarray | None = None, atomic: bool = True) -> None:
+    """One frame: points [m] (n, 3), springs (k, 2) as VTK lines (+ optional triangles).
+    ``atomic=False`` writes ``path`` directly (a series lists it only once complete)."""
     import meshio
 
     cells = [("line", np.asarray(springs, dtype=np.int64))]
@@ -28,40 +29,68 @@ def write_vtu(path, points: np.ndarray, springs: np.ndarray, *, point_data=None,
         cells.append(("triangle", np.asarray(triangles, dtype=np.int64)))
     mesh = meshio.Mesh(np.asarray(points, dtype=np.float64), cells,
                        point_data=point_data or {})
+    if not atomic:
+        meshio.write(path, mesh, file_format="vtu")
+        return
     with atomic_path(path) as tmp:
         meshio.write(tmp, mesh, file_format="vtu")
 
 
+_PVD_HEAD = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" '
+             'byte_order="LittleEndian">\n  <Collection>\n')
+_PVD_TAIL = "  </Collection>\n</VTKFile>\n"
+
+
 class PVDSeries:
-    """A ParaView time series ``<dir>/<name>.pvd`` + ``<dir>/<pieces><piece>_NNNNN.vtu``.
+    """A ParaView time series ``<dir>/<name>.pvd`` + ``<dir>/<pieces>/<piece>_NNNNN.vtu``.
 
-    ``pieces``: a sub-folder of ``directory`` for the ``.vtu`` files (default: none, they lie
-    next to the ``.pvd``); ``piece``: their name stem (default: ``name``)."""
+    Each frame's ``.vtu`` is written first, then its entry is added to the ``.pvd`` by one
+    in-place write that replaces the closing tags with the entry and the closing tags: the
+    index is valid after every frame, lists only complete frames, costs O(1) per frame and
+    needs no temporary file.  ``keep``: continue an existing series after its first ``keep``
+    frames (resume).  ``pieces``: a sub-folder of ``directory`` for the ``.vtu`` files
+    (default: none, they lie next to the ``.pvd``); ``piece``: their name stem (default:
+    ``name``)."""
 
-    def __init__(self, directory, name: str = "body", *, pieces: str = "",
-                 piece: str | None = None):
+    def __init__(self, directory, name: str = "body", *, keep: int | None = None,
+                 pieces: str = "", piece: str | None = None):
+        import os
+        import re
+
         self.directory = Path(directory)
         self.name = name
         self.pieces = pieces
         self.piece = name if piece is None else piece
-        self.entries: list[tuple[float, str]] = []
+        rows: list[str] = []
+        if keep is not None and self.pvd_path.exists():
+            text = self.pvd_path.read_text(encoding="utf-8")
+            rows = re.findall(r"^    <DataSet .*/>\n", text, flags=re.M)[:keep]
+        self.count = len(rows)
+        data = (_PVD_HEAD + "".join(rows)).encode("utf-8")
+        self._tail = len(data)
+        self.directory.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.pvd_path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o666)
+        try:
+            os.write(fd, data + _PVD_TAIL.encode("utf-8"))
+        finally:
+            os.close(fd)
 
     @property
     def pvd_path(self) -> Path:
         return self.directory / f"{self.name}.pvd"
 
     def _next(self) -> tuple[str, Path]:
-        fname = f"{self.piece}_{len(self.entries):05d}.vtu"
+        fname = f"{self.piece}_{self.count:05d}.vtu"
         if self.pieces:
             fname = f"{self.pieces}/{fname}"
+            (self.directory / self.pieces).mkdir(parents=True, exist_ok=True)
         return fname, self.directory / fname
 
     def add(self, t: float, points, springs, *, velocities=None, triangles=None) -> Path:
         fname, path = self._next()
         data = {} if velocities is None else {"velocity": np.asarray(velocities)}
-        write_vtu(path, points, springs, point_data=data, triangles=triangles)
-        self.entries.append((float(t), fname))
-        self._write_index()
+        write_vtu(path, points, springs, point_data=data, triangles=triangles, atomic=False)
+        self._append(t, fname)
         return path
 
     def add_surface(self, t: float, vertices, faces) -> Path:
@@ -71,21 +100,22 @@ class PVDSeries:
         fname, path = self._next()
         mesh = meshio.Mesh(np.asarray(vertices, dtype=np.float64),
                            [("triangle", np.asarray(faces, dtype=np.int64))])
-        with atomic_path(path) as tmp:
-            meshio.write(tmp, mesh, file_format="vtu")
-        self.entries.append((float(t), fname))
-        self._write_index()
+        meshio.write(path, mesh, file_format="vtu")
+        self._append(t, fname)
         return path
 
-    def _write_index(self) -> None:
-        rows = "\n".join(
-            f'    <DataSet timestep="{t!r}" group="" part="0" file={quoteattr(f)}/>'
-            for t, f in self.entries)
-        xml = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" '
-               'byte_order="LittleEndian">\n  <Collection>\n' + rows +
-               "\n  </Collection>\n</VTKFile>\n")
-        with atomic_path(self.pvd_path) as tmp:
-            tmp.write_text(xml, encoding="utf-8")
+    def _append(self, t: float, fname: str) -> None:
+        import os
+
+        row = (f'    <DataSet timestep="{float(t)!r}" group="" part="0" '
+               f'file={quoteattr(fname)}/>\n').encode("utf-8")
+        fd = os.open(self.pvd_path, os.O_RDWR)
+        try:
+            os.pwrite(fd, row + _PVD_TAIL.encode("utf-8"), self._tail)
+        finally:
+            os.close(fd)
+        self._tail += len(row)
+        self.count += 1
 
 
 def export_pvd(traj, directory, name: str = "body", *, pieces: str = "") -> list[Path]:

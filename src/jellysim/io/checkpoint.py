@@ -1,0 +1,127 @@
+"""Checkpoints: everything a run needs to continue bit-identically, in ``checkpoint.npz``.
+
+Stored arrays:
+
+======================  =========  ================================================
+``state.x``             (n, 3) f8  positions [m]
+``state.v``             (n, 3) f8  velocities [m/s]
+``state.a``             (n, 3) f8  accelerations [m/s^2]
+``state.t``             () f8      simulated time [s]
+``state.step``          () i8      steps taken
+``frames``              () i8      frames in the trajectory stream at this point
+``sim.<name>``          any        :meth:`Simulator.internal_state` (solver history, contact
+                                   state, CG warm start and counters)
+``scene_sha256``        str        hash of the scene text and resolved parameters
+``model_sha256``        str        hash of the built body (rest positions, masses, springs)
+``version``             str        jellysim version that wrote it
+======================  =========  ================================================
+
+A checkpoint is taken right after a frame is flushed, so the stream holds at least ``frames``
+frames.  It is written through ``checkpoint.npz.partial`` and an atomic rename.  No random
+stream is consumed during a run (the seeded ones are used while building the body, which is
+rebuilt identically and checked by ``model_sha256``).
+"""
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import CheckpointError
+
+__all__ = ["CHECKPOINT", "Checkpoint", "model_hash", "scene_hash", "write_checkpoint",
+           "read_checkpoint"]
+
+CHECKPOINT = "checkpoint.npz"
+
+
+def _version() -> str:
+    from .. import __version__
+
+    return __version__
+
+
+def scene_hash(scene) -> str:
+    h = hashlib.sha256(scene.text.encode("utf-8"))
+    h.update(json.dumps(scene.params, sort_keys=True, default=str).encode("utf-8"))
+    return h.hexdigest()
+
+
+def model_hash(model) -> str:
+    h = hashlib.sha256()
+    for a in (model.particle_x0, model.particle_mass, model.spring_ij,
+              model.spring_rest_length, model.spring_stiffness, model.gravity):
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
+
+
+@dataclass
+class Checkpoint:
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    t: float
+    step: int
+    frames: int
+    internal: dict
+    scene_sha256: str
+    model_sha256: str
+    version: str
+
+
+def write_checkpoint(path, sim, *, frames: int, scene, model) -> Path:
+    from .stream import write_replace
+
+    s = sim.state
+    arrays = {"state.x": s.x, "state.v": s.v, "state.a": s.a,
+              "state.t": np.array(float(s.t)), "state.step": np.array(int(s.step)),
+              "frames": np.array(int(frames)),
+              "scene_sha256": np.array(scene_hash(scene)),
+              "model_sha256": np.array(model_hash(model)),
+              "version": np.array(_version())}
+    for k, v in sim.internal_state().items():
+        arrays[f"sim.{k}"] = v
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    write_replace(path, buf.getvalue())
+    return Path(path)
+
+
+def read_checkpoint(path, *, scene=None, model=None) -> Checkpoint:
+    """Read and validate a checkpoint: raises :class:`CheckpointError` when it is missing or
+    damaged, or was written by another jellysim version, for another scene or body."""
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"{path}: no checkpoint to resume from (a run leaves one when "
+                              "it is interrupted, or every [output] checkpoint_every steps)")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            d = {k: z[k] for k in z.files}
+        ck = Checkpoint(
+            x=d["state.x"], v=d["state.v"], a=d["state.a"], t=float(d["state.t"]),
+            step=int(d["state.step"]), frames=int(d["frames"]),
+            internal={k[4:]: v for k, v in d.items() if k.startswith("sim.")},
+            scene_sha256=str(d["scene_sha256"]), model_sha256=str(d["model_sha256"]),
+            version=str(d["version"]))
+    except (OSError, ValueError, KeyError, EOFError) as exc:
+        raise CheckpointError(f"{path}: damaged checkpoint ({exc}); start the run afresh "
+                              "(without --resume)") from None
+    if ck.version != _version():
+        raise CheckpointError(f"{path}: written by jellysim {ck.version}, this is "
+                              f"{_version()}; resume with that version or start afresh")
+    if scene is not None and ck.scene_sha256 != scene_hash(scene):
+        raise CheckpointError(f"{path}: written for another scene (its parameters or text "
+                              f"differ from {scene.name}); resume with the same scene file, "
+                              "or start afresh without --resume")
+    if model is not None and ck.model_sha256 != model_hash(model):
+        raise CheckpointError(f"{path}: the body built from {getattr(scene, 'name', 'the scene')}"
+                              " differs from the checkpoint's (a mesh or body file changed?); "
+                              "start afresh without --resume")
+    if model is not None and ck.x.shape != (model.particle_count, 3):
+        raise CheckpointError(f"{path}: holds {ck.x.shape[0]} points, the body has "
+                              f"{model.particle_count}")
+    return ck

@@ -1,0 +1,269 @@
+"""Streaming trajectories: frames appended to disk as they are produced.
+
+A run writes its frames into the directory ``<out>/trajectory.stream/``::
+
+    meta.npz          static arrays (rest positions, masses, springs, ..., scene, parameters,
+                      skin): the same names and units as ``trajectory.npz``, written once
+    positions.npy     (F, n, 3) f8  positions per frame [m]
+    velocities.npy    (F, n, 3) f8  velocities per frame [m/s]
+    times.npy         (F,) f8       simulated time of each frame [s]
+    steps.npy         (F,) i8       time-step index of each frame
+    status.txt        ``running``, ``interrupted at step N (...)`` (resumable) or ``failed: ...``
+
+Each ``.npy`` is an ordinary NumPy file (``np.load`` reads it, also with ``mmap_mode``) that
+grows in place: a frame's bytes are appended after the data, then the fixed-size header's frame
+count is rewritten in place (one small ``pwrite``).  A frame is *flushed* once its four headers
+say so.  A process killed at any moment (SIGKILL too) leaves every flushed frame readable: bytes
+of an unflushed frame lie past the header's count and are ignored (and cut off on resume); the
+frame count of the stream is the smallest of the four headers.  No temporary file is involved,
+so nothing hidden is left behind.
+
+When the run ends (complete or failed) the stream is copied, block by block, into the usual
+``trajectory.npz`` (uncompressed members, same names as before; old readers keep working) and
+the directory is removed.  An interrupted or killed run keeps the directory;
+:func:`jellysim.io.trajectory.load_trajectory` reads it (given the directory, the run directory
+or the missing ``trajectory.npz`` next to it).
+
+Why not HDF5 or Zarr: HDF5 files are not safe against a kill during a write (its metadata can be
+left inconsistent unless SWMR mode is used, which h5py supports only for appends under extra
+rules), and both add a dependency; the layout above needs only NumPy, costs one ``pwrite`` of
+data plus one of about 128 bytes per array and frame, and every piece of it is a plain ``.npy``.
+"""
+from __future__ import annotations
+
+import ast
+import os
+import shutil
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["STREAM_DIR", "GrowingNpy", "TrajectoryStream", "read_stream", "stream_frames",
+           "finalize_stream", "write_replace"]
+
+STREAM_DIR = "trajectory.stream"
+"""Name of the stream directory inside a run's output directory."""
+
+HEADER_BYTES = 128
+"""Size of every growing ``.npy`` header (magic + version + length + padded dict)."""
+
+BLOCK_BYTES = 1 << 20
+"""Bytes copied per block when a stream is turned into ``trajectory.npz``."""
+
+
+def _header(dtype: np.dtype, shape: tuple) -> bytes:
+    dims = [str(int(s)) for s in shape]
+    text = "(" + ", ".join(dims) + ("," if len(dims) == 1 else "") + ")"
+    d = "{'descr': %r, 'fortran_order': False, 'shape': %s, }" % (
+        np.lib.format.dtype_to_descr(dtype), text)
+    body = d.encode("latin1")
+    room = HEADER_BYTES - 10 - 1
+    if len(body) > room:
+        raise ValueError(f"shape {shape} does not fit a {HEADER_BYTES}-byte npy header")
+    body = body + b" " * (room - len(body)) + b"\n"
+    return b"\x93NUMPY\x01\x00" + len(body).to_bytes(2, "little") + body
+
+
+def _read_header(fd) -> tuple[np.dtype, tuple]:
+    raw = os.pread(fd, HEADER_BYTES, 0)
+    if len(raw) < HEADER_BYTES or raw[:8] != b"\x93NUMPY\x01\x00":
+        raise ValueError("not a growing .npy file (bad header)")
+    n = int.from_bytes(raw[8:10], "little")
+    d = ast.literal_eval(raw[10:10 + n].decode("latin1"))
+    return np.dtype(d["descr"]), tuple(d["shape"])
+
+
+class GrowingNpy:
+    """An ``.npy`` file of shape ``(F,) + row_shape`` whose first axis grows.
+
+    ``append`` writes rows after the data; ``commit`` makes them visible by rewriting the
+    header.  ``keep``: open an existing file and keep its first ``keep`` rows (the rest is cut
+    off); ``None`` creates a new, empty file."""
+
+    def __init__(self, path, dtype, row_shape: tuple, *, keep: int | None = None):
+        self.path = Path(path)
+        self.dtype = np.dtype(dtype).newbyteorder("<")
+        self.row_shape = tuple(int(s) for s in row_shape)
+        self.row_bytes = int(np.prod(self.row_shape, dtype=np.int64)) * self.dtype.itemsize
+        if keep is None:
+            self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o666)
+            self.rows = 0
+            os.pwrite(self.fd, _header(self.dtype, (0,) + self.row_shape), 0)
+        else:
+            self.fd = os.open(self.path, os.O_RDWR)
+            dtype_, shape = _read_header(self.fd)
+            if dtype_ != self.dtype or tuple(shape[1:]) != self.row_shape or shape[0] < keep:
+                os.close(self.fd)
+                raise ValueError(f"{self.path}: holds {shape} {dtype_}, expected at least "
+                                 f"{keep} rows of {self.row_shape} {self.dtype}")
+            self.rows = int(keep)
+            os.ftruncate(self.fd, HEADER_BYTES + self.rows * self.row_bytes)
+            self.commit()
+        self.committed = self.rows
+
+    def append(self, rows: np.ndarray) -> None:
+        a = np.ascontiguousarray(rows, dtype=self.dtype).reshape((-1,) + self.row_shape)
+        os.pwrite(self.fd, memoryview(a).cast("B"), HEADER_BYTES + self.rows * self.row_bytes)
+        self.rows += a.shape[0]
+
+    def commit(self) -> None:
+        os.pwrite(self.fd, _header(self.dtype, (self.rows,) + self.row_shape), 0)
+        self.committed = self.rows
+
+    def close(self) -> None:
+        if self.fd is not None:
+            os.close(self.fd)
+            self.fd = None
+
+
+def write_replace(path, data: bytes) -> None:
+    """Write ``path`` through a visible ``<path>.partial`` file and an atomic rename (a kill
+    leaves at most the ``.partial`` file, which the next run removes)."""
+    path = Path(path)
+    part = path.with_name(path.name + ".partial")
+    with open(part, "wb") as fh:
+        fh.write(data)
+    os.replace(part, path)
+
+
+_FRAME_ARRAYS = (("positions", "<f8", 3), ("velocities", "<f8", 3), ("times", "<f8", None),
+                 ("steps", "<i8", None))
+
+
+class TrajectoryStream:
+    """Writes a run's frames into ``directory`` (see the module doc).
+
+    ``meta``: the static arrays (``rest_positions`` ... skin), written once as ``meta.npz``.
+    ``keep``: reopen an existing stream and keep its first ``keep`` frames (resume)."""
+
+    def __init__(self, directory, point_count: int, meta: dict | None = None, *,
+                 keep: int | None = None):
+        self.directory = Path(directory)
+        n = int(point_count)
+        if keep is None:
+            if self.directory.exists():
+                shutil.rmtree(self.directory)
+            self.directory.mkdir(parents=True)
+            import io
+
+            buf = io.BytesIO()
+            np.savez(buf, **(meta or {}))
+            write_replace(self.directory / "meta.npz", buf.getvalue())
+        else:
+            for stale in self.directory.glob("*.partial"):
+                stale.unlink()
+        self.files = {name: GrowingNpy(self.directory / f"{name}.npy", dt,
+                                       (n, w) if w else (), keep=keep)
+                      for name, dt, w in _FRAME_ARRAYS}
+        self.set_status("running")
+
+    @property
+    def frames(self) -> int:
+        return self.files["times"].committed
+
+    def record(self, state) -> None:
+        """Append one frame (``state.x``, ``state.v``, ``state.t``, ``state.step``) and flush."""
+        f = self.files
+        f["positions"].append(state.x)
+        f["velocities"].append(state.v)
+        f["steps"].append(np.array([state.step], dtype=np.int64))
+        f["times"].append(np.array([state.t], dtype=np.float64))
+        for name in ("positions", "velocities", "steps", "times"):
+            f[name].commit()
+
+    def set_status(self, status: str) -> None:
+        write_replace(self.directory / "status.txt", status.encode("utf-8"))
+
+    def sync(self) -> None:
+        """Force the flushed frames to the disk (only needed against power loss)."""
+        for g in self.files.values():
+            os.fsync(g.fd)
+
+    def close(self) -> None:
+        for g in self.files.values():
+            g.close()
+
+
+def stream_frames(directory) -> int:
+    """Number of flushed frames in a stream directory (smallest header count)."""
+    counts = []
+    for name, _, _ in _FRAME_ARRAYS:
+        fd = os.open(Path(directory) / f"{name}.npy", os.O_RDONLY)
+        try:
+            counts.append(int(_read_header(fd)[1][0]))
+        finally:
+            os.close(fd)
+    return min(counts)
+
+
+def read_stream(directory, *, mmap: bool = False) -> dict:
+    """Every array of a stream directory as in ``trajectory.npz`` (frames cut to the flushed
+    count); ``status`` says ``incomplete`` when the run was killed while running."""
+    directory = Path(directory)
+    with np.load(directory / "meta.npz", allow_pickle=False) as z:
+        d = {k: z[k] for k in z.files}
+    frames = stream_frames(directory)
+    for name, _, _ in _FRAME_ARRAYS:
+        a = np.load(directory / f"{name}.npy", mmap_mode="r", allow_pickle=False)[:frames]
+        d[name] = a if mmap else np.array(a)
+    try:
+        status = (directory / "status.txt").read_text(encoding="utf-8")
+    except FileNotFoundError:
+        status = "running"
+    if status == "running":
+        status = (f"incomplete: the run stopped without finishing (killed?) after {frames} "
+                  "frames")
+    d["status"] = np.array(status)
+    return d
+
+
+def finalize_stream(directory, npz_path, status: str) -> Path:
+    """Copy a stream into one ``.npz`` (uncompressed), then remove the stream directory.
+
+    The per-frame arrays are copied as raw bytes in blocks of :data:`BLOCK_BYTES` with plain
+    reads (no memory map, whose pages would count in the resident set): memory does not grow
+    with the frame count.  Written through ``<npz>.partial`` and an atomic rename."""
+    directory = Path(directory)
+    npz_path = Path(npz_path)
+    with np.load(directory / "meta.npz", allow_pickle=False) as z:
+        meta = {k: z[k] for k in z.files}
+    frames = stream_frames(directory)
+    part = npz_path.with_name(npz_path.name + ".partial")
+
+    def header(fh, dtype, shape):
+        np.lib.format.write_array_header_1_0(
+            fh, {"descr": np.lib.format.dtype_to_descr(np.dtype(dtype)),
+                 "fortran_order": False, "shape": tuple(shape)})
+
+    view = memoryview(bytearray(BLOCK_BYTES))   # one buffer, whatever the frame count
+    with zipfile.ZipFile(part, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+        for name, a in meta.items():
+            with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
+                header(fh, a.dtype, a.shape)
+                fh.write(np.ascontiguousarray(a).tobytes())
+        for name, dt, w in _FRAME_ARRAYS:
+            src = directory / f"{name}.npy"
+            fd = os.open(src, os.O_RDONLY)
+            try:
+                dtype, shape = _read_header(fd)
+                rows = tuple(shape[1:])
+                row_bytes = int(np.prod(rows, dtype=np.int64)) * dtype.itemsize
+                left = frames * row_bytes
+                offset = HEADER_BYTES
+                with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
+                    header(fh, dtype, (frames,) + rows)
+                    while left > 0:
+                        got = os.preadv(fd, [view[:min(BLOCK_BYTES, left)]], offset)
+                        if got <= 0:
+                            raise OSError(f"{src}: shorter than its header says")
+                        fh.write(view[:got])
+                        offset += got
+                        left -= got
+            finally:
+                os.close(fd)
+        with zf.open("status.npy", "w") as fh:
+            np.lib.format.write_array(fh, np.array(status), allow_pickle=False)
+    os.replace(part, npz_path)
+    shutil.rmtree(directory)
+    return Path(npz_path)

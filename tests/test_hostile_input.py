@@ -1,0 +1,386 @@
+"""Nothing silent (issue 13): the crash reproducers become located errors, the reader follows
+its spec exactly, and a bounded fuzz run lets only jellysim's own errors escape."""
+from __future__ import annotations
+
+import io
+import random
+import time
+import tracemalloc
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from jellysim.cli import cli
+from jellysim.errors import (JelloFileError, JellysimError, ResourceError, SceneError)
+from jellysim.geometry.jellyfile import parse_jello, read_body, read_jello, write_body
+from jellysim.geometry.jellyfile import read_npz as read_body_npz
+from jellysim.scene import Scene
+
+VALID = """\
+jello 1
+# a tiny body
+points 4 mass
+0.0 0.0 0.0 0.25
+1.0 0.0 0.0 0.25
+0.0 1.0 0.0 0.25
+0.0 0.0 1.0 0.25
+springs 3 rest_length stiffness
+0 1 1.0 100.0
+0 2 1.0 100.0
+1 2 1.5 50.0
+tets 1
+0 1 2 3
+meta {"builder": "test", "h": 0.5}
+end
+"""
+
+BOX = """
+[body]
+points = 40
+lower = [0.0, 0.1, 0.0]
+upper = [0.2, 0.3, 0.2]
+[springs]
+radius = 0.1
+stiffness = 100.0
+[integrator]
+dt = 0.001
+steps = 10
+"""
+
+
+def _jello(tmp_path, text, name="b.jello") -> Path:
+    p = tmp_path / name
+    p.write_bytes(text.encode("utf-8") if isinstance(text, str) else text)
+    return p
+
+
+def _error(tmp_path, text) -> str:
+    with pytest.raises(JelloFileError) as info:
+        read_jello(_jello(tmp_path, text))
+    return str(info.value)
+
+
+# -- the seven crash signatures ----------------------------------------------------------------
+
+def test_huge_digit_counts_and_indices_are_located_errors(tmp_path):
+    msg = _error(tmp_path, VALID.replace("points 4 mass", "points " + "9" * 5000 + " mass"))
+    assert "b.jello:3:8:" in msg and "digits" in msg
+    msg = _error(tmp_path, VALID.replace("0 1 1.0 100.0", "0 " + "1" * 5000 + " 1.0 100.0"))
+    assert "b.jello:9:3:" in msg and "out of range" in msg
+    # also from a scene that names the file
+    p = _jello(tmp_path, VALID.replace("springs 3", "springs " + "7" * 4400))
+    scene = tmp_path / "s.toml"
+    scene.write_text(BOX.replace("points = 40\n", "").replace(
+        "[body]", f'[body]\ntype = "file"\npath = "{p.name}"'))
+    r = CliRunner().invoke(cli, ["run", str(scene), "-o", str(tmp_path / "o"), "--quiet"])
+    assert r.exit_code == 2 and "b.jello:8:9:" in r.output and "Traceback" not in r.output
+
+
+def test_deep_huge_or_nonfinite_meta_is_refused(tmp_path):
+    deep = "[" * 100_000 + "]" * 100_000
+    assert "nested deeper" in _error(tmp_path, VALID.replace(
+        '{"builder": "test", "h": 0.5}', '{"a": ' + deep + "}"))
+    assert "digits" in _error(tmp_path, VALID.replace("0.5}", "1" * 5000 + "}"))
+    for bad in ("NaN", "Infinity", "-Infinity", "1e999"):
+        msg = _error(tmp_path, VALID.replace("0.5}", bad + "}"))
+        assert "b.jello:14:6:" in msg and "finite" in msg, msg
+
+
+def test_zero_points_is_refused_in_both_formats(tmp_path):
+    text = "jello 1\npoints 0\nsprings 0\nend\n"
+    assert "b.jello:2:8:" in _error(tmp_path, text) and "at least one point" in _error(
+        tmp_path, text)
+    p = tmp_path / "z.npz"
+    np.savez(p, format=np.str_("jello-npz 1"), points=np.zeros((0, 3)),
+             springs=np.zeros((0, 2), dtype=np.int64))
+    with pytest.raises(JelloFileError, match="at least one point"):
+        read_body(p)
+
+
+def _lying_npz(path, rows):
+    """A valid-looking body .npz whose 'points' header claims ``rows`` rows."""
+    buf = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buf, {"descr": "<f8", "fortran_order": False,
+                                               "shape": (rows, 3)})
+    with zipfile.ZipFile(path, "w") as zf:
+        zf.writestr("format.npy", _npy(np.str_("jello-npz 1")))
+        zf.writestr("points.npy", buf.getvalue() + b"\0" * 48)
+        zf.writestr("springs.npy", _npy(np.zeros((0, 2), dtype=np.int64)))
+
+
+def _npy(a) -> bytes:
+    buf = io.BytesIO()
+    np.save(buf, a)
+    return buf.getvalue()
+
+
+@pytest.mark.parametrize("rows", [10**12, 5 * 10**7])
+def test_npz_whose_header_claims_huge_rows_allocates_nothing(tmp_path, rows):
+    p = tmp_path / "liar.npz"
+    _lying_npz(p, rows)
+    assert p.stat().st_size < 1000
+    tracemalloc.start()
+    try:
+        with pytest.raises(JelloFileError, match="claims shape") as info:
+            read_body(p)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert "points" in str(info.value) and peak < 1 << 20
+    # the CLI says it in one line
+    r = CliRunner().invoke(cli, ["inspect", str(p)])
+    assert r.exit_code == 2 and "claims shape" in r.output
+
+
+def test_preset_of_the_wrong_type_names_the_key():
+    with pytest.raises(SceneError, match=r"\[material\] preset = \[1\]"):
+        Scene.from_text("[material]\npreset = [1]\n" + BOX)
+
+
+def test_huge_box_point_counts_are_refused_before_building(monkeypatch):
+    import jellysim.geometry.sampling as sampling
+
+    def never(*a, **k):
+        raise AssertionError("the body was built")
+
+    monkeypatch.setattr(sampling, "box_field", never)
+    scene = Scene.from_text(BOX.replace("points = 40", f"points = {2**31}"), name="s.toml")
+    with pytest.raises(ResourceError, match=r"s.toml: \[body\] points") as info:
+        scene.build_model()
+    assert "2,147,483,648 points" in str(info.value) and "--max-memory" in str(info.value)
+    monkeypatch.setenv("JELLYSIM_MAX_MEMORY", "4G")
+    scene = Scene.from_text(BOX.replace("points = 40", "points = 20000000"), name="s.toml")
+    with pytest.raises(ResourceError, match="limit 4 GiB"):
+        scene.build_model()
+
+
+def test_builders_refuse_huge_point_counts_and_all_pairs_provot_before_building(
+        monkeypatch, tmp_path):
+    from jellysim.build import build_body
+
+    monkeypatch.setenv("JELLYSIM_MAX_MEMORY", "4G")
+    t0 = time.perf_counter()
+    mesh = Path(__file__).parent / "data" / "cube.obj"
+    with pytest.raises(ResourceError, match="20,000,000 points"):
+        build_body(mesh, points=20_000_000, connect="delaunay")
+    r = CliRunner().invoke(cli, ["build", str(mesh), "--points", "20000000", "-o",
+                                 str(tmp_path / "b.jello"), "--max-memory", "1G"])
+    assert r.exit_code == 2 and "limit 1 GiB" in r.output
+    assert time.perf_counter() - t0 < 5.0
+    import jellysim.geometry.sampling as sampling
+
+    monkeypatch.setattr(sampling, "box_field", lambda *a, **k: 1 / 0)
+    scene = Scene.from_text(BOX.replace("points = 40", "points = 5000") +
+                            "[provot]\nenabled = true\npairs = 'all'\n", name="s.toml")
+    with pytest.raises(SceneError, match=r"pairs = 'all'.*\[body\] points = 5000"):
+        scene.build_model()
+
+
+# -- the reader follows its spec ---------------------------------------------------------------
+
+def test_line_breaks_are_lf_or_crlf_only(tmp_path):
+    # CR LF is accepted and gives the same body
+    a = read_jello(_jello(tmp_path, VALID))
+    b = read_jello(_jello(tmp_path, VALID.replace("\n", "\r\n"), "crlf.jello"))
+    assert np.array_equal(a.points, b.points) and np.array_equal(a.springs, b.springs)
+    # a bare CR is an error at its place
+    msg = _error(tmp_path, VALID.replace("# a tiny body\n", "# a tiny\rbody\n"))
+    assert "b.jello:2:9:" in msg and "carriage return" in msg
+    # U+2028, form feed, NEL inside a comment are not line breaks: later lines keep numbers
+    for ch in ("\u2028", "\f", "\x85"):
+        text = VALID.replace("# a tiny body", f"# a {ch} tiny body").replace(
+            "1 2 1.5 50.0", "1 2 1.5 -50.0")
+        assert "b.jello:11:9:" in _error(tmp_path, text), repr(ch)
+    # ... and in data they are not token separators
+    assert "b.jello:4:" in _error(tmp_path, VALID.replace("0.0 0.0 0.0 0.25",
+                                                          "0.0\u20280.0 0.0 0.25", 1))
+
+
+def test_only_ascii_digits(tmp_path):
+    msg = _error(tmp_path, VALID.replace("points 4", "points \u0664"))   # Arabic-Indic 4
+    assert "b.jello:3:8:" in msg and "row count" in msg
+    msg = _error(tmp_path, VALID.replace("0 1 1.0 100.0", "0 \uff11 1.0 100.0"))  # fullwidth 1
+    assert "b.jello:9:3:" in msg
+    msg = _error(tmp_path, VALID.replace("1.0 0.0 0.0 0.25", "\u0661.0 0.0 0.0 0.25"))
+    assert "b.jello:5:1:" in msg
+
+
+def test_utf8_errors_give_line_and_column(tmp_path):
+    raw = VALID.replace("# a tiny body", "# a tiny body \u00e9X").encode("utf-8")
+    raw = raw.replace("\u00e9".encode(), b"\xe9")        # a Latin-1 byte: invalid UTF-8
+    with pytest.raises(JelloFileError) as info:
+        read_jello(_jello(tmp_path, raw))
+    assert "b.jello:2:15:" in str(info.value) and "0xe9" in str(info.value)
+
+
+def test_written_meta_reads_back_and_reader_agrees_with_writer(tmp_path):
+    body = read_jello(_jello(tmp_path, VALID))
+    assert body.meta == {"builder": "test", "h": 0.5}
+    write_body(tmp_path / "c.jello", body)
+    write_body(tmp_path / "c.npz", body)
+    assert read_body(tmp_path / "c.jello").meta == read_body(tmp_path / "c.npz").meta
+
+
+# -- fuzz -------------------------------------------------------------------------------------
+
+_ALPHABET = ["\n", "\r\n", "\r", " ", "\t", "#", "-", "+", ".", "e", "9" * 30, "0", "1", "4",
+             "nan", "inf", "\u2028", "\x85", "\u0664", "{", "}", "[", "]", '"', ":", ",",
+             "1e999", "points", "springs", "tets", "triangles", "meta", "volume", "end",
+             "mass", "stiffness", "jello 1", "\x00", "\xe9", "\ud7ff"]
+
+
+def _mutate(rng: random.Random, text: str) -> str:
+    s = list(text)
+    for _ in range(rng.randint(1, 4)):
+        op = rng.random()
+        i = rng.randrange(len(s) + 1)
+        if op < 0.35 and s:
+            del s[rng.randrange(len(s)):rng.randrange(len(s)) + rng.randint(1, 12)]
+        elif op < 0.7:
+            s[i:i] = list(rng.choice(_ALPHABET))
+        elif op < 0.85 and s:
+            j = rng.randrange(len(s))
+            s[j] = rng.choice(_ALPHABET)
+        else:                                     # duplicate a slice (repeated sections/rows)
+            a = rng.randrange(len(s) + 1)
+            s[i:i] = s[a:a + rng.randint(1, 60)]
+    return "".join(s)
+
+
+def _npz_cases(rng, base: dict):
+    """Mutated body .npz files: wrong dtypes/shapes, lying headers, NaNs, garbage bytes."""
+    d = {k: v.copy() if isinstance(v, np.ndarray) else v for k, v in base.items()}
+    key = rng.choice(sorted(d))
+    op = rng.randrange(7)
+    if op == 0:
+        try:
+            d[key] = np.asarray(d[key]).astype(rng.choice(["f4", "i2", "U3", "c16", "?"]))
+        except (ValueError, TypeError):
+            d[key] = np.zeros(3, dtype="c16")
+    elif op == 1:
+        d[key] = np.asarray(d[key]).reshape(-1)[: rng.randrange(1, 12)]
+    elif op == 2 and np.asarray(d[key]).dtype.kind == "f" and np.asarray(d[key]).size:
+        a = np.asarray(d[key]).copy()
+        a.flat[rng.randrange(a.size)] = rng.choice([np.nan, np.inf, -1e308, 0.0])
+        d[key] = a
+    elif op == 3 and np.asarray(d[key]).dtype.kind == "i" and np.asarray(d[key]).size:
+        a = np.asarray(d[key]).copy()
+        a.flat[rng.randrange(a.size)] = rng.choice([-1, 4, 2**62, 0])
+        d[key] = a
+    elif op == 4:
+        del d[key]
+    elif op == 5:
+        d["meta"] = np.str_(rng.choice(['{"a": NaN}', "[" * 5000, '{"a": 1' + "0" * 5000 + "}",
+                                        "{", '"x"', "{}"]))
+    buf = io.BytesIO()
+    np.savez(buf, **d)
+    raw = bytearray(buf.getvalue())
+    if op == 6:                                   # flip or cut bytes anywhere
+        for _ in range(rng.randint(1, 6)):
+            raw[rng.randrange(len(raw))] = rng.randrange(256)
+        if rng.random() < 0.5:
+            raw = raw[: rng.randrange(len(raw))]
+    return bytes(raw)
+
+
+_SCENE_VALUES = ["[1]", "1e999", "-1", "0", "2", "'x'", "true", "nan", "inf", "[0, 0]",
+                 "{a = 1}", str(2**31), "9" * 40, "'gelatin'", "'file'", "'mesh'",
+                 "1.0", '"b.jello"', "[1.0, 2.0, 3.0]"]
+
+
+def _scene_case(rng, base: str) -> str:
+    lines = base.strip().splitlines()
+    for _ in range(rng.randint(1, 3)):
+        i = rng.randrange(len(lines))
+        op = rng.random()
+        if op < 0.5 and "=" in lines[i]:
+            k = lines[i].split("=")[0]
+            lines[i] = f"{k}= {rng.choice(_SCENE_VALUES)}"
+        elif op < 0.7:
+            lines.insert(i, rng.choice(["[material]", "preset = " + rng.choice(_SCENE_VALUES),
+                                        "[provot]", "[output]", "[[obstacle]]",
+                                        "kind = 'plane'", "bogus = 1", "[bogus]"]))
+        elif op < 0.85:
+            del lines[i]
+        else:
+            lines[i] = _mutate(rng, lines[i])
+    return "\n".join(lines) + "\n"
+
+
+def test_fuzz_only_jellysim_errors_escape(tmp_path, monkeypatch):
+    """2,400 seeded mutations of a .jello text, a body .npz and a scene (which also names the
+    mutated body file): each is read, and a scene is validated and its body built (box scenes
+    under a 256 MB memory limit, no run); anything but a JellysimError fails the test, as does
+    a case that takes over 5 s (a hang)."""
+    monkeypatch.setenv("JELLYSIM_MAX_MEMORY", "256M")
+    rng = random.Random(2013)
+    body = read_jello(_jello(tmp_path, VALID))
+    write_body(tmp_path / "base.npz", body)
+    with np.load(tmp_path / "base.npz") as z:
+        base_npz = {k: z[k] for k in z.files}
+    scene_base = BOX + '\n# file scenes read b.jello\n'
+    Scene.from_text(scene_base).build_body()     # warm up (imports, compilation)
+    counts = {"jello": 0, "npz": 0, "scene": 0}
+    t_start = time.perf_counter()
+    for case in range(2400):
+        kind = ("jello", "npz", "scene")[case % 3]
+        t0 = time.perf_counter()
+        try:
+            if kind == "jello":
+                parse_jello(_mutate(rng, VALID).encode("utf-8", "surrogatepass"), name="f")
+            elif kind == "npz":
+                read_body_npz(io.BytesIO(_npz_cases(rng, base_npz)))
+            else:
+                text = _scene_case(rng, scene_base)
+                if rng.random() < 0.3:   # a file scene reading a mutated body file
+                    text = text.replace("[body]", '[body]\ntype = "file"\npath = "b.jello"')
+                    _jello(tmp_path, _mutate(rng, VALID).encode("utf-8", "surrogatepass"))
+                sc = Scene.from_text(text, name=str(tmp_path / "s.toml"))
+                if sc.params["body"]["type"] != "mesh":
+                    sc.build_body()
+            counts[kind] += 1
+        except JellysimError:
+            counts[kind] += 1
+        except Exception as exc:  # noqa: BLE001 - the point of the test
+            raise AssertionError(f"case {case} ({kind}) escaped as {type(exc).__name__}: "
+                                 f"{exc}") from exc
+        assert time.perf_counter() - t0 < 5.0, f"case {case} ({kind}) took too long (hang?)"
+    assert sum(counts.values()) == 2400
+    assert time.perf_counter() - t_start < 60
+
+
+def test_overlapping_shells_are_reported_and_mass_follows_the_inside_rule(tmp_path):
+    """Two unit spheres 0.6 apart: the parity rule leaves their lens empty, so the body's
+    volume is 2 V - 2 V_lens (V_lens = pi (4 r + d)(2 r - d)^2 / 12), not the signed 2 V
+    (2.3x more); inspect says the shells overlap; a single sphere is not flagged."""
+    from jellysim.build import body_stats, build_body, shell_overlap
+    from jellysim.geometry.mesh import load_mesh
+
+    data = Path(__file__).parent / "data"
+    mesh = load_mesh(data / "overlapping_spheres.obj")
+    v_one = abs(load_mesh(data / "sphere.obj").defects.volume)     # the icosphere's volume
+    lens = np.pi * (4 + 0.6) * (2 - 0.6) ** 2 / 12
+    over, inside_vol, signed = shell_overlap(mesh)
+    assert over and signed == pytest.approx(2 * v_one, rel=1e-9)
+    assert inside_vol == pytest.approx(2 * v_one - 2 * lens, rel=0.03)
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        body = build_body(mesh, points=300, connect="radius", density=1000.0, seed=1)
+    said = [str(w.message) for w in caught]
+    assert any("overlap or nest" in m for m in said) and not any("open" in m for m in said)
+    assert body_stats(body, density=1000.0)["mass"] == pytest.approx(1000.0 * inside_vol,
+                                                                    rel=0.01)
+    r = CliRunner().invoke(cli, ["inspect", str(data / "overlapping_spheres.obj")])
+    assert "shells overlap/nest:     yes" in r.output
+    assert shell_overlap(load_mesh(data / "sphere.obj")) is None
+    assert not shell_overlap(load_mesh(data / "hollow_sphere.obj"))[0]
+
+
+def test_surface_samples_on_a_box_scene_is_refused_not_ignored():
+    with pytest.raises(SceneError, match=r"\[body\] surface_samples is used only by"):
+        Scene.from_text(BOX.replace("[body]", "[body]\nsurface_samples = false"))
