@@ -488,11 +488,17 @@ class Scene:
         else:
             points = box_field(b["points"], b["lower"], b["upper"],
                                distribution=b["distribution"], seed=b["seed"])
+        from .build import _radius_tets
+
+        # tets for the tetrahedral elasticity: Delaunay of the points (a box is convex: nothing
+        # to carve); the springs stay the radius springs
+        points, tets, tet_info = _radius_tets(points, None, seed=b["seed"], name=self.name)
         springs = radius_springs(points, s["radius"])
         volume = float(np.prod(np.subtract(b["upper"], b["lower"])))
-        return Body(points=points, springs=springs, volume=volume,
+        return Body(points=points, springs=springs, tets=tets, volume=volume,
                     meta={"builder": "box", "distribution": b["distribution"],
-                          "seed": b["seed"], "connect": "radius", "radius": s["radius"]})
+                          "seed": b["seed"], "connect": "radius", "radius": s["radius"],
+                          "tet_volume": tet_info["tet_volume"], "cloud_tets": tet_info})
 
     def build_model(self, body=None):
         from .model import finalize
@@ -508,7 +514,7 @@ class Scene:
                 from .physics.material import calibrate_springs, point_masses
 
                 masses, pv = body.masses, None
-                if body.meta.get("distribution") == "grid" and body.tets is None:
+                if body.meta.get("distribution") == "grid" and body.meta.get("connect") == "radius":
                     from .geometry.lattice import grid_point_volumes
 
                     pv = grid_point_volumes(body.points)
