@@ -645,6 +645,9 @@ def cloud_tets(points, inside_fn: InsideFn | None = None, vertices=None, faces=N
         keep[pick] = True
         readmitted = int(pick.size)
         covered[simplices[pick].ravel()] = True
+    if not keep.any():
+        raise BuildError("no well-shaped tet over the points (are they all in a plane or on a "
+                         "line?), or the inside test rejects every tet")
     tets = simplices[keep]
     neg = sv[keep] < 0
     tets[neg, 2], tets[neg, 3] = tets[neg, 3], tets[neg, 2].copy()

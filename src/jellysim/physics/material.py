@@ -150,21 +150,24 @@ def virial_stiffness(points, springs, stiffness, volume) -> np.ndarray:
 
 
 def _stiffness_matrix(points, springs, stiffness, n):
-    """Rest stiffness K [N/m], sparse (3n, 3n): ``K u`` is minus the spring force."""
-    from scipy.sparse import coo_matrix
+    """Rest stiffness K [N/m], sparse CSR (3n, 3n): ``K u`` is minus the spring force.  Built
+    block by block (3 x 3 per point pair, each row's blocks in column order)."""
+    from scipy.sparse import bsr_matrix
 
     nrm, _ = _directions(points, springs)
     blocks = stiffness[:, None, None] * nrm[:, :, None] * nrm[:, None, :]  # (k, 3, 3)
     i, j = springs[:, 0], springs[:, 1]
-    rows, cols, vals = [], [], []
+    diag = np.zeros((n, 3, 3))
     for a in range(3):
         for b in range(3):
-            kab = blocks[:, a, b]
-            rows += [3 * i + a, 3 * j + a, 3 * i + a, 3 * j + a]
-            cols += [3 * i + b, 3 * j + b, 3 * j + b, 3 * i + b]
-            vals += [kab, kab, -kab, -kab]
-    return coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                      shape=(3 * n, 3 * n)).tocsr()
+            diag[:, a, b] = np.bincount(i, blocks[:, a, b], n) + np.bincount(j, blocks[:, a, b], n)
+    rows = np.concatenate([np.arange(n), i, j])
+    cols = np.concatenate([np.arange(n), j, i])
+    order = np.argsort(rows * n + cols, kind="stable")
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
+    data = np.concatenate([diag, -blocks, -blocks])[order]
+    return bsr_matrix((data, cols[order], indptr), shape=(3 * n, 3 * n)).tocsr()
 
 
 def surface_points(points, springs, tets=None) -> np.ndarray:
@@ -288,7 +291,19 @@ class _Multigrid:
     def __init__(self, K, B):
         import pyamg
 
-        ml = pyamg.smoothed_aggregation_solver(K.tobsr(blocksize=(3, 3)), B=B, max_coarse=500)
+        # strength threshold 0.05 (pyamg's default 0: every connection strong) gives smaller
+        # aggregates and half the CG iterations on Delaunay bunnies; improving the candidates
+        # by relaxation did not reduce them and cost a third of the setup
+        # pyamg estimates spectral radii from np.random's global generator: seed it for the
+        # setup (same hierarchy, same result every call) and give the caller's state back
+        state = np.random.get_state()
+        np.random.seed(0)
+        try:
+            ml = pyamg.smoothed_aggregation_solver(
+                K.tobsr(blocksize=(3, 3)), B=B, max_coarse=500, improve_candidates=None,
+                strength=("symmetric", {"theta": 0.05}))
+        finally:
+            np.random.set_state(state)
         self.levels = []
         for lvl in ml.levels[:-1]:
             A = lvl.A.tocsr()
@@ -462,6 +477,14 @@ def network_youngs_modulus(body: Body, stiffness, *, relax: bool = True,
     below; point clouds: the virial stiffness minus the relaxation of the inner points
     (:func:`relaxation_stiffness`), over the body's volume (tets, else ``body.volume``).
     """
+    from threadpoolctl import threadpool_limits
+
+    # BLAS on one thread: its reductions' order (and the last bits) would follow the thread count
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _network_youngs_modulus(body, stiffness, relax, volume)
+
+
+def _network_youngs_modulus(body, stiffness, relax, volume):
     pts = np.asarray(body.points, dtype=np.float64)
     springs = np.asarray(body.springs, dtype=np.int64).reshape(-1, 2)
     k = np.asarray(stiffness, dtype=np.float64)
