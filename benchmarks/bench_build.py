@@ -8,7 +8,8 @@ points=N, connect="delaunay")``: the exact slicing inside test (``InsideQuery``)
 sampling (uniform field, keep the inside points until exactly N), the surface sampled (its
 vertices, sharp edges and faces; ``--report-way``: its vertices only), then ``delaunay_body``
 (near duplicates, Qhull, slivers, carving).  The mesh load is not timed.  ``--calibrate`` also
-times ``calibrate_springs`` on that body (E = 10 kPa: the kinematic and static solves).
+times ``calibrate_springs`` on that body (E = 10 kPa: the kinematic and static solves,
+multigrid-preconditioned CG; wall and CPU seconds, and the mean calibrated stiffness).
 Radius springs: the report's scene recipe at 1M edge-favouring points, r = 0.3 (600 / N)^(1/3),
 with the parallel cell grid (``method="grid"``) and, with ``--kdtree``, cKDTree.query_pairs.
 Needs ``../shared/meshes/bunny.obj`` (Stanford terms: not redistributed with jellysim).
@@ -69,9 +70,13 @@ def main(argv=None) -> None:
     if args.calibrate:
         from jellysim.physics.material import calibrate_springs
 
-        t = time.perf_counter()
-        calibrate_springs(body, 1e4)
+        t, c = time.perf_counter(), time.process_time()
+        k = calibrate_springs(body, 1e4)
         out["delaunay_bunny"]["calibrate_seconds"] = time.perf_counter() - t
+        # CPU seconds of this process (all its threads): on a shared machine the wall time
+        # measures the other processes too
+        out["delaunay_bunny"]["calibrate_cpu_seconds"] = time.process_time() - c
+        out["delaunay_bunny"]["calibrated_k_mean_N_per_m"] = float(k.mean())
     print(json.dumps(out["delaunay_bunny"]), flush=True, file=__import__("sys").stderr)
 
     n = args.radius_points

@@ -5,7 +5,9 @@ connects them with one of four spring builders:
 
 =============  ==============================================================================
 ``radius``     the report's "implicit" builder: every pair closer than ``r``; ``r`` chosen for
-               a target mean neighbour count when not given (reported in ``body.meta``)
+               a target mean neighbour count when not given (reported in ``body.meta``);
+               also tets for the tetrahedral elasticity (Delaunay of the points, carved,
+               slivers dropped: :func:`~jellysim.geometry.tetra.cloud_tets`)
 ``marching``   the report's marching-tetrahedra grid: cubes of size ``h``, 6 Kuhn tets each
 ``delaunay``   Qhull Delaunay of the sampled points + surface samples (vertices, sharp edges,
                faces), carved by the inside test, slivers dropped
@@ -16,7 +18,10 @@ Mass: total = density x the volume the surface encloses, for every builder.  Tet
 each tet's mass on its corners and, where the tets do not fill the surface exactly (marching
 grid: only whole cubes inside; Delaunay: carved hull), scale the lumped masses so the total is
 density x enclosed volume (the tets' own volume stays in ``meta["tet_volume"]``).  Radius bodies
-split density x enclosed volume evenly over the points.  The enclosed volume is the surface's
+split density x enclosed volume evenly over the points (``Body.masses`` stays ``None``); their
+tets (the convex hull of random points, less its hull slivers) fill a few percent less than the
+enclosed volume (``meta["tet_volume"]``: 93 % for 2,000 uniform points in a cube, 97 % for
+16,000) and do not set the masses or the spring calibration.  The enclosed volume is the surface's
 signed volume for closed meshes (exact) and a Monte-Carlo estimate with the inside test for open
 ones (:data:`VOLUME_SAMPLES` points, relative error about 1/sqrt(samples x fraction inside);
 a warning says so).
@@ -277,6 +282,8 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
                          surface_samples=bool(on_surface))
         return _rescale_masses(body, density, volume)
     pts = pts[morton_order(pts)]
+    pts, tets, tet_info = _radius_tets(pts, query.query, m.vertices, m.faces, seed=seed,
+                                       name=name)
     chosen = radius is None
     if chosen:
         radius = choose_radius(pts, neighbours, seed=seed)
@@ -288,8 +295,30 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
                       f"{radius:.4g} m (raise radius or neighbours)", UserWarning, stacklevel=3)
     meta = {"source": name, "connect": "radius", "sampling": sampling.value, "seed": seed,
             "radius": float(radius), "radius_chosen_for_neighbours": neighbours if chosen else None,
-            "mean_neighbours": float(2 * len(springs) / len(pts))}
-    return Body(points=pts, springs=springs, volume=volume, meta=meta)
+            "mean_neighbours": float(2 * len(springs) / len(pts)),
+            "tet_volume": tet_info["tet_volume"], "cloud_tets": tet_info}
+    return Body(points=pts, springs=springs, tets=tets, volume=volume, meta=meta)
+
+
+def _radius_tets(pts, inside_fn, vertices=None, faces=None, *, seed: int = 0,
+                 name: str = "body") -> tuple[np.ndarray, np.ndarray, dict]:
+    """(points, tets, info) of a radius body: :func:`~jellysim.geometry.tetra.cloud_tets` of its
+    points (Delaunay, slivers dropped, carved by ``inside_fn``, ``None`` for a box), for the
+    tetrahedral elasticity; the springs stay the radius springs.  Orphans (points in no tet,
+    which would get no elastic force from the tets; rare: none in a box or on the test meshes)
+    are dropped before the springs are built, with a warning; ``info["orphans"]`` counts them."""
+    from .geometry.tetra import cloud_tets
+
+    try:
+        tets, orphans, info = cloud_tets(pts, inside_fn, vertices, faces, seed=seed)
+    except BuildError as exc:
+        raise BuildError(f"{name}: tets of the radius body: {exc}") from None
+    if orphans.any():
+        warnings.warn(f"{name}: {int(orphans.sum())} of {len(pts)} points are in no "
+                      "well-shaped tet and were dropped", UserWarning, stacklevel=3)
+        new_id = np.cumsum(~orphans) - 1
+        pts, tets = pts[~orphans], new_id[tets]
+    return pts, tets, info
 
 
 def _add_surface_vertices(pts: np.ndarray, vertices: np.ndarray) -> np.ndarray:

@@ -16,6 +16,8 @@ import numpy as np
 from .errors import SceneError
 from .params import GRAVITY, REPORT_DENSITY, GroundParams, ImplicitParams, ProvotParams
 # Spec (one row of the schema) and the checks live in scene_spec; SCHEMA stays here
+from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-exported)
+                              make_obstacle, validate_obstacles)
 from .scene_spec import REQUIRED, Spec, _nonneg, _pos, check_backend, check_value
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
@@ -182,27 +184,6 @@ SCHEMA: dict[str, dict[str, Spec]] = {
 }
 REQUIRED_SECTIONS = ("body", "springs", "integrator")
 
-OBSTACLE_SCHEMA: dict[str, Spec] = {
-    "kind": Spec("str", REQUIRED, "'plane', 'sphere' or 'box'.",
-                 choices=("plane", "sphere", "box")),
-    "point": Spec("vec3", None, "Plane: a point on it [m]."),
-    "normal": Spec("vec3", None, "Plane: its outward normal (any length > 0)."),
-    "center": Spec("vec3", None, "Sphere: centre [m]."),
-    "radius": Spec("float", None, "Sphere: radius [m].", lambda v: v > 0, "a number > 0 (m)"),
-    "lower": Spec("vec3", None, "Box: lower corner [m]."),
-    "upper": Spec("vec3", None, "Box: upper corner [m]."),
-    "restitution": Spec("float", _G.restitution, "Coefficient of restitution e.", lambda v: 0 <= v <= 1,
-                        "a number in [0, 1]"),
-    "friction": Spec("float", _G.friction, "Kinetic Coulomb friction coefficient.", lambda v: v >= 0,
-                     "a number >= 0"),
-    "static_friction": Spec("float", None, "Static Coulomb coefficient (default: friction).",
-                            lambda v: v >= 0, "a number >= 0"),
-}
-"""``[[obstacle]]`` tables: static obstacles with restitution and Coulomb friction (contact
-model; used with every integrator)."""
-OBSTACLE_KEYS = {"plane": ("point", "normal"), "sphere": ("center", "radius"),
-                 "box": ("lower", "upper")}
-
 
 def _wants_fem(params: dict) -> bool:
     mat = params["material"]
@@ -342,46 +323,8 @@ class Scene:
         out["handle"] = handles
         return out
 
-    @staticmethod
-    def _validate_obstacles(entries, name: str) -> list[dict]:
-        if isinstance(entries, dict):
-            entries = [entries]
-        if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
-            raise SceneError(f"{name}: obstacles are tables: write [[obstacle]] (double "
-                             "brackets) before each one")
-        out = []
-        for k, entry in enumerate(entries, start=1):
-            where = f"[[obstacle]] #{k}"
-            values = _table(name, where, entry, OBSTACLE_SCHEMA)
-            kind = values["kind"]
-            for key in OBSTACLE_KEYS[kind]:
-                if values[key] is None:
-                    raise SceneError(f"{name}: {where} missing value '{key}' (needed for kind "
-                                     f"= {kind!r}): {OBSTACLE_SCHEMA[key].doc}")
-            extra = [key for key in ("point", "normal", "center", "radius", "lower", "upper")
-                     if key in entry and key not in OBSTACLE_KEYS[kind]]
-            if extra:
-                raise SceneError(f"{name}: {where} '{extra[0]}' is not used by kind = {kind!r};"
-                                 f" it takes {', '.join(OBSTACLE_KEYS[kind])}")
-            try:
-                Scene._obstacle(values).row()
-            except ValueError as exc:
-                raise SceneError(f"{name}: {where}: {exc}") from None
-            out.append(values)
-        return out
-
-    @staticmethod
-    def _obstacle(values: dict):
-        from .physics.contact import Box, Plane, Sphere
-
-        material = {k: values[k] for k in ("restitution", "friction", "static_friction")}
-        kind = values["kind"]
-        if kind == "plane":
-            return Plane(point=tuple(values["point"]), normal=tuple(values["normal"]),
-                         **material)
-        if kind == "sphere":
-            return Sphere(center=tuple(values["center"]), radius=values["radius"], **material)
-        return Box(lower=tuple(values["lower"]), upper=tuple(values["upper"]), **material)
+    _validate_obstacles = staticmethod(validate_obstacles)
+    _obstacle = staticmethod(make_obstacle)
 
     def obstacles(self) -> tuple:
         """The scene's static obstacles (:mod:`jellysim.physics.contact` objects)."""
@@ -478,16 +421,22 @@ class Scene:
         else:
             points = box_field(b["points"], b["lower"], b["upper"],
                                distribution=b["distribution"], seed=b["seed"])
-        springs = radius_springs(points, s["radius"])
-        volume = float(np.prod(np.subtract(b["upper"], b["lower"])))
-        tets = None
-        if b["distribution"] == "grid":
+        meta = {"builder": "box", "distribution": b["distribution"], "seed": b["seed"],
+                "connect": "radius", "radius": s["radius"]}
+        if b["distribution"] == "grid":  # the lattice's own Kuhn tets (well shaped)
             from .geometry.lattice import grid_tets
 
             tets = grid_tets(points)
-        return Body(points=points, springs=springs, volume=volume, tets=tets,
-                    meta={"builder": "box", "distribution": b["distribution"],
-                          "seed": b["seed"], "connect": "radius", "radius": s["radius"]})
+        else:
+            from .build import _radius_tets
+
+            # Delaunay tets of the points (a box is convex: nothing to carve), for
+            # [material] model = 'fem'; the springs stay the radius springs
+            points, tets, tet_info = _radius_tets(points, None, seed=b["seed"], name=self.name)
+            meta.update(tet_volume=tet_info["tet_volume"], cloud_tets=tet_info)
+        springs = radius_springs(points, s["radius"])
+        volume = float(np.prod(np.subtract(b["upper"], b["lower"])))
+        return Body(points=points, springs=springs, tets=tets, volume=volume, meta=meta)
 
     def build_model(self, body=None):
         from .model import finalize
@@ -506,7 +455,7 @@ class Scene:
                 from .physics.material import calibrate_springs, point_masses
 
                 masses, pv = body.masses, None
-                if body.meta.get("distribution") == "grid" and body.tets is None:
+                if body.meta.get("distribution") == "grid" and body.meta.get("connect") == "radius":
                     from .geometry.lattice import grid_point_volumes
 
                     pv = grid_point_volumes(body.points)

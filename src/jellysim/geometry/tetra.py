@@ -47,6 +47,7 @@ from jellysim.params import REPORT_DENSITY
 __all__ = [
     "marching_grid",
     "delaunay_body",
+    "cloud_tets",
     "tetgen_body",
     "lump_tet_masses",
     "tet_signed_volumes",
@@ -453,6 +454,126 @@ def delaunay_body(points, vertices, faces, inside_fn: InsideFn, *, epsilon: floa
     body = _finish(p, simplices, density, meta, signed_volumes=sv)
     body.meta["dropped_points"] = int(n_in - body.points.shape[0])
     return body
+
+
+# ----------------------------------------------------------------------------------------------
+# Tets over a given point cloud (radius bodies)
+# ----------------------------------------------------------------------------------------------
+#: :func:`cloud_tets`: a point left in no tet gets back its best Delaunay tet (centroid inside)
+#: if that tet's :func:`tet_quality` is at least this; else the point is an orphan.
+ORPHAN_MIN_QUALITY = 0.01
+
+
+def cloud_tets(points, inside_fn: InsideFn | None = None, vertices=None, faces=None, *,
+               min_quality: float = DEFAULT_MIN_QUALITY,
+               orphan_min_quality: float = ORPHAN_MIN_QUALITY,
+               seed: int = 0) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Tetrahedra over a point cloud whose points must all stay (a radius body's).
+
+    The same steps as :func:`delaunay_body` without removing points: Qhull Delaunay of a copy
+    jittered by ``1e-3`` x (``1e-2`` x the median nearest-neighbour distance) (co-sphericity
+    of grid inputs), tets with :func:`tet_quality` ``< min_quality`` dropped as slivers, tets
+    whose centroid ``inside_fn`` rejects dropped (carving; ``inside_fn=None``: no carving, for
+    convex regions such as a box, where no Delaunay tet of inside points pokes out).
+
+    Dropping slivers can leave a point (mostly on the cloud's convex hull) in no tet: it would
+    get no elastic force from the tets.  Each such point gets back the best-quality tet among
+    its own Delaunay tets that passed the carving, when that quality is at least
+    ``orphan_min_quality`` (a few such tets are flatter than ``min_quality`` but still shaped
+    well enough).  Points still in no tet are the *orphans*, returned as a mask so the caller
+    can drop them (:func:`jellysim.build.build_body` does, before it builds the springs).
+
+    Parameters
+    ----------
+    points: the cloud [m], shape (n, 3), n >= 4, not all in a plane.
+    inside_fn: inside test ``(m, 3) float64 -> (m,) bool``, or ``None``.
+    vertices, faces: the surface ``inside_fn`` describes (speeds up carving), or ``None``.
+    min_quality, orphan_min_quality: thresholds on :func:`tet_quality`, in [0, 1).
+    seed: seed of the jitter.
+
+    Returns
+    -------
+    tets: (t, 4) int64 indices into ``points``, positively oriented.
+    orphans: (n,) bool, the points in no tet.
+    info: counts (``delaunay_tets``, ``slivers_removed``, ``outside_removed``,
+        ``orphans_readmitted``, ``orphans``) and the tets' total volume ``tet_volume`` [m^3].
+    """
+    from scipy.spatial import Delaunay, QhullError, cKDTree
+
+    p = np.asarray(points, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 4:
+        raise BuildError(f"cloud_tets needs points of shape (n >= 4, 3), got {p.shape}")
+    if not np.isfinite(p).all():
+        raise BuildError("points contain NaN or infinite coordinates")
+    for name, q in (("min_quality", min_quality), ("orphan_min_quality", orphan_min_quality)):
+        if not (0.0 <= float(q) < 1.0):
+            raise BuildError(f"{name} must be in [0, 1), got {q!r}")
+    n = p.shape[0]
+    eps = _default_epsilon(cKDTree(p), p)
+    diag = float(np.linalg.norm(p.max(axis=0) - p.min(axis=0)))
+    amp = JITTER_FRACTION * eps if eps > 0 else 1e-9 * diag
+    jittered = p + np.random.default_rng(seed).uniform(-amp, amp, size=p.shape)
+    try:
+        simplices = Delaunay(jittered).simplices.astype(np.int64)
+    except QhullError as exc:  # all points coplanar etc.
+        raise BuildError(f"Qhull could not tetrahedralize the points: {exc}") from exc
+    sv = tet_signed_volumes(p, simplices)
+    q = tet_quality(p, simplices, sv)
+    inside = (np.ones(len(simplices), dtype=bool) if inside_fn is None
+              else _carve(p, simplices, inside_fn, vertices, faces))
+    good = (q >= float(min_quality)) & (q > 0)
+    keep = good & inside
+    covered = np.zeros(n, dtype=bool)
+    covered[simplices[keep].ravel()] = True
+    readmitted = 0
+    spare = np.flatnonzero(inside & ~good & (q >= float(orphan_min_quality)) & (q > 0))
+    if not covered.all() and spare.size:
+        # best spare tet of each uncovered point: sort the spare tets by quality (best last,
+        # ties by index) so the last write per point wins
+        order = spare[np.lexsort((-spare, q[spare]))]
+        best = np.full(n, -1, dtype=np.int64)
+        for c in range(4):
+            best[simplices[order, c]] = order
+        pick = np.unique(best[~covered & (best >= 0)])
+        keep[pick] = True
+        readmitted = int(pick.size)
+        covered[simplices[pick].ravel()] = True
+    if not keep.any():
+        raise BuildError("no well-shaped tet over the points (are they all in a plane or on a "
+                         "line?), or the inside test rejects every tet")
+    tets = simplices[keep]
+    neg = sv[keep] < 0
+    tets[neg, 2], tets[neg, 3] = tets[neg, 3], tets[neg, 2].copy()
+    info = {
+        "delaunay_tets": int(len(simplices)),
+        "slivers_removed": int(np.sum(~good)),
+        "outside_removed": int(np.sum(good & ~inside)),
+        "orphans_readmitted": readmitted,
+        "orphans": int(np.sum(~covered)),
+        "min_quality": float(min_quality),
+        "orphan_min_quality": float(orphan_min_quality),
+        "tet_volume": float(np.abs(sv[keep]).sum()),
+    }
+    return tets, ~covered, info
+
+
+# ----------------------------------------------------------------------------------------------
+# TetGen
+# ----------------------------------------------------------------------------------------------
+def _winding_numbers(v: np.ndarray, f: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Generalized winding number of a few query points (exact solid-angle sum, O(n f))."""
+    out = np.empty(q.shape[0], dtype=np.float64)
+    for s in range(0, q.shape[0], 64):
+        qq = q[s:s + 64]
+        a = v[f[:, 0]][None] - qq[:, None]
+        b = v[f[:, 1]][None] - qq[:, None]
+        c = v[f[:, 2]][None] - qq[:, None]
+        la, lb, lc = (np.linalg.norm(x, axis=2) for x in (a, b, c))
+        det = np.einsum("ijk,ijk->ij", a, np.cross(b, c))
+        den = (la * lb * lc + np.einsum("ijk,ijk->ij", a, b) * lc
+               + np.einsum("ijk,ijk->ij", a, c) * lb + np.einsum("ijk,ijk->ij", b, c) * la)
+        out[s:s + 64] = (2.0 * np.arctan2(det, den)).sum(axis=1) / (4.0 * math.pi)
+    return out
 
 
 _MOVED = {"marching_grid": "tet_marching", "tetgen_body": "tet_tetgen",

@@ -46,7 +46,7 @@ from ..body import Body
 __all__ = ["spring_weights", "virial_stiffness", "relaxation_stiffness", "kinematic_stiffness",
            "static_compliance",
            "youngs_from_stiffness", "network_youngs_modulus", "calibrate_springs",
-           "point_masses", "point_volumes", "surface_points", "tet_volumes"]
+           "point_masses", "point_volumes", "surface_points", "tet_volumes", "spring_tets"]
 
 _VOIGT = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
 
@@ -58,6 +58,18 @@ def tet_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
                      np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0])) / 6.0
 
 
+def spring_tets(body: Body):
+    """The tets (t, 4) whose edges are ``body``'s springs, or ``None`` for a point cloud.
+
+    A radius body (``body.meta["connect"] == "radius"``, from :func:`jellysim.build.build_body`
+    or a scene's box field) may carry tets (Delaunay of its points, for the tetrahedral
+    elasticity), but its springs are the radius springs, not the tets' edges: the calibration
+    treats it as the point cloud it is."""
+    if body.tets is None or not len(body.tets) or body.meta.get("connect") == "radius":
+        return None
+    return np.asarray(body.tets, dtype=np.int64)
+
+
 def _edge_index(springs: np.ndarray, n: int) -> dict:
     return {int(a) * n + int(b): s for s, (a, b) in enumerate(springs)}
 
@@ -65,14 +77,15 @@ def _edge_index(springs: np.ndarray, n: int) -> dict:
 def point_volumes(body: Body, *, density: float | None = None) -> np.ndarray:
     """Volume owned by each point [m^3], shape (n,).
 
-    From tets (a quarter of each incident tet), else from ``body.masses / density``, else the
-    body volume split evenly.
+    From tets whose edges are the springs (a quarter of each incident tet, see
+    :func:`spring_tets`), else from ``body.masses / density``, else the body volume split
+    evenly.
     """
     n = body.point_count
-    if body.tets is not None and len(body.tets):
-        vol = np.abs(tet_volumes(body.points, np.asarray(body.tets)))
-        return np.bincount(np.asarray(body.tets).ravel(), weights=np.repeat(vol / 4, 4),
-                           minlength=n)
+    tets = spring_tets(body)
+    if tets is not None:
+        vol = np.abs(tet_volumes(body.points, tets))
+        return np.bincount(tets.ravel(), weights=np.repeat(vol / 4, 4), minlength=n)
     if body.masses is not None and density:
         return np.asarray(body.masses, dtype=np.float64) / density
     if body.volume is None:
@@ -98,8 +111,8 @@ def spring_weights(body: Body, *, point_volume=None) -> np.ndarray:
     length = np.linalg.norm(pts[springs[:, 1]] - pts[springs[:, 0]], axis=1)
     if np.any(length <= 0):
         raise ValueError("a spring has zero rest length")
-    if body.tets is not None and len(body.tets):
-        tets = np.asarray(body.tets, dtype=np.int64)
+    tets = spring_tets(body)
+    if tets is not None:
         vol = np.abs(tet_volumes(pts, tets))
         pairs = np.array([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)])
         e = np.sort(tets[:, pairs].reshape(-1, 2), axis=1)
@@ -110,7 +123,9 @@ def spring_weights(body: Body, *, point_volume=None) -> np.ndarray:
         pos = np.minimum(pos, k - 1)
         found = skey[order][pos] == key
         if not np.all(found):
-            raise ValueError("a tet edge has no spring: build springs from the tets' edges")
+            raise ValueError("a tet edge has no spring: build springs from the tets' edges "
+                             "(or set body.meta['connect'] = 'radius' when the tets are not "
+                             "the spring network)")
         w = np.bincount(order[pos], weights=np.repeat(vol, 6), minlength=k)
         if np.any(w <= 0):
             raise ValueError("a spring belongs to no tet: cannot weight it by tet volume")
@@ -135,21 +150,24 @@ def virial_stiffness(points, springs, stiffness, volume) -> np.ndarray:
 
 
 def _stiffness_matrix(points, springs, stiffness, n):
-    """Rest stiffness K [N/m], sparse (3n, 3n): ``K u`` is minus the spring force."""
-    from scipy.sparse import coo_matrix
+    """Rest stiffness K [N/m], sparse CSR (3n, 3n): ``K u`` is minus the spring force.  Built
+    block by block (3 x 3 per point pair, each row's blocks in column order)."""
+    from scipy.sparse import bsr_matrix
 
     nrm, _ = _directions(points, springs)
     blocks = stiffness[:, None, None] * nrm[:, :, None] * nrm[:, None, :]  # (k, 3, 3)
     i, j = springs[:, 0], springs[:, 1]
-    rows, cols, vals = [], [], []
+    diag = np.zeros((n, 3, 3))
     for a in range(3):
         for b in range(3):
-            kab = blocks[:, a, b]
-            rows += [3 * i + a, 3 * j + a, 3 * i + a, 3 * j + a]
-            cols += [3 * i + b, 3 * j + b, 3 * j + b, 3 * i + b]
-            vals += [kab, kab, -kab, -kab]
-    return coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                      shape=(3 * n, 3 * n)).tocsr()
+            diag[:, a, b] = np.bincount(i, blocks[:, a, b], n) + np.bincount(j, blocks[:, a, b], n)
+    rows = np.concatenate([np.arange(n), i, j])
+    cols = np.concatenate([np.arange(n), j, i])
+    order = np.argsort(rows * n + cols, kind="stable")
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
+    data = np.concatenate([diag, -blocks, -blocks])[order]
+    return bsr_matrix((data, cols[order], indptr), shape=(3 * n, 3 * n)).tocsr()
 
 
 def surface_points(points, springs, tets=None) -> np.ndarray:
@@ -214,69 +232,172 @@ def _strain_forces(points, springs, stiffness):
     return xi
 
 
-def _solve(K, rhs, *, rtol: float = 1e-5) -> np.ndarray:
-    """``K^-1 rhs`` for a symmetric positive (semi-)definite sparse ``K`` (rows in point
-    triples) and a few right-hand sides (columns): block-Jacobi preconditioned conjugate
-    gradients on all columns at once, one sparse-matrix x block product per iteration
-    (:func:`jellysim.kernels.numba_backend.csr_matmat`; a sparse LU's fill-in grows too fast
-    past ~10^4 points).  A singular ``K`` is fine when the right-hand sides are in its range
-    (balanced loads).  The results enter energies
-    (``rhs^T K^-1 rhs``), whose error is of second order in the solution's.  Columns that stall
-    are solved by sparse LU, regularised (1e-9 of the mean diagonal) if singular."""
+def _rigid_modes(points) -> np.ndarray:
+    """The six rigid motions of ``points`` [m] (n, 3) as displacement columns (3n, 6):
+    translations along x, y, z, then small rotations about the centroid's x, y, z axes."""
+    p = np.asarray(points, dtype=np.float64)
+    p = p - p.mean(axis=0)
+    B = np.zeros((3 * p.shape[0], 6))
+    for c in range(3):
+        B[c::3, c] = 1.0
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    B[1::3, 3], B[2::3, 3] = -z, y
+    B[0::3, 4], B[2::3, 4] = z, -x
+    B[0::3, 5], B[1::3, 5] = -y, x
+    return B
+
+
+def _gs_sweep_py(indptr, indices, data, b, x, forward):  # pragma: no cover (compiled)
+    """One Gauss-Seidel sweep over the rows of a CSR matrix for every column of ``x`` (n, m)
+    at once, in place; rows in ascending (``forward``) or descending order."""
+    n, m = x.shape
+    acc = np.empty(m)
+    for step in range(n):
+        i = step if forward else n - 1 - step
+        d = 0.0
+        for c in range(m):
+            acc[c] = b[i, c]
+        for p in range(indptr[i], indptr[i + 1]):
+            j = indices[p]
+            if j == i:
+                d += data[p]
+            else:
+                a = data[p]
+                for c in range(m):
+                    acc[c] -= a * x[j, c]
+        if d > 0.0:
+            for c in range(m):
+                x[i, c] = acc[c] / d
+
+
+_GS = []
+
+
+def _gs_sweep():
+    if not _GS:
+        from numba import njit
+
+        _GS.append(njit(cache=True, nogil=True)(_gs_sweep_py))
+    return _GS[0]
+
+
+class _Multigrid:
+    """A symmetric V-cycle on several columns at once over the smoothed-aggregation hierarchy
+    that pyamg builds (:func:`pyamg.smoothed_aggregation_solver`, near-null space: the rigid
+    motions ``B``; Vanek, Mandel & Brezina 1996): one forward Gauss-Seidel sweep before the
+    coarse correction, one backward after (so the cycle is symmetric positive definite, a
+    valid CG preconditioner), the pseudo-inverse on the coarsest level (singular systems)."""
+
+    def __init__(self, K, B):
+        import pyamg
+
+        # strength threshold 0.05 (pyamg's default 0: every connection strong) gives smaller
+        # aggregates and half the CG iterations on Delaunay bunnies; improving the candidates
+        # by relaxation did not reduce them and cost a third of the setup
+        # pyamg estimates spectral radii from np.random's global generator: seed it for the
+        # setup (same hierarchy, same result every call) and give the caller's state back
+        state = np.random.get_state()
+        np.random.seed(0)
+        try:
+            ml = pyamg.smoothed_aggregation_solver(
+                K.tobsr(blocksize=(3, 3)), B=B, max_coarse=500, improve_candidates=None,
+                strength=("symmetric", {"theta": 0.05}))
+        finally:
+            np.random.set_state(state)
+        self.levels = []
+        for lvl in ml.levels[:-1]:
+            A = lvl.A.tocsr()
+            A.sort_indices()
+            self.levels.append((A, lvl.P.tocsr(), lvl.R.tocsr()))
+        self.coarse = np.linalg.pinv(ml.levels[-1].A.toarray(), hermitian=True)
+        self.sweep = _gs_sweep()
+
+    def __call__(self, b, level: int = 0):
+        if level == len(self.levels):
+            return np.stack([self.coarse @ col for col in b.T], axis=1)
+        A, P, R = self.levels[level]
+        x = np.zeros_like(b)
+        self.sweep(A.indptr, A.indices, A.data, b, x, True)
+        x += P @ self(np.ascontiguousarray(R @ (b - A @ x)), level + 1)
+        self.sweep(A.indptr, A.indices, A.data, b, x, False)
+        return x
+
+
+def _solve(K, rhs, points, *, singular: bool = False, rtol: float = 1e-5) -> np.ndarray:
+    """``K^-1 rhs`` for a symmetric positive (semi-)definite sparse stiffness ``K`` (3n, 3n,
+    rows in point triples) of the ``points`` [m] (n, 3), and a few right-hand sides (columns).
+
+    Conjugate gradients on all columns at once, preconditioned by algebraic multigrid
+    (:class:`_Multigrid`: pyamg's smoothed aggregation with the rigid motions as near-null
+    space); relative residual ``rtol`` per column.  ``singular``: ``K`` is a free-floating
+    body's (its null space the rigid motions): the right-hand sides must be balanced (no net
+    force or moment; their unbalanced part is projected out) and the returned displacements
+    are the ones orthogonal to the rigid motions.  The results enter energies
+    (``rhs^T K^-1 rhs``), whose error is of second order in the solution's.  Reductions are
+    in a fixed order and BLAS runs on one thread, so the result does not depend on the thread
+    count.  Columns that do not converge (a mechanism in the network) are solved by sparse LU,
+    regularised (1e-9 of the mean diagonal) if singular."""
     from scipy.sparse import identity
     from scipy.sparse.linalg import splu
-
-    from ..kernels.numba_backend import csr_matmat
+    from threadpoolctl import threadpool_limits
 
     K = K.tocsr()
     K.sort_indices()
-    b = np.ascontiguousarray(rhs, dtype=np.float64)
-    indptr, indices = K.indptr.astype(np.int64), K.indices.astype(np.int64)
-    data = np.ascontiguousarray(K.data, dtype=np.float64)
-    q = np.empty_like(b)
-    diag = K.diagonal()
-    # block-Jacobi preconditioner: the inverse of each point's 3 x 3 diagonal block
-    coo = K.tocoo()
-    same = coo.row // 3 == coo.col // 3
-    blocks = np.zeros((K.shape[0] // 3, 3, 3))
-    np.add.at(blocks, (coo.row[same] // 3, coo.row[same] % 3, coo.col[same] % 3),
-              coo.data[same])
-    blocks += 1e-12 * np.abs(blocks).max() * np.eye(3)
-    inv_blocks = np.linalg.inv(blocks)
-
-    def precondition(res):
-        return np.einsum("pab,pbm->pam", inv_blocks,
-                         res.reshape(-1, 3, res.shape[1])).reshape(res.shape)
-
+    b = np.array(rhs, dtype=np.float64, copy=True).reshape(K.shape[0], -1)
     x = np.zeros_like(b)
-    r = b.copy()
-    z = precondition(r)
-    p = z.copy()
-    rz = np.einsum("ij,ij->j", r, z)
-    goal = rtol * np.linalg.norm(b, axis=0)
-    active = np.linalg.norm(r, axis=0) > goal
-    for _ in range(max(2000, 4 * K.shape[0])):
-        if not active.any():
-            break
-        csr_matmat(indptr, indices, data, p, q)
-        pq = np.einsum("ij,ij->j", p, q)
-        alpha = np.where(active & (pq > 0), rz / np.where(pq > 0, pq, 1.0), 0.0)
-        x += alpha * p
-        r -= alpha * q
-        z = precondition(r)
-        rz_new = np.einsum("ij,ij->j", r, z)
-        beta = np.where(active, rz_new / np.where(rz != 0, rz, 1.0), 0.0)
-        p = z + beta * p
-        rz = rz_new
-        active &= np.linalg.norm(r, axis=0) > goal
-    if active.any():
-        A = K.tocsc()
-        try:
-            lu = splu(A)
-        except RuntimeError:
-            lu = splu((A + 1e-9 * float(diag.mean()) * identity(A.shape[0])).tocsc())
-        x[:, active] = lu.solve(b[:, active])
-    return x
+    if K.shape[0] == 0:
+        return x
+    with threadpool_limits(limits=1, user_api="blas"):
+        B = _rigid_modes(points)
+        Q = np.linalg.qr(B)[0] if singular else None
+
+        def project(v):
+            return v - Q @ (Q.T @ v) if singular else v
+
+        b = project(b)
+        precondition = _Multigrid(K, B)
+
+        def pcg(cols):
+            bc = np.ascontiguousarray(b[:, cols])
+            xc = np.zeros_like(bc)
+            r = bc.copy()
+            z = project(precondition(r))
+            p = z.copy()
+            rz = np.einsum("ij,ij->j", r, z)
+            goal = rtol * np.linalg.norm(bc, axis=0)
+            active = np.linalg.norm(r, axis=0) > goal
+            for _ in range(500):
+                if not active.any():
+                    break
+                q = K @ p
+                pq = np.einsum("ij,ij->j", p, q)
+                alpha = np.where(active & (pq > 0), rz / np.where(pq > 0, pq, 1.0), 0.0)
+                xc += alpha * p
+                r -= alpha * q
+                z = project(precondition(r))
+                rz_new = np.einsum("ij,ij->j", r, z)
+                beta = np.where(active, rz_new / np.where(rz != 0, rz, 1.0), 0.0)
+                p = z + beta * p
+                rz = rz_new
+                active &= np.linalg.norm(r, axis=0) > goal
+            x[:, cols] = xc
+            return active
+
+        # the columns in two fixed halves, solved side by side (the sweeps and sparse products
+        # release the GIL): the split never depends on the machine, nor do the results
+        from concurrent.futures import ThreadPoolExecutor
+
+        halves = np.array_split(np.arange(b.shape[1]), 2)
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            active = np.concatenate(list(pool.map(pcg, halves)))
+        if active.any():
+            A = K.tocsc()
+            try:
+                lu = splu(A)
+            except RuntimeError:
+                lu = splu((A + 1e-9 * float(K.diagonal().mean()) * identity(A.shape[0])).tocsc())
+            x[:, active] = lu.solve(b[:, active])
+        return project(x)
 
 
 def _relaxation(points, springs, stiffness, held) -> np.ndarray:
@@ -287,7 +408,7 @@ def _relaxation(points, springs, stiffness, held) -> np.ndarray:
     dof = np.repeat(~held, 3)
     K = _stiffness_matrix(points, springs, stiffness, n)
     rhs = xi[dof]
-    return rhs.T @ _solve(K[dof][:, dof], rhs)
+    return rhs.T @ _solve(K[dof][:, dof], rhs, points[~held])
 
 
 def relaxation_stiffness(points, springs, stiffness, volume, *, skin: float | None = None,
@@ -346,7 +467,8 @@ def static_compliance(points, springs, stiffness, tets) -> np.ndarray:
     # K is singular (rigid motions) but the load is balanced (no net force or moment on a
     # closed boundary), so conjugate gradients converge; rigid motions of u do not change the
     # symmetric mean strain.
-    u = _solve(_stiffness_matrix(points, springs, stiffness, n), load)
+    u = _solve(_stiffness_matrix(points, springs, stiffness, n), load, points,
+               singular=True)
     # the work of the load is V sigma : mean strain (Hill-Mandel; exact for the faces' linear
     # interpolation), so S = load^T u / V: an energy, accurate to second order in u
     S = load.T @ u / volume
@@ -369,6 +491,14 @@ def network_youngs_modulus(body: Body, stiffness, *, relax: bool = True,
     below; point clouds: the virial stiffness minus the relaxation of the inner points
     (:func:`relaxation_stiffness`), over the body's volume (tets, else ``body.volume``).
     """
+    from threadpoolctl import threadpool_limits
+
+    # BLAS on one thread: its reductions' order (and the last bits) would follow the thread count
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _network_youngs_modulus(body, stiffness, relax, volume)
+
+
+def _network_youngs_modulus(body, stiffness, relax, volume):
     pts = np.asarray(body.points, dtype=np.float64)
     springs = np.asarray(body.springs, dtype=np.int64).reshape(-1, 2)
     k = np.asarray(stiffness, dtype=np.float64)
@@ -376,9 +506,10 @@ def network_youngs_modulus(body: Body, stiffness, *, relax: bool = True,
         volume = float(point_volumes(body).sum())
     if not relax:
         return youngs_from_stiffness(virial_stiffness(pts, springs, k, volume))
-    if body.tets is not None and len(body.tets):
-        upper = kinematic_stiffness(pts, springs, k, body.tets, volume)
-        lower = np.linalg.inv(static_compliance(pts, springs, k, body.tets))
+    tets = spring_tets(body)
+    if tets is not None:
+        upper = kinematic_stiffness(pts, springs, k, tets, volume)
+        lower = np.linalg.inv(static_compliance(pts, springs, k, tets))
         return youngs_from_stiffness(0.5 * (upper + lower))
     C = virial_stiffness(pts, springs, k, volume)
     return youngs_from_stiffness(C - relaxation_stiffness(pts, springs, k, volume))

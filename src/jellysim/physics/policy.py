@@ -92,7 +92,11 @@ def scene_fem_model(params: dict, body):
     material = scene_material(params)
     if material is None or mat["model"] == "springs":
         return None
-    if mat["model"] == "auto" and (body.tets is None or len(body.tets) == 0):
+    if mat["model"] == "auto" and (body.tets is None or len(body.tets) == 0
+                                   or "cloud_tets" in body.meta):
+        # 'auto' takes the FEM path for tet bodies (tet builders, grid boxes); a radius
+        # body's Delaunay tets of random points have slivers (a tiny explicit substep):
+        # it stays on springs unless model = 'fem' asks for them
         return None
     ph = params["physics"]
     return physical_model(body, material, gravity=ph["gravity"], damping=ph["damping"])
