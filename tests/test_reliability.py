@@ -44,6 +44,7 @@ vtu = false
 IMPLICIT = """
 [material]
 preset = "gelatin"
+model = "springs"          # the springs path with the implicit integrator
 [body]
 type = "box"
 points = 64
@@ -54,6 +55,7 @@ upper = [0.06, 0.065, 0.06]
 connect = "radius"
 radius = 0.027
 [integrator]
+name = "implicit"
 scheme = "bdf2"
 dt = 0.005
 steps = 60
@@ -246,6 +248,7 @@ def test_killed_run_leaves_its_frames_and_resumes_bitwise(tmp_path, sig):
 GELATIN_SMALL = """
 [material]
 preset = "gelatin"
+model = "springs"          # the springs path with the implicit integrator
 [body]
 type = "box"
 points = 125
@@ -256,6 +259,7 @@ upper = [0.1, 0.12, 0.1]
 connect = "radius"
 radius = 0.036
 [integrator]
+name = "implicit"
 steps = 5
 """
 

@@ -189,7 +189,7 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
                        neighbours=neighbours, h=h, surface_vertices=surface_vertices,
                        surface_samples=surface_samples, density=density, seed=seed, rule=rule,
                        epsilon=epsilon, min_quality=min_quality, max_volume=max_volume,
-                       size=size)
+                       size=size, snap=snap)
     body.meta["density"] = float(density)
     if size is not None:
         body.meta["size"] = float(size)
@@ -198,7 +198,7 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
 
 def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surface_vertices,
                 surface_samples, density, seed, rule, epsilon, min_quality, max_volume,
-                size) -> Body:
+                size, snap=True) -> Body:
     from .geometry.connect import choose_radius, radius_springs
     from .geometry.inside import InsideQuery
     from .geometry.sampling import morton_order, sample_inside

@@ -18,7 +18,7 @@ import numpy as np
 
 from .errors import SceneError
 
-__all__ = ["Handles", "PinPath", "select_points"]
+__all__ = ["Handles", "HandleMethods", "PinPath", "select_points"]
 
 
 def select_points(points: np.ndarray, *, box=None, sphere=None, indices=None,
@@ -209,3 +209,61 @@ def apply_handle_tables(sim, tables) -> None:
             sim.apply_force(idx, entry["force"])
         else:
             sim.set_gravity_scale(idx, entry["scale"])
+
+
+class HandleMethods:
+    """The :class:`~jellysim.simulator.Simulator`'s handle methods (physical path): they
+    edit ``self.handles``, which the kernels read every step."""
+
+    def _require_physical(self, what):
+        if not self.physical:
+            raise SceneError(f"{what} needs the physical path (a body with a FEM material: "
+                             "jellysim.physics.policy.physical_model)")
+
+    def pin(self, indices, path=None) -> None:
+        """Pin points (indices into the body) where they are now; with ``path`` (rows
+        ``[t, dx, dy, dz]``, s and m, or a :class:`~jellysim.handles.PinPath`) they follow
+        the offsets from there, linearly between keyframes (absolute simulation times)."""
+        self._require_physical("pinning points")
+        idx = np.unique(np.asarray(indices, dtype=np.int64))
+        hd = self.handles
+        hd.pinned[idx] = 1
+        hd.pin_anchor[idx] = self.state.x[idx]
+        self.state.v[idx] = 0.0
+        hd.paths = [(i, p) for i, p in hd.paths if not np.isin(i, idx).any()]
+        if path is not None:
+            hd.paths.append((idx, path if isinstance(path, PinPath) else PinPath.of(path)))
+
+    def unpin(self, indices=None) -> None:
+        """Release pinned points (all when ``indices`` is None)."""
+        hd = self.handles
+        idx = np.flatnonzero(hd.pinned) if indices is None else np.asarray(indices)
+        hd.pinned[idx] = 0
+        hd.paths = [(i, p) for i, p in hd.paths if not np.isin(i, idx).any()]
+
+    def apply_force(self, indices, force, *, total: bool = True) -> None:
+        """Constant force [N], shape (3,), on the points (replacing an earlier one there):
+        split evenly with ``total`` (default), else on each point."""
+        self._require_physical("point forces")
+        idx = np.unique(np.asarray(indices, dtype=np.int64))
+        f = np.asarray(force, dtype=np.float64).reshape(3)
+        self.handles.point_force[idx] = f / len(idx) if total else f
+
+    def set_gravity_scale(self, indices, scale: float) -> None:
+        """Gravity on the points is multiplied by ``scale`` [-]."""
+        self._require_physical("a gravity scale")
+        self.handles.gravity_scale[np.asarray(indices, dtype=np.int64)] = float(scale)
+
+    def drag(self, point: int | None, target=None, stiffness: float | None = None) -> None:
+        """Pull ``point`` towards ``target`` [m] with a spring of ``stiffness`` [N/m]
+        (default: strong enough to move the whole body's weight by 1 cm); ``None`` releases."""
+        self._require_physical("dragging")
+        d = self.handles.drag
+        if point is None:
+            d[0] = -1.0
+            return
+        if stiffness is None:
+            stiffness = self.model.total_mass * float(np.linalg.norm(self.model.gravity)) / 0.01
+        d[0] = float(int(point))
+        d[1:4] = np.asarray(target, dtype=np.float64).reshape(3)
+        d[4] = float(stiffness)

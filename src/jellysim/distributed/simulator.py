@@ -88,9 +88,13 @@ class DistributedSimulator:
                  threads: int | None = None, runaway_distance: float | None = None,
                  check_stability: bool = True, state=None, substeps: int | str = 1,
                  implicit: ImplicitParams = ImplicitParams(), obstacles=(),
-                 rest_speed: float | None = None):
+                 rest_speed: float | None = None, device: str | None = None,
+                 precision: str = "float64"):
         from ..simulator import Simulator
 
+        if str(backend) in ("warp", "Backend.WARP"):
+            raise SceneError("backend = 'warp' is not distributed over MPI ranks: use "
+                             "backend = 'numba' under mpiexec")
         self.comm = world() if comm is None else comm
         rank, size = self.comm.Get_rank(), self.comm.Get_size()
         self.rank, self.size = rank, size

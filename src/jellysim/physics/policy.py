@@ -93,10 +93,12 @@ def scene_fem_model(params: dict, body):
     if material is None or mat["model"] == "springs":
         return None
     if mat["model"] == "auto" and (body.tets is None or len(body.tets) == 0
-                                   or "cloud_tets" in body.meta):
+                                   or "cloud_tets" in body.meta
+                                   or params["integrator"]["name"] != "symplectic"):
         # 'auto' takes the FEM path for tet bodies (tet builders, grid boxes); a radius
         # body's Delaunay tets of random points have slivers (a tiny explicit substep):
-        # it stays on springs unless model = 'fem' asks for them
+        # it stays on springs unless model = 'fem' asks for them; so does a scene that names
+        # another integrator than the physical path's
         return None
     ph = params["physics"]
     return physical_model(body, material, gravity=ph["gravity"], damping=ph["damping"])
