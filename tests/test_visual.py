@@ -322,4 +322,6 @@ def test_cli_demo_reduced_frames_makes_a_valid_video(tmp_path):
     assert video.reshape(4, -1).std(axis=1).min() > 10
     assert (tmp_path / "demo.usdc").stat().st_size > 0
     traj = load_trajectory(tmp_path / "demo" / "trajectory.npz")
-    assert traj.skin is not None and traj.skin.vertex_count == 2930
+    from jellysim.demo import demo_mesh
+
+    assert traj.skin is not None and traj.skin.vertex_count == len(demo_mesh("jelly")[0])

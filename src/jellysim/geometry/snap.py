@@ -35,7 +35,9 @@ def snap_to_surface(points, tets, vertices, faces, h: float, *, reach: float = 0
     samples = np.concatenate([v, dense])
     bnd = np.unique(boundary_faces(t, len(p)).ravel())
     d, idx = cKDTree(samples).query(p[bnd], distance_upper_bound=reach * h)
-    ok = np.isfinite(d)
+    # nodes already within a tenth of a cell of the surface stay (the samples are only
+    # h / 8 apart: snapping those would move them sideways along the surface)
+    ok = np.isfinite(d) & (d > 0.1 * h)
     bnd, idx = bnd[ok], idx[ok]
     move = np.zeros_like(p)
     move[bnd] = samples[idx] - p[bnd]
