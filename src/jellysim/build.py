@@ -305,19 +305,15 @@ def _radius_tets(pts, inside_fn, vertices=None, faces=None, *, seed: int = 0,
     """(points, tets, info) of a radius body: :func:`~jellysim.geometry.tetra.cloud_tets` of its
     points (Delaunay, slivers dropped, carved by ``inside_fn``, ``None`` for a box), for the
     tetrahedral elasticity; the springs stay the radius springs.  Orphans (points in no tet,
-    which would get no elastic force from the tets; rare: none in a box or on the test meshes)
-    are dropped before the springs are built, with a warning; ``info["orphans"]`` counts them."""
+    which would get no elastic force from the tets with ``[material] model = 'fem'``; rare)
+    are kept: the body has the points asked for, and they keep their springs;
+    ``info["orphans"]`` counts them."""
     from .geometry.tetra import cloud_tets
 
     try:
         tets, orphans, info = cloud_tets(pts, inside_fn, vertices, faces, seed=seed)
     except BuildError as exc:
         raise BuildError(f"{name}: tets of the radius body: {exc}") from None
-    if orphans.any():
-        warnings.warn(f"{name}: {int(orphans.sum())} of {len(pts)} points are in no "
-                      "well-shaped tet and were dropped", UserWarning, stacklevel=3)
-        new_id = np.cumsum(~orphans) - 1
-        pts, tets = pts[~orphans], new_id[tets]
     return pts, tets, info
 
 

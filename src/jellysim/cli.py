@@ -114,6 +114,11 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
                else Path("out") / Path(scene_file).stem)
         if not resume_dir:
             prepare_out_dir(out, overwrite=overwrite)
+        elif ((out / "trajectory.npz").exists() and not (out / "checkpoint.npz").exists()
+              and not (out / "trajectory.stream").exists()):
+            click.echo(f"{out}: the run has finished ({out / 'trajectory.npz'}); nothing to "
+                       "resume (run without --resume to start afresh)")
+            return
         result = run_scene(scene, out, progress=not quiet, vtu=False if no_vtu else None,
                            steps=steps, resume=resume_dir is not None,
                            checkpoint_every=checkpoint_every)
