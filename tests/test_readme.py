@@ -106,7 +106,8 @@ def test_readme_commands_are_written_for_a_fresh_venv():
 
 def _expected(argv: list[str], sub: str) -> list[str]:
     files = [argv[k + 1] for k, a in enumerate(argv[:-1]) if a in OUTPUT_FLAGS]
-    out = next((argv[k + 1] for k, a in enumerate(argv[:-1]) if a == "--out"), None)
+    out = next((argv[k + 1] for k, a in enumerate(argv[:-1]) if a in ("--out", "--resume")),
+               None)
     if out is None and sub == "demo":
         out = "out"
     if out is None and sub == "run":
