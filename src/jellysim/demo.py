@@ -20,7 +20,7 @@ DEMO_SHAPES = {
         "mesh": "mould",        # jellysim.geometry.shapes.jelly_mould: 8.7 cm wide, 5 cm tall
         "length": 0.087,        # [m] largest extent
         "drop_height": 0.03,    # [m] gap between the jello and the plate at t = 0
-        "velocity": [0.15, 0.0, 0.0],  # [m/s] set down with a nudge: it lands and sways
+        "velocity": [0.5, 0.0, 0.0],   # [m/s] tossed onto the plate: it lands, sticks, sways
         "points": 1500,         # grid nodes inside (marching grid snapped to the surface)
         "connect": "marching",
         "seed": 7,
