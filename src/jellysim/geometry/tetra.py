@@ -557,25 +557,6 @@ def cloud_tets(points, inside_fn: InsideFn | None = None, vertices=None, faces=N
     return tets, ~covered, info
 
 
-# ----------------------------------------------------------------------------------------------
-# TetGen
-# ----------------------------------------------------------------------------------------------
-def _winding_numbers(v: np.ndarray, f: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Generalized winding number of a few query points (exact solid-angle sum, O(n f))."""
-    out = np.empty(q.shape[0], dtype=np.float64)
-    for s in range(0, q.shape[0], 64):
-        qq = q[s:s + 64]
-        a = v[f[:, 0]][None] - qq[:, None]
-        b = v[f[:, 1]][None] - qq[:, None]
-        c = v[f[:, 2]][None] - qq[:, None]
-        la, lb, lc = (np.linalg.norm(x, axis=2) for x in (a, b, c))
-        det = np.einsum("ijk,ijk->ij", a, np.cross(b, c))
-        den = (la * lb * lc + np.einsum("ijk,ijk->ij", a, b) * lc
-               + np.einsum("ijk,ijk->ij", a, c) * lb + np.einsum("ijk,ijk->ij", b, c) * la)
-        out[s:s + 64] = (2.0 * np.arctan2(det, den)).sum(axis=1) / (4.0 * math.pi)
-    return out
-
-
 _MOVED = {"marching_grid": "tet_marching", "tetgen_body": "tet_tetgen",
           "surface_defects": "tet_tetgen"}
 
