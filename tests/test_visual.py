@@ -1,6 +1,7 @@
 """Pictures, videos, exports, viewer, plots: read-only consumers of saved trajectories."""
 import os
 import shutil
+from pathlib import Path
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -297,6 +298,27 @@ def test_viewer_screenshot_under_xvfb(run_dir, tmp_path):
 
     img = iio.imread(shot)[..., :3]
     assert img.shape[:2] == (240, 320) and img.std() > 10
+
+
+def test_live_view_of_a_scene_under_xvfb(tmp_path):
+    """``jellysim view scene.toml`` opens the live window (30 frames simulated), draws the
+    jello in red over the floor, saves the picture and closes."""
+    if shutil.which("xvfb-run") is None:
+        pytest.skip("xvfb-run is not installed (apt-get install xvfb)")
+    env = _env_without_display()
+    env.pop("VTK_DEFAULT_OPENGL_WINDOW", None)
+    shot = tmp_path / "live.png"
+    out = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 800x600x24", sys.executable,
+                          "-m", "jellysim.cli", "view",
+                          str(Path(__file__).parents[1] / "examples" / "gelatin_cube.toml"),
+                          "--size", "320x240", "--screenshot", str(shot)],
+                         capture_output=True, text=True, env=env, timeout=300)
+    assert out.returncode == 0, out.stderr
+    import imageio.v3 as iio
+
+    img = iio.imread(shot)[..., :3].astype(int)
+    red = (img[..., 0] > 120) & (img[..., 1] < 80) & (img[..., 2] < 90)
+    assert img.shape[:2] == (240, 320) and red.mean() > 0.05  # the jello fills the view
 
 
 def test_cli_run_with_video_and_usd(tmp_path):

@@ -104,8 +104,8 @@ def view_live(scene, *, size=(1024, 640), screenshot=None, frames: int = 0) -> N
     lo, hi = sim.state.x.min(axis=0), sim.state.x.max(axis=0)
     ext = float(np.max(hi - lo))
     c = 0.5 * (lo + hi)
-    p.add_mesh(pv.Plane(center=(c[0], 0.0, c[2]), direction=(0, 1, 0), i_size=10 * ext,
-                        j_size=10 * ext), color="#cfc8bd")
+    p.add_mesh(pv.Plane(center=(c[0], 0.0, c[2]), direction=(0, 1, 0), i_size=4 * ext,
+                        j_size=4 * ext), color="#cfc8bd")
     p.add_text("right-drag: pull the jello   space: pause", position="upper_left",
                font_size=9)
     ctl = DragController(sim)
@@ -148,8 +148,9 @@ def view_live(scene, *, size=(1024, 640), screenshot=None, frames: int = 0) -> N
             p.render()
 
     p.camera_position = "xy"
-    p.camera.elevation = 20
-    p.reset_camera()
+    p.camera.elevation = 25
+    p.reset_camera(bounds=surf.bounds)  # frame the jello, not the floor
+    p.camera.zoom(0.7)
     if screenshot is not None:
         for _ in range(int(frames)):
             tick()
