@@ -382,7 +382,8 @@ class Simulator(HandleMethods):
                 StabilityWarning, stacklevel=2)
         return est
 
-    _COUNTERS = ("cg_iterations", "cg_worst_residual", "cg_unconverged")
+    _COUNTERS = ("cg_iterations", "cg_worst_residual", "cg_unconverged", "substeps")
+    """Scalars carried between advance calls (substeps: the physical path may double them)."""
 
     def internal_state(self) -> dict[str, np.ndarray]:
         """Every private array the simulator keeps between :meth:`advance` calls, copied.
@@ -437,6 +438,9 @@ class Simulator(HandleMethods):
         self.cg_iterations = int(d["cg_iterations"])
         self.cg_worst_residual = float(d["cg_worst_residual"])
         self.cg_unconverged = int(d["cg_unconverged"])
+        if "substeps" in d:
+            self.substeps = int(d["substeps"])
+            self.dt_step = self.dt / self.substeps
 
     def advance(self, steps: int = 1) -> None:
         """Take ``steps`` time steps.  Raises :class:`SimulationError` on blow-up, leaving
