@@ -18,8 +18,8 @@ RHO = 1141.0
 
 def _tuple(fem, g=0.0, decay=0.0, q=None):
     q = np.zeros((fem.tet_count, 6)) if q is None else q
-    return (fem.tets, fem.rest_inverse, fem.rest_volume, fem.mu, fem.lam, fem.alpha,
-            fem.mu_lame, fem.lam_lame, g, decay, q, fem.point_tet_ptr, fem.point_tet_slot)
+    return fem.kernel_tuple(q, 1.0, damping=False)[:8] + (g, decay, q) + (
+        fem.point_tet_ptr, fem.point_tet_slot)
 
 
 def _one_tet(scale=0.01):

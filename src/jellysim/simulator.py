@@ -308,11 +308,7 @@ class Simulator(HandleMethods):
 
     def _physical_tuples(self, h):
         m, fem = self.model, self.model.fem
-        g, tau = fem.branch_ratio, fem.branch_time
-        decay = float(np.exp(-h / tau)) if tau > 0 else 0.0
-        ft = (fem.tets, fem.rest_inverse, fem.rest_volume, fem.mu, fem.lam, fem.alpha,
-              fem.mu_lame, fem.lam_lame, float(g), decay, self._q, fem.point_tet_ptr,
-              fem.point_tet_slot)
+        ft = fem.kernel_tuple(self._q, h)
         use_springs = bool(m.spring_count and np.any(m.spring_stiffness != 0))
         springs = (m.spring_ij, m.spring_rest_length, m.spring_stiffness, m.point_first_ptr,
                    m.point_second_ptr, m.spring_second_slot, m.point_second_other, use_springs)

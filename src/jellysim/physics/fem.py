@@ -128,6 +128,17 @@ class FemArrays:
     def tet_count(self) -> int:
         return int(self.tets.shape[0])
 
+    def kernel_tuple(self, q: np.ndarray, dt: float, *, damping: bool = True) -> tuple:
+        """The ``fem`` argument of :mod:`jellysim.kernels.fem_numba` /
+        :mod:`~jellysim.kernels.fem_numpy` for substep ``dt`` [s], with the damping branch's
+        strains ``q`` (shape (t, 6), updated in place); ``damping=False`` leaves the branch
+        out (the rest stiffness)."""
+        g, tau = (self.branch_ratio, self.branch_time) if damping else (0.0, 0.0)
+        decay = float(np.exp(-dt / tau)) if tau > 0 else 0.0
+        return (self.tets, self.rest_inverse, self.rest_volume, self.mu, self.lam, self.alpha,
+                self.mu_lame, self.lam_lame, float(g), decay, q, self.point_tet_ptr,
+                self.point_tet_slot)
+
 
 def _frozen(a, dtype):
     a = np.ascontiguousarray(a, dtype=dtype)

@@ -15,12 +15,8 @@ __all__ = ["fem_omega_max"]
 def _forces(model, x, out, scratch):
     from ..kernels import fem_numba as kn
 
-    fem = model.fem
-    q = np.zeros((fem.tet_count, 6))
-    ft = (fem.tets, fem.rest_inverse, fem.rest_volume, fem.mu, fem.lam, fem.alpha,
-          fem.mu_lame, fem.lam_lame, 0.0, 0.0, q, fem.point_tet_ptr, fem.point_tet_slot)
-    tet_force, tet_j, scalar = scratch
-    kn.tet_forces(x, ft, 0.0, 0.0, q, tet_force, tet_j)
+    tet_force, tet_j, scalar, ft = scratch
+    kn.tet_forces(x, ft, 0.0, 0.0, ft[10], tet_force, tet_j)
     kn.gather_tet_forces(tet_force, fem.point_tet_ptr, fem.point_tet_slot, out)
     if model.spring_count and np.any(model.spring_stiffness != 0):
         springs = (model.spring_ij, model.spring_rest_length, model.spring_stiffness,
@@ -35,7 +31,8 @@ def fem_omega_max(model, *, iterations: int = 60, seed: int = 0) -> float:
     x0 = np.array(model.particle_x0)
     n = x0.shape[0]
     scratch = (np.zeros((4 * fem.tet_count, 3)), np.zeros(fem.tet_count),
-               np.zeros(model.spring_count))
+               np.zeros(model.spring_count),
+               fem.kernel_tuple(np.zeros((fem.tet_count, 6)), 1.0, damping=False))
     f0 = np.zeros((n, 3))
     f1 = np.zeros((n, 3))
     _forces(model, x0, f0, scratch)
