@@ -17,7 +17,7 @@ def _forces(model, x, out, scratch):
 
     tet_force, tet_j, scalar, ft = scratch
     kn.tet_forces(x, ft, 0.0, 0.0, ft[10], tet_force, tet_j)
-    kn.gather_tet_forces(tet_force, fem.point_tet_ptr, fem.point_tet_slot, out)
+    kn.gather_tet_forces(tet_force, ft[11], ft[12], out)
     if model.spring_count and np.any(model.spring_stiffness != 0):
         springs = (model.spring_ij, model.spring_rest_length, model.spring_stiffness,
                    model.point_first_ptr, model.point_second_ptr, model.spring_second_slot,
