@@ -68,7 +68,12 @@ def step(args) -> None:
     comm = MPI.COMM_WORLD
     rank, size = comm.Get_rank(), comm.Get_size()
     t0 = time.perf_counter()
-    model = comm.bcast(make_model(args.points) if rank == 0 else None, root=0)
+    if args.points >= 500_000:
+        # every rank builds the same (seeded) body: broadcasting a pickle of millions of
+        # springs would hold two more copies of the model in memory at once
+        model = make_model(args.points)
+    else:
+        model = comm.bcast(make_model(args.points) if rank == 0 else None, root=0)
     build_s = time.perf_counter() - t0
     sim = DistributedSimulator(model, comm=comm, dt=1e-3, integrator="paper",
                                provot=ProvotParams(loops=1, tau=0.001),

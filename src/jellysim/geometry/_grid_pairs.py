@@ -11,6 +11,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from jellysim._numba_cache import check as _check_cache
+
+_check_cache()
+
 
 @njit(cache=True, parallel=True)
 def _count_or_fill(points, r2, lo, inv_h, dims, cell_start, cell_points, fill, ptr, out):

@@ -106,6 +106,10 @@ import warnings
 import numpy as np
 from numba import njit, prange
 
+from jellysim._numba_cache import check as _check_cache
+
+_check_cache()
+
 from jellysim.geometry.mesh import Mesh
 # the exact predicates (orient2d/3d, the tie-break) live in their own module
 from jellysim.geometry.predicates import _orient2d, _orient3d, _sos_edge

@@ -10,6 +10,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from jellysim._numba_cache import check as _check_cache
+
+_check_cache()
+
 _EPS = 2.0**-53
 _SPLITTER = 134217729.0  # 2^27 + 1
 _CCW_ERR = (3.0 + 16.0 * _EPS) * _EPS

@@ -7,6 +7,7 @@ from numba import njit, prange
 
 from ._numba_opts import OPTS as _opts
 from . import STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY
+from .contact_numpy import FRICTION_REL_TOL
 
 
 @njit(cache=True, inline="always")
@@ -143,7 +144,9 @@ def contact_normals(x, v, obstacle_kind, obstacle_data, margin, contact_state, d
                                              x[q, 1], x[q, 2])
             vn = v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz
             gap = phi + offset[q, 0] * nx + offset[q, 1] * ny + offset[q, 2] * nz
-            if vn <= 0.0 and gap + dt * min(vn, 0.0) <= margin:
+            # a stuck point stays a candidate whatever the sign of vn (round-off would free
+            # it); the active set releases it in the step if its constraint pulls
+            if (vn <= 0.0 or contact_state[q] == _STUCK) and gap + dt * min(vn, 0.0) <= margin:
                 cnrm[q, 0] = nx
                 cnrm[q, 1] = ny
                 cnrm[q, 2] = nz
@@ -186,8 +189,68 @@ def constrain_start(dv, v, cnrm):
         dv[q, 2] = (dv[q, 2] - d * nz) * keep + t * nz - stick * (v[q, 2] - vn * nz)
 
 
+@njit(cache=True)
+def update_active_set(v, dv, b, ap, mass, cnrm, cobs, obstacle_data, contact_state, friction):
+    """Same contract as :func:`jellysim.kernels.contact_numpy.update_active_set`."""
+    changed = 0
+    for q in range(cnrm.shape[0]):
+        o = cobs[q]
+        if o < 0:
+            continue
+        nx = cnrm[q, 0]
+        ny = cnrm[q, 1]
+        nz = cnrm[q, 2]
+        jx = ap[q, 0] - b[q, 0]
+        jy = ap[q, 1] - b[q, 1]
+        jz = ap[q, 2] - b[q, 2]
+        jn = jx * nx + jy * ny + jz * nz
+        tx = jx - jn * nx
+        ty = jy - jn * ny
+        tz = jz - jn * nz
+        jt = np.sqrt(tx * tx + ty * ty + tz * tz)
+        ux = v[q, 0] + dv[q, 0]
+        uy = v[q, 1] + dv[q, 1]
+        uz = v[q, 2] + dv[q, 2]
+        un = ux * nx + uy * ny + uz * nz
+        ux -= un * nx
+        uy -= un * ny
+        uz -= un * nz
+        speed = np.sqrt(ux * ux + uy * uy + uz * uz)
+        ox = friction[q, 0]
+        oy = friction[q, 1]
+        oz = friction[q, 2]
+        bound = obstacle_data[o, 8] * max(jn, 0.0)
+        state = contact_state[q]
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        if jn < 0.0:
+            state = _RELEASED
+        elif cnrm[q, 5] > 0.0:
+            if jt > obstacle_data[o, 7] * jn:
+                state = _FREE
+                fx = bound * tx / jt
+                fy = bound * ty / jt
+                fz = bound * tz / jt
+        elif ox * ux + oy * uy + oz * uz > 0.0:
+            state = _STUCK
+        elif speed > 0.0:
+            fx = -bound * ux / speed
+            fy = -bound * uy / speed
+            fz = -bound * uz / speed
+        moved = np.sqrt((fx - ox) ** 2 + (fy - oy) ** 2 + (fz - oz) ** 2)
+        if state != contact_state[q] or moved > FRICTION_REL_TOL * bound + 1e-300:
+            changed += 1
+        contact_state[q] = state
+        friction[q, 0] = fx
+        friction[q, 1] = fy
+        friction[q, 2] = fz
+    return changed
+
+
 @njit(**_opts)
-def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contact_state):
+def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contact_state,
+                        friction):
     for q in prange(x.shape[0]):
         contact_state[q] = _FREE
         o = cobs[q]
@@ -206,16 +269,17 @@ def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contac
         jtz = jz - jn * nz
         jt_norm = np.sqrt(jtx * jtx + jty * jty + jtz * jtz)
         budget = max(jn, 0.0) / mass[q]
+        used = np.sqrt(friction[q, 0] ** 2 + friction[q, 1] ** 2 + friction[q, 2] ** 2) / mass[q]
         vn = v[q, 0] * nx + v[q, 1] * ny + v[q, 2] * nz
         tx = v[q, 0] - vn * nx
         ty = v[q, 1] - vn * ny
         tz = v[q, 2] - vn * nz
         speed = np.sqrt(tx * tx + ty * ty + tz * tz)
-        stick = speed <= obstacle_data[o, 7] * budget
+        stick = speed <= max(obstacle_data[o, 7] * budget - used, 0.0)
         if stick or was_stuck:
             scale = 0.0
         elif speed > 0.0:
-            scale = max(1.0 - obstacle_data[o, 8] * budget / speed, 0.0)
+            scale = max(1.0 - max(obstacle_data[o, 8] * budget - used, 0.0) / speed, 0.0)
         else:
             scale = 1.0
         x[q, 0] += (scale - 1.0) * tx * dt

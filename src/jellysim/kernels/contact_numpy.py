@@ -92,6 +92,10 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
         v[hit] = vt_new + vn_new[:, None] * nh
 
 
+MAX_CONE_PASSES = 4
+"""Solves per implicit step at most: the first, and again while the contact active set changes
+(:func:`update_active_set`: lift-off, slip, stick, the sliding points' friction)."""
+
 CONTACT_FREE = 0
 """Contact state of a point: no special state (constrained along the normal if touching)."""
 
@@ -134,7 +138,10 @@ def contact_normals(x, v, obstacle_kind, obstacle_data, margin, contact_state, d
         phi, nrm = _contact_geometry(obstacle_kind[o], obstacle_data[o], x)
         vn = np.einsum("ij,ij->i", v, nrm)
         gap = phi + np.einsum("ij,ij->i", offset, nrm)
-        hit = ((cobs < 0) & (gap + dt * np.minimum(vn, 0.0) <= margin) & (vn <= 0.0)
+        # a stuck point stays a candidate whatever the sign of vn (round-off would free it);
+        # the active set (update_active_set) releases it in the step if its constraint pulls
+        hit = ((cobs < 0) & (gap + dt * np.minimum(vn, 0.0) <= margin)
+               & ((vn <= 0.0) | (contact_state == CONTACT_STUCK))
                & (contact_state != CONTACT_RELEASED))
         cnrm[hit, 0:3] = nrm[hit]
         impact = np.where(-vn[hit] > rest_speed, -vn[hit], 0.0)
@@ -166,7 +173,70 @@ def constrain_start(dv, v, cnrm):
     dv -= cnrm[:, 5][:, None] * vt
 
 
-def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contact_state):
+
+FRICTION_REL_TOL = 1e-2
+"""The active set of an implicit step is settled when no point changes state and no sliding
+point's friction impulse changes by more than this fraction of its Coulomb bound."""
+
+
+def update_active_set(v, dv, b, ap, mass, cnrm, cobs, obstacle_data, contact_state, friction):
+    """Contact conditions inside an implicit step (one pass of its active-set iteration).
+
+    With the constraint impulse ``J = A dv - b`` [kg m/s] of the solve just done (``b``
+    includes ``friction`` (n, 3) [kg m/s], the kinetic friction the sliding points got in it):
+
+    * a point whose constraint pulls it onto the surface (``J_n < 0``: it would leave) is
+      released (``CONTACT_RELEASED``, no friction);
+    * a point held stuck whose tangential impulse exceeds ``mu_s J_n`` (it would slip) slides:
+      ``CONTACT_FREE``, friction ``mu_k J_n`` along ``J_t``;
+    * a sliding point gets friction ``mu_k J_n`` against its new tangential velocity
+      ``(v + dv)_t``; if the friction it had reversed that velocity, it sticks instead
+      (``CONTACT_STUCK``: held inside the next solve; a point-local test, "the impulse that
+      would stop this point", would stick the bottom of a sliding body too early, since the
+      body above pushes it).  A point that kinetic friction slows without stopping may
+      still stick after the solve on its static budget (:func:`constraint_friction`).
+
+    The caller solves again while anything changed (a state, or a friction impulse by more
+    than :data:`FRICTION_REL_TOL` of its bound).  Friction so acts on the whole body through
+    the solve, bounded by Coulomb at every point, however few points carry the weight.
+    Returns how many points changed."""
+    on = np.nonzero(cobs >= 0)[0]
+    if on.size == 0:
+        return 0
+    nrm = cnrm[on, 0:3]
+    j = ap[on] - b[on]
+    jn = np.einsum("ij,ij->i", j, nrm)
+    jt = j - jn[:, None] * nrm
+    jt_norm = np.sqrt(np.einsum("ij,ij->i", jt, jt))
+    data = obstacle_data[cobs[on]]
+    stuck = cnrm[on, 5] > 0.0
+    vt = (v[on] + dv[on])
+    vt = vt - np.einsum("ij,ij->i", vt, nrm)[:, None] * nrm
+    speed = np.sqrt(np.einsum("ij,ij->i", vt, vt))
+    old = friction[on].copy()
+    bound = data[:, 8] * np.maximum(jn, 0.0)
+    new = np.zeros_like(old)
+    state = contact_state[on].copy()
+    pulls = jn < 0.0
+    state[pulls] = CONTACT_RELEASED
+    slips = ~pulls & stuck & (jt_norm > data[:, 7] * jn)
+    state[slips] = CONTACT_FREE
+    new[slips] = bound[slips, None] * jt[slips] / np.where(jt_norm > 0, jt_norm, 1.0)[slips,
+                                                                                      None]
+    sliding = ~pulls & ~stuck
+    reversed_ = sliding & (np.einsum("ij,ij->i", old, vt) > 0.0)
+    state[reversed_] = CONTACT_STUCK
+    go = sliding & ~reversed_ & (speed > 0.0)
+    new[go] = -bound[go, None] * vt[go] / np.where(speed > 0, speed, 1.0)[go, None]
+    moved = np.sqrt(np.einsum("ij,ij->i", new - old, new - old))
+    changed = (state != contact_state[on]) | (moved > FRICTION_REL_TOL * bound + 1e-300)
+    contact_state[on] = state
+    friction[on] = new
+    return int(changed.sum())
+
+
+def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contact_state,
+                        friction):
     """Coulomb friction on the constrained points after an implicit step, in place on x, v,
     and their next ``contact_state``.
 
@@ -175,7 +245,9 @@ def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contac
     while ``|J_t| <= mu_s J_n`` (static friction held it, inside the solve), else it slides
     from the next step.  A sliding point's tangential velocity is removed when
     ``|v_t| <= mu_s J_n / m`` (it sticks from the next step on), else reduced by
-    ``mu_k J_n / m``; its position follows (``x += (v_t' - v_t) dt``).
+    ``mu_k J_n / m``; its position follows (``x += (v_t' - v_t) dt``).  The kinetic
+    friction the point already got inside the solve (``friction`` (n, 3) [kg m/s],
+    :func:`update_active_set`) is taken off that budget.
     """
     contact_state[:] = CONTACT_FREE
     on = cobs >= 0
@@ -190,14 +262,15 @@ def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contac
     jt = j - jn[:, None] * nrm
     jt_norm = np.sqrt(np.einsum("ij,ij->i", jt, jt))
     budget = np.maximum(jn, 0.0) / mass[on]
+    used = np.sqrt(np.einsum("ij,ij->i", friction[on], friction[on])) / mass[on]
     vv = v[on]
     vn = np.einsum("ij,ij->i", vv, nrm)
     vt = vv - vn[:, None] * nrm
     speed = np.sqrt(np.einsum("ij,ij->i", vt, vt))
-    stick = speed <= data[:, 7] * budget
+    stick = speed <= np.maximum(data[:, 7] * budget - used, 0.0)
+    left = np.maximum(data[:, 8] * budget - used, 0.0)
     scale = np.where(stick | was_stuck, 0.0,
-                     np.maximum(1.0 - data[:, 8] * budget / np.where(speed > 0, speed, 1.0),
-                                0.0))
+                     np.maximum(1.0 - left / np.where(speed > 0, speed, 1.0), 0.0))
     x[on] += ((scale - 1.0)[:, None] * vt) * dt
     v[on] = scale[:, None] * vt + vn[:, None] * nrm
     holds = np.where(was_stuck, jt_norm <= data[:, 7] * np.maximum(jn, 0.0), stick)

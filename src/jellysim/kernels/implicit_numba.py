@@ -8,7 +8,8 @@ from numba import njit, prange
 from ._numba_opts import OPTS as _opts
 from . import STATUS_OK
 from .contact_numba import (constrain_start, constraint_friction, contact, contact_normals,
-                            filter_constrained, finish_step)
+                            filter_constrained, finish_step, update_active_set)
+from .contact_numpy import MAX_CONE_PASSES
 from .forces_numba import accelerations
 
 
@@ -270,6 +271,13 @@ def _project_net_residual(dv, b, ap, mass, shift):
         dv[q, 2] += s2 / w
 
 
+@njit(**_opts)
+def _add(out, u):
+    for q in prange(out.shape[0]):
+        for c in range(3):
+            out[q, c] += u[q, c]
+
+
 @njit(cache=True)
 def implicit_steps(nsteps, dt, x, v, a, springs, points, ground, obstacles, options, scratch):
     """Same contract as :func:`jellysim.kernels.implicit_numpy.implicit_steps` (the spec)."""
@@ -294,55 +302,65 @@ def implicit_steps(nsteps, dt, x, v, a, springs, points, ground, obstacles, opti
         accelerations(x, v, points, springs, sc.spring_scalar, a)
         bnorm = 0.0
         res = 0.0
-        for attempt in range(2):
-            clip = attempt == 1
-            spring_frames(x, springs, frame, clip)
-            system_diagonal(mass, shift, h2, springs, frame, diag)
-            if not clip and diag.min() <= 0.0:
-                continue
-            if bdf2:
-                _bdf2_start(x, v, a, hist[0], hist[1], fresh, hist[2], dt, h)
-                system_matvec(hist[2], mass, zero, 1.0, springs, frame, spring_vec, ap)
-                _bdf2_rhs(b, ap, mass, a, v, hist[1], hist[2], h)
-            else:
-                system_matvec(v, mass, zero, 1.0, springs, frame, spring_vec, ap)
-                _implicit_rhs(b, ap, mass, a, v, dt, h)
-            if bdf2:
-                _bdf2_offset(hist[3], x, hist[0])
-            contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state,
-                            h if bdf2 else dt, rest_speed, springs, cnrm, cobs, hist[3])
-            if clip:
-                dv[:] = 0.0
-            constrain_start(dv, v, cnrm)
-            bnorm = np.sqrt(_dot(b, b))
-            system_matvec(dv, mass, shift, h2, springs, frame, spring_vec, ap)
-            _residual(r, b, ap)
-            filter_constrained(r, cnrm)
-            _precondition(z, r, diag)
-            filter_constrained(z, cnrm)
-            _copy(p, z)
-            rz = _dot(r, z)
-            res = np.sqrt(_dot(r, r))
-            it = 0
-            broke = False
-            while it < max_iter and res > tol * bnorm:
-                system_matvec(p, mass, shift, h2, springs, frame, spring_vec, ap)
-                filter_constrained(ap, cnrm)
-                pap = _dot(p, ap)
-                if pap <= 0.0:
-                    broke = True
-                    break
-                alpha = rz / pap
-                _axpy_pair(dv, r, p, ap, alpha)
+        # Coulomb inside the step: the active-set iteration of the numpy spec
+        sc.friction[:] = 0.0
+        for cone_pass in range(MAX_CONE_PASSES):
+            for attempt in range(2):
+                clip = attempt == 1
+                spring_frames(x, springs, frame, clip)
+                system_diagonal(mass, shift, h2, springs, frame, diag)
+                if not clip and diag.min() <= 0.0:
+                    continue
+                if bdf2:
+                    _bdf2_start(x, v, a, hist[0], hist[1], fresh, hist[2], dt, h)
+                    system_matvec(hist[2], mass, zero, 1.0, springs, frame, spring_vec, ap)
+                    _bdf2_rhs(b, ap, mass, a, v, hist[1], hist[2], h)
+                else:
+                    system_matvec(v, mass, zero, 1.0, springs, frame, spring_vec, ap)
+                    _implicit_rhs(b, ap, mass, a, v, dt, h)
+                _add(b, sc.friction)
+                if bdf2:
+                    _bdf2_offset(hist[3], x, hist[0])
+                contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state,
+                                h if bdf2 else dt, rest_speed, springs, cnrm, cobs, hist[3])
+                if clip:
+                    dv[:] = 0.0
+                constrain_start(dv, v, cnrm)
+                bnorm = np.sqrt(_dot(b, b))
+                system_matvec(dv, mass, shift, h2, springs, frame, spring_vec, ap)
+                _residual(r, b, ap)
+                filter_constrained(r, cnrm)
                 _precondition(z, r, diag)
                 filter_constrained(z, cnrm)
-                rz_new = _dot(r, z)
-                _update_direction(p, z, rz_new / rz)
-                rz = rz_new
+                _copy(p, z)
+                rz = _dot(r, z)
                 res = np.sqrt(_dot(r, r))
-                it += 1
-            iters += it
-            if not broke:
+                it = 0
+                broke = False
+                while it < max_iter and res > tol * bnorm:
+                    system_matvec(p, mass, shift, h2, springs, frame, spring_vec, ap)
+                    filter_constrained(ap, cnrm)
+                    pap = _dot(p, ap)
+                    if pap <= 0.0:
+                        broke = True
+                        break
+                    alpha = rz / pap
+                    _axpy_pair(dv, r, p, ap, alpha)
+                    _precondition(z, r, diag)
+                    filter_constrained(z, cnrm)
+                    rz_new = _dot(r, z)
+                    _update_direction(p, z, rz_new / rz)
+                    rz = rz_new
+                    res = np.sqrt(_dot(r, r))
+                    it += 1
+                iters += it
+                if not broke:
+                    break
+            if obstacle_kind.shape[0] == 0 or cone_pass == MAX_CONE_PASSES - 1:
+                break
+            system_matvec(dv, mass, shift, h2, springs, frame, spring_vec, ap)
+            if update_active_set(v, dv, b, ap, mass, cnrm, cobs, obstacle_data, contact_state,
+                                 sc.friction) == 0:
                 break
         if bnorm > 0.0:
             worst = max(worst, res / bnorm)
@@ -359,7 +377,7 @@ def implicit_steps(nsteps, dt, x, v, a, springs, points, ground, obstacles, opti
         if obstacle_kind.shape[0] > 0:
             system_matvec(dv, mass, shift, h2, springs, frame, spring_vec, ap)
             constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data,
-                                h if bdf2 else dt, contact_state)
+                                h if bdf2 else dt, contact_state, sc.friction)
             contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
         status = finish_step(x, v, a, g.paper, g.height, g.mu, g.nu, g.center, g.bound2)
         if bdf2:

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from . import STATUS_OK
-from .contact_numpy import (constrain_start, constraint_friction, contact, contact_normals,
-                            filter_constrained, finish_step)
+from .contact_numpy import (MAX_CONE_PASSES, constrain_start, constraint_friction, contact,
+                            contact_normals, filter_constrained, finish_step,
+                            update_active_set)
 from .forces_numpy import _scatter, accelerations
 
 
@@ -114,61 +115,72 @@ def implicit_steps(nsteps, dt, x, v, a, springs, points, ground, obstacles, opti
             restart = fresh.astype(bool)
             x_prev[restart] = x[restart] - dt * v[restart]
             v_prev[restart] = v[restart] - dt * a[restart]
-        # the exact tangent first; if compression makes the system indefinite (CG breaks
-        # down or the preconditioner is not positive), again with the compressive part dropped
-        for clip in (False, True):
-            spring_frames(x, springs, frame, clip)
-            system_diagonal(mass, shift, h2, springs, frame, diag)
-            if not clip and np.any(diag <= 0.0):
-                continue
-            if bdf2:
-                w = (x - x_prev) / 3.0 + h * v
-                system_matvec(w, mass, shift * 0.0, 1.0, springs, frame, spring_vec, ap)
-                ap -= mass[:, None] * w  # = K w
-                b[:] = h * (mass[:, None] * a - ap) + mass[:, None] * (v - v_prev) / 3.0
-            else:
-                # rhs = dt (m a - h K v); K v = A v - m v with A = m + K (no shift, h2 = 1)
-                system_matvec(v, mass, shift * 0.0, 1.0, springs, frame, spring_vec, ap)
-                ap -= mass[:, None] * v  # = K v
-                b[:] = dt * (mass[:, None] * a - h * ap)
-            offset = (x - x_prev) / 3.0 if bdf2 else no_offset
-            contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state,
-                            h if bdf2 else dt, rest_speed, springs, cnrm, cobs, offset)
-            if clip:
-                dv[:] = 0.0  # the failed solve's iterate is no warm start
-            constrain_start(dv, v, cnrm)
-            # the scale of the stopping test: the whole right-hand side, constraint components
-            # included (at rest the free part of b vanishes, the weight on the supports does not)
-            bnorm = np.sqrt(_dot(b, b))
-            system_matvec(dv, mass, shift, h2, springs, frame, spring_vec, ap)
-            r[:] = b - ap
-            filter_constrained(r, cnrm)
-            z[:] = r / diag
-            filter_constrained(z, cnrm)
-            p[:] = z
-            rz = _dot(r, z)
-            res = np.sqrt(_dot(r, r))
-            it = 0
-            broke = False
-            while it < max_iter and res > tol * bnorm:
-                system_matvec(p, mass, shift, h2, springs, frame, spring_vec, ap)
-                filter_constrained(ap, cnrm)
-                pap = _dot(p, ap)
-                if pap <= 0.0:
-                    broke = True
-                    break
-                alpha = rz / pap
-                dv += alpha * p
-                r -= alpha * ap
+        # Coulomb inside the step: an active-set iteration over the contact points (lift off,
+        # slip, stick, kinetic friction inside the solve), at most MAX_CONE_PASSES solves
+        sc.friction[:] = 0.0
+        for cone_pass in range(MAX_CONE_PASSES):
+            # the exact tangent first; if compression makes the system indefinite (CG breaks
+            # down or the preconditioner is not positive), again with the compressive part dropped
+            for clip in (False, True):
+                spring_frames(x, springs, frame, clip)
+                system_diagonal(mass, shift, h2, springs, frame, diag)
+                if not clip and np.any(diag <= 0.0):
+                    continue
+                if bdf2:
+                    w = (x - x_prev) / 3.0 + h * v
+                    system_matvec(w, mass, shift * 0.0, 1.0, springs, frame, spring_vec, ap)
+                    ap -= mass[:, None] * w  # = K w
+                    b[:] = h * (mass[:, None] * a - ap) + mass[:, None] * (v - v_prev) / 3.0
+                else:
+                    # rhs = dt (m a - h K v); K v = A v - m v with A = m + K (no shift, h2 = 1)
+                    system_matvec(v, mass, shift * 0.0, 1.0, springs, frame, spring_vec, ap)
+                    ap -= mass[:, None] * v  # = K v
+                    b[:] = dt * (mass[:, None] * a - h * ap)
+                b += sc.friction  # the sliding points' kinetic friction (active-set passes)
+                offset = (x - x_prev) / 3.0 if bdf2 else no_offset
+                contact_normals(x, v, obstacle_kind, obstacle_data, 1e-9, contact_state,
+                                h if bdf2 else dt, rest_speed, springs, cnrm, cobs, offset)
+                if clip:
+                    dv[:] = 0.0  # the failed solve's iterate is no warm start
+                constrain_start(dv, v, cnrm)
+                # the scale of the stopping test: the whole right-hand side, constraint components
+                # included (at rest the free part of b vanishes, the weight on the supports does not)
+                bnorm = np.sqrt(_dot(b, b))
+                system_matvec(dv, mass, shift, h2, springs, frame, spring_vec, ap)
+                r[:] = b - ap
+                filter_constrained(r, cnrm)
                 z[:] = r / diag
                 filter_constrained(z, cnrm)
-                rz_new = _dot(r, z)
-                p[:] = z + (rz_new / rz) * p
-                rz = rz_new
+                p[:] = z
+                rz = _dot(r, z)
                 res = np.sqrt(_dot(r, r))
-                it += 1
-            iters += it
-            if not broke:
+                it = 0
+                broke = False
+                while it < max_iter and res > tol * bnorm:
+                    system_matvec(p, mass, shift, h2, springs, frame, spring_vec, ap)
+                    filter_constrained(ap, cnrm)
+                    pap = _dot(p, ap)
+                    if pap <= 0.0:
+                        broke = True
+                        break
+                    alpha = rz / pap
+                    dv += alpha * p
+                    r -= alpha * ap
+                    z[:] = r / diag
+                    filter_constrained(z, cnrm)
+                    rz_new = _dot(r, z)
+                    p[:] = z + (rz_new / rz) * p
+                    rz = rz_new
+                    res = np.sqrt(_dot(r, r))
+                    it += 1
+                iters += it
+                if not broke:
+                    break
+            if obstacle_kind.shape[0] == 0 or cone_pass == MAX_CONE_PASSES - 1:
+                break
+            system_matvec(dv, mass, shift, h2, springs, frame, spring_vec, ap)
+            if update_active_set(v, dv, b, ap, mass, cnrm, cobs, obstacle_data, contact_state,
+                                 sc.friction) == 0:
                 break
         if bnorm > 0.0:
             worst = max(worst, res / bnorm)
@@ -200,7 +212,7 @@ def implicit_steps(nsteps, dt, x, v, a, springs, points, ground, obstacles, opti
         if obstacle_kind.shape[0] > 0:
             system_matvec(dv, mass, shift, h2, springs, frame, spring_vec, ap)
             constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data,
-                                h if bdf2 else dt, contact_state)
+                                h if bdf2 else dt, contact_state, sc.friction)
             contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
         status = finish_step(x, v, a, g.paper, g.height, g.mu, g.nu, g.center, g.bound2)
         if bdf2:

@@ -66,11 +66,13 @@ ImplicitOptions = namedtuple("ImplicitOptions", "theta tolerance max_iterations 
 ``bdf2`` (bool: the BDF2 scheme instead of the theta-method)."""
 
 ImplicitScratch = namedtuple("ImplicitScratch", "spring_scalar frame spring_vec dv r z p ap "
-                                                "diag b cnrm cobs contact_state hist fresh")
+                                                "diag b cnrm cobs contact_state hist fresh "
+                                                "friction")
 """State and scratch of :func:`implicit_steps`: ``spring_scalar`` (k,), ``frame`` (k, 5),
 ``spring_vec`` (k, 3); ``dv`` (the warm start), ``r z p ap diag b`` (n, 3); ``cnrm`` (n, 6),
 ``cobs`` (n,) int64, ``contact_state`` (n,) int8 (carried between steps); BDF2 history
-``hist`` (4, n, 3) and ``fresh`` (n,) uint8 (carried)."""
+``hist`` (4, n, 3) and ``fresh`` (n,) uint8 (carried); ``friction`` (n, 3) [kg m/s]: the
+kinetic friction impulse the sliding contact points get inside the solve."""
 
 
 def spring_arrays(model) -> SpringArrays:
@@ -119,4 +121,4 @@ def implicit_scratch(n: int, k: int) -> ImplicitScratch:
     return ImplicitScratch(np.zeros(k), np.zeros((k, 5)), np.zeros((k, 3)), *z3,
                            np.zeros((n, 6)), np.full(n, -1, dtype=np.int64),
                            np.zeros(n, dtype=np.int8), np.zeros((4, n, 3)),
-                           np.ones(n, dtype=np.uint8))
+                           np.ones(n, dtype=np.uint8), np.zeros((n, 3)))

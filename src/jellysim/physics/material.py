@@ -277,6 +277,10 @@ def _gs_sweep():
     if not _GS:
         from numba import njit
 
+        from .._numba_cache import check
+
+        check()
+
         _GS.append(njit(cache=True, nogil=True)(_gs_sweep_py))
     return _GS[0]
 
