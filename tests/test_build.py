@@ -113,8 +113,13 @@ def test_delaunay_body_fills_the_surface():
         body = build_body(cube, points=1000, connect="delaunay", seed=1, surface_samples=samples)
         filled = np.abs(tet_volumes(body.points, body.tets)).sum() / 8.0
         assert lo < filled < hi
-    with pytest.raises(BuildError, match="delaunay"):
-        build_body(cube, points=100, connect="radius", surface_samples=True)
+    with pytest.raises(BuildError, match="delaunay' or 'radius"):
+        build_body(cube, points=100, connect="marching", surface_samples=True)
+    # a radius body with surface samples has flat faces: points on every face of the cube
+    body = build_body(cube, points=1000, connect="radius", seed=1, surface_samples=True)
+    on_face = np.isclose(np.abs(body.points), 1.0, atol=1e-12)
+    assert all(on_face[:, a].sum() > 20 for a in range(3))
+    assert body.meta["surface_samples"] is True
 
 
 # Defective meshes: which build with a warning naming the defect, which refuse (and how).

@@ -292,10 +292,16 @@ def test_surface_samples_option(tmp_path):
         assert body.meta["surface_samples"] is (flag is None)
         filled[flag] = np.abs(tet_volumes(body.points, body.tets)).sum() / body.volume
     assert filled[None] > 0.999 > filled["false"]
-    p.write_text(MESH_SCENE.format(path="cube.obj", connect="radius").replace(
+    p.write_text(MESH_SCENE.format(path="cube.obj", connect="marching").replace(
         'type = "mesh"', 'type = "mesh"\nsurface_samples = true'))
     with pytest.raises(SceneError, match="surface_samples is used only by"):
         Scene.load(p)
+    # radius: off by default (exactly `points` points), on when asked
+    for flag, expected in ((None, False), ("true", True)):
+        text = MESH_SCENE.format(path="cube.obj", connect="radius")
+        p.write_text(text if flag is None else text.replace(
+            'type = "mesh"', f'type = "mesh"\nsurface_samples = {flag}'))
+        assert Scene.load(p).build_body().meta["surface_samples"] is expected
 
 
 def test_file_scene_and_missing_paths(tmp_path):

@@ -169,13 +169,17 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     h: cube edge [m] for ``marching`` (default: (volume / points)^(1/3)).
     surface_vertices: add the mesh's vertices to the points so the faces are well defined
         (default: on for ``delaunay``, off for ``radius``).
-    surface_samples: ``delaunay``: put points on the surface about one spacing
+    surface_samples: ``delaunay`` and ``radius``: put points on the surface about one spacing
         ``(volume / points)^(1/3)`` apart (its vertices, its sharp edges, its faces: see
         :func:`~jellysim.geometry.sampling.sample_surface`; the vertices are always among them,
         whatever ``surface_vertices`` says) and drop the sampled points closer
         than half a spacing to it, so the body's surface lies on the mesh with well-shaped tets
-        (default: on; ``False`` is the report's way, mesh vertices only, whose near-surface
-        tets are slivers fanning out from a few vertices on coarse meshes such as a cube).
+        (``delaunay``: on by default; ``False`` is the report's way, mesh vertices only, whose
+        near-surface tets are slivers fanning out from a few vertices on coarse meshes such as
+        a cube.  ``radius``: off by default, so the body has exactly ``points`` points, as the
+        report's; turn it on for a physical body: without it the body has no flat faces and
+        rests on its lowest points (a 10 cm gelatin cube on a plate sags 1.70x rho g L^2 / 2E
+        instead of 1.10x, BENCHMARKS.md "Radius-builder sag")).
     density: [kg/m^3].
     seed: random seed.
     rule: inside rule (``auto``, ``parity``, ``winding``), see :func:`jellysim.geometry.inside`.
@@ -205,6 +209,8 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
 
     connect = Connect(connect)
     sampling = Sampling(sampling)
+    if surface_samples and connect not in (Connect.DELAUNAY, Connect.RADIUS):
+        raise BuildError("surface_samples applies to connect='delaunay' or 'radius' only")
     if points < 4:
         raise BuildError(f"points must be >= 4, got {points}")
     from .resources import check_body_memory
@@ -259,8 +265,6 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
         raise BuildError(f"{name}: {exc}") from None
     add_surface = (connect is Connect.DELAUNAY) if surface_vertices is None else surface_vertices
     on_surface = (connect is Connect.DELAUNAY) if surface_samples is None else surface_samples
-    if on_surface and connect is not Connect.DELAUNAY:
-        raise BuildError("surface_samples applies to connect='delaunay' only")
     if on_surface:
         from .geometry.sampling import sample_surface, surface_distance
 
@@ -294,6 +298,7 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
         warnings.warn(f"{name}: {lonely} of {len(pts)} points have no spring within r = "
                       f"{radius:.4g} m (raise radius or neighbours)", UserWarning, stacklevel=3)
     meta = {"source": name, "connect": "radius", "sampling": sampling.value, "seed": seed,
+            "surface_samples": bool(on_surface),
             "radius": float(radius), "radius_chosen_for_neighbours": neighbours if chosen else None,
             "mean_neighbours": float(2 * len(springs) / len(pts)),
             "tet_volume": tet_info["tet_volume"], "cloud_tets": tet_info}

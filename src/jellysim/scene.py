@@ -39,10 +39,12 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                        lambda v: v >= 2, "an integer >= 2"),
         "sampling": Spec("str", "uniform", "Type 'mesh': how points are placed inside.",
                          choices=("uniform", "edge", "grid", "poisson")),
-        "surface_samples": Spec("bool", True, "Type 'mesh', connect 'delaunay': also put points "
-                                "on the surface (sharp edges, faces) a spacing apart, so the "
-                                "body's surface lies on the mesh; false is the report's way "
-                                "(the mesh's vertices only)."),
+        "surface_samples": Spec("bool", None, "Type 'mesh', connect 'delaunay' or 'radius': "
+                                "also put points on the surface (sharp edges, faces) a spacing "
+                                "apart, so the body's surface lies on the mesh (default: on for "
+                                "'delaunay', off for 'radius', the report's ways: mesh vertices "
+                                "only / exactly `points` inside).  A physical radius body wants "
+                                "it on: without flat faces it rests on its lowest points."),
         "size": Spec("float", None, "Type 'mesh': scale the mesh so its largest extent is this "
                      "[m].", lambda v: v > 0, "a number > 0 (m)"),
         "base": Spec("vec3", None, "Types 'mesh'/'file': move the body so the bottom centre of "
@@ -293,11 +295,9 @@ class Scene:
         b, sp = out["body"], out["springs"]
         kind = b["type"]
         given = raw.get("body", {}).get("surface_samples")
-        if given is not None and (kind != "mesh" or sp["connect"] != "delaunay") and (
-                kind != "box" or given is not SCHEMA["body"]["surface_samples"].default):
-            # (a box scene resolved by Scene.from_dict carries the default: not an error)
+        if given is not None and (kind != "mesh" or sp["connect"] not in ("delaunay", "radius")):
             raise SceneError(f"{name}: [body] surface_samples is used only by type = 'mesh' "
-                             "with [springs] connect = 'delaunay'; remove it")
+                             "with [springs] connect = 'delaunay' or 'radius'; remove it")
         if kind == "box":
             for key, sec in (("points", b), ("radius", sp)):
                 if sec[key] is None:
@@ -412,8 +412,7 @@ class Scene:
                               sampling=b["sampling"], radius=s["radius"],
                               neighbours=s["neighbours"], h=s["h"], density=density,
                               seed=b["seed"],
-                              surface_samples=(b["surface_samples"] if s["connect"] == "delaunay"
-                                               else None))
+                              surface_samples=b["surface_samples"])
         if b["distribution"] == "grid":
             from .geometry.lattice import grid_points
 

@@ -46,7 +46,8 @@ from ..body import Body
 __all__ = ["spring_weights", "virial_stiffness", "relaxation_stiffness", "kinematic_stiffness",
            "static_compliance",
            "youngs_from_stiffness", "network_youngs_modulus", "calibrate_springs",
-           "point_masses", "point_volumes", "surface_points", "tet_volumes", "spring_tets"]
+           "point_masses", "point_volumes", "surface_points", "tet_volumes", "spring_tets",
+           "static_displacements"]
 
 _VOIGT = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
 
@@ -168,6 +169,26 @@ def _stiffness_matrix(points, springs, stiffness, n):
     np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
     data = np.concatenate([diag, -blocks, -blocks])[order]
     return bsr_matrix((data, cols[order], indptr), shape=(3 * n, 3 * n)).tocsr()
+
+
+def static_displacements(points, springs, stiffness, forces, held) -> np.ndarray:
+    """Linear static equilibrium of a spring network [m], shape (n, 3): ``K u = forces``
+    (``forces`` [N], (n, 3)) with the displacement components where ``held`` ((n, 3) bool) is
+    True kept at 0 (by a penalty of 1e6 times K's mean diagonal: relative error ~1e-6).  Rigid
+    motions the constraints leave free (e.g. sliding on a frictionless support) are fixed by a
+    shift of 1e-9 of the mean diagonal, harmless for balanced loads.  Solved like the
+    calibration (:func:`_solve`: multigrid-preconditioned CG), to a relative residual 1e-10."""
+    from scipy.sparse import diags
+
+    points = np.asarray(points, dtype=np.float64)
+    n = points.shape[0]
+    K = _stiffness_matrix(points, np.asarray(springs, dtype=np.int64).reshape(-1, 2),
+                          np.asarray(stiffness, dtype=np.float64), n)
+    mean = float(K.diagonal().mean())
+    pin = np.asarray(held, dtype=bool).reshape(3 * n)
+    K = K + diags(1e-9 * mean + 1e6 * mean * pin)
+    f = np.asarray(forces, dtype=np.float64).reshape(3 * n, 1)
+    return _solve(K, f, points, rtol=1e-10).reshape(n, 3)
 
 
 def surface_points(points, springs, tets=None) -> np.ndarray:
