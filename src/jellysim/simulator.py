@@ -277,11 +277,18 @@ class Simulator(HandleMethods):
             self.check_stability()
 
     # -- physical path (FEM, symplectic substeps) ------------------------------------------
-    SUBSTEP_SAFETY = 0.35
-    """Fraction of the linear stability limit ``2 / omega_max`` used as the substep: large
-    compression stiffens the material above its rest stiffness.  Measured (docs/physics.md): a
-    5 kPa ball dropped 50 cm blows up at 0.5 (and, retaken with twice the substeps, ends a frame
-    with an inverted tet); at 0.35 every tet stays positive (smallest J 0.07)."""
+    SUBSTEP_SAFETY = 0.7
+    """Fraction of the linear stability limit ``2 / omega_max`` (at rest) used as the substep.
+    Large compression stiffens the material above its rest stiffness, so a chunk of frames in
+    which some tet was compressed below :attr:`RETAKE_BELOW_J` of its volume is taken again
+    with twice the substeps (0.35 of the limit).  Measured (docs/physics.md): a 5 kPa ball
+    dropped 50 cm blows up at 0.5 throughout (and, retaken with twice the substeps, ends a
+    frame with an inverted tet); at 0.35 every tet stays positive (smallest J 0.07)."""
+
+    RETAKE_BELOW_J = 0.8
+    """A chunk whose smallest tet volume ratio ``J`` fell below this is retaken at half the
+    substep: a tet squeezed to J along one axis stiffens its fastest mode by up to ~1 / J, and
+    0.7 / 0.8 < 1 keeps the symplectic step inside its stability limit above it."""
 
     @classmethod
     def _auto_substeps(cls, model, dt) -> int:
@@ -336,21 +343,30 @@ class Simulator(HandleMethods):
             t0 = s.t + done * self.dt
             hd.targets(t0, hd.pin_from)
             hd.targets(t0 + n * self.dt, hd.pin_to)
-            saved = (s.x.copy(), s.v.copy(), s.a.copy(), self._q.copy(), self._min_j.copy())
-            for attempt in range(self.MAX_SUBSTEP_DOUBLINGS + 1):
-                sub = self.substeps
+            saved = (s.x.copy(), s.v.copy(), s.a.copy(), self._q.copy())
+            running_min_j = float(self._min_j[0])
+            squeezed = False  # retaken once at half the substep for a strong compression
+            for attempt in range(self.MAX_SUBSTEP_DOUBLINGS + 2):
+                sub = self.substeps * (2 if squeezed else 1)
+                self._min_j[0] = 1.0  # this chunk's smallest J
                 model_arrays, ft, contact, scratch = self._physical_tuples(self.dt / sub)
                 k, status = kern.physical_steps(n * sub, self.dt / sub, s.x, s.v, s.a,
                                                 model_arrays, ft, hd.tuple(), contact, scratch)
-                if status == STATUS_OK or attempt == self.MAX_SUBSTEP_DOUBLINGS:
+                compressed = status == STATUS_OK and self._min_j[0] < self.RETAKE_BELOW_J
+                if (status == STATUS_OK and (squeezed or not compressed)) or (
+                        attempt == self.MAX_SUBSTEP_DOUBLINGS + 1):
                     break
-                for dst, src in zip((s.x, s.v, s.a, self._q, self._min_j), saved):
+                for dst, src in zip((s.x, s.v, s.a, self._q), saved):
                     dst[:] = src
+                if status == STATUS_OK:
+                    squeezed = True
+                    continue
                 self.substeps *= 2
                 self.dt_step = self.dt / self.substeps
                 warnings.warn(f"an unstable impact at t = {t0:.4g} s: the physical path took "
                               f"those {n} frame(s) again with {self.substeps} substeps per frame "
                               "(and keeps them)", StabilityWarning, stacklevel=3)
+            self._min_j[0] = min(running_min_j, float(self._min_j[0]))
             done += n if status == STATUS_OK else (k + sub - 1) // sub
         self.min_tet_volume_ratio = float(self._min_j[0])
         return done, status
