@@ -50,12 +50,12 @@ def halo(args) -> None:
     for parts in (2, 3, 4, 8, 16):
         for method in ("morton", "metis"):
             for depth in (1, 2):
-                st = halo_stats(m.particle_x0, m.spring_ij, parts, method=method, depth=depth)
+                st = halo_stats(m.point_x0, m.spring_ij, parts, method=method, depth=depth)
                 rows.append({k: st[k] for k in ("method", "parts", "depth", "ghosts_total",
                                                 "cut_springs")}
                             | {"ghosts_max": max(st["ghosts"]),
                                "ghost_fraction": st["ghosts_total"] / st["points"]})
-    print(json.dumps({"bench": "mpi_halo", "points": m.particle_count,
+    print(json.dumps({"bench": "mpi_halo", "points": m.point_count,
                       "springs": m.spring_count, "rows": rows}))
 
 
@@ -97,7 +97,7 @@ def step(args) -> None:
     if rank == 0:
         med = float(np.median(windows))
         print(json.dumps({"bench": "mpi_step", "ranks": size, "threads_per_rank": args.threads,
-                          "points": model.particle_count, "springs": model.spring_count,
+                          "points": model.point_count, "springs": model.spring_count,
                           "partition": args.partition, "steps_per_window": args.steps,
                           "steps_per_s": args.steps / med, "build_s": build_s,
                           "per_rank": ranks, "loadavg_1min": os.getloadavg()[0]}))
@@ -122,12 +122,12 @@ def check(args) -> None:
         serial = Simulator(model, threads=1, **kw)
         serial.advance(args.steps)
         print(json.dumps({"bench": "mpi_check", "ranks": comm.Get_size(),
-                          "points": model.particle_count, "steps": args.steps,
+                          "points": model.point_count, "steps": args.steps,
                           "integrator": args.integrator, "provot_loops": args.loops,
                           "partition": args.partition,
                           "x_bitwise_equal": bool(np.array_equal(state.x, serial.state.x)),
                           "v_bitwise_equal": bool(np.array_equal(state.v, serial.state.v)),
-                          "moved_m": float(np.abs(state.x - model.particle_x0).max())}))
+                          "moved_m": float(np.abs(state.x - model.point_x0).max())}))
 
 
 def main() -> None:

@@ -54,7 +54,7 @@ def run_fem(cells, seconds, threads):
     w0, c0 = time.perf_counter(), time.process_time()
     sim.advance(frames)
     wall, cpu = time.perf_counter() - w0, time.process_time() - c0
-    return {"points": model.particle_count, "tets": model.fem.tet_count,
+    return {"points": model.point_count, "tets": model.fem.tet_count,
             "substeps": sim.substeps, "wall_s": wall,
             "cpu_ms_per_substep": 1e3 * cpu / (frames * sim.substeps),
             "top_m": float(sim.state.x[:, 1].max()),
@@ -76,7 +76,7 @@ def run_implicit(cells, seconds, threads):
     frames = int(round(seconds * 60))
     w0 = time.perf_counter()
     sim.advance(frames)
-    return {"points": model.particle_count, "wall_s": time.perf_counter() - w0,
+    return {"points": model.point_count, "wall_s": time.perf_counter() - w0,
             "cg_iterations_per_step": sim.cg_iterations / max(sim.state.step, 1)}
 
 

@@ -64,7 +64,7 @@ def cube_sag(points, connect, *, E=1e4, rho=1141.0, L=0.1, seconds=4.0, seed=0,
     model = finalize(body, gravity=(0.0, -9.8, 0.0))
     ground = GroundParams(model=GroundModel.CONTACT, restitution=0.0, friction=0.0)
     sim = Simulator(model, dt=1 / 60, integrator="implicit", ground=ground)
-    x0 = model.particle_x0.copy()
+    x0 = model.point_x0.copy()
     y0 = x0[:, 1] - x0[:, 1].min()
     t0 = time.perf_counter()
     sim.advance(round(seconds * 60))

@@ -40,7 +40,7 @@ def main() -> None:
         dt = scene_dt(model)
         steps = max(2, min(2000, int(1e7 / m.spring_count)))
         k = m.spring_count
-        x0 = m.particle_x0.copy()
+        x0 = m.point_x0.copy()
         springs, points = rec.spring_arrays(m), rec.point_arrays(m)
         po = rec.provot_options(1, 0.001)
         center = x0.mean(axis=0)
@@ -52,7 +52,7 @@ def main() -> None:
             return new.run_steps(s, dt, 0, x, v, a, springs, points, po, gg, ob, sc)
 
         def run_old(x, v, a, s):
-            return old.run_steps(s, dt, 0, x, v, a, m.particle_x0, m.particle_inv_mass,
+            return old.run_steps(s, dt, 0, x, v, a, m.point_x0, m.point_inv_mass,
                                  float(m.damping), m.gravity, m.spring_ij, m.spring_rest_length,
                                  m.spring_stiffness, m.point_first_ptr, m.point_second_ptr,
                                  m.spring_second_slot, m.point_second_other, 1, 0.001, 0.0,

@@ -163,7 +163,7 @@ def lattice_scene(n: int):
     mass = np.full(n, 1141.0 / n)
     body = Body(points=pts, springs=np.zeros((0, 2), dtype=np.int64), volume=1.0)
     ro = lambda a, dt: np.ascontiguousarray(a, dtype=dt)  # noqa: E731
-    model = Model(particle_x0=pts, particle_mass=mass, particle_inv_mass=1.0 / mass,
+    model = Model(point_x0=pts, point_mass=mass, point_inv_mass=1.0 / mass,
                   spring_ij=ro(np.stack([si, sj], axis=1), np.int32),
                   spring_rest_length=rest, spring_stiffness=np.full(k, 2.0),
                   point_first_ptr=first_ptr, point_second_ptr=second_ptr,
@@ -176,7 +176,7 @@ def lattice_scene(n: int):
 def scene_dt(model) -> float:
     from jellysim.stability import estimate_stability
 
-    if model.particle_count == 600:
+    if model.point_count == 600:
         return 0.01
     return min(0.01, 0.5 * estimate_stability(model, "paper", 0.01).dt_max)
 
@@ -235,7 +235,7 @@ def time_warp(model, device, dtype, dt, repeats, target_s=0.5) -> dict:
             assert np.all(np.isfinite(sim.state.x)) and not np.array_equal(before, sim.state.x)
         for _ in range(repeats):
             t = time.perf_counter()
-            status = sim._k.replay_resident(model.particle_x0, steps)
+            status = sim._k.replay_resident(model.point_x0, steps)
             resident.append(steps / (time.perf_counter() - t))
             if status != 0:
                 return {"failed": f"status {status} in the resident window"}
@@ -301,8 +301,8 @@ def main_warp(args) -> None:
         lattice = args.scene == "lattice" or (args.scene == "auto" and n >= 1_000_000)
         model, r, build = lattice_scene(n) if lattice else paper_scene(n)
         dt = scene_dt(model)
-        bps = bytes_per_spring_update(model.spring_count, model.particle_count, args.dtype)
-        entry = {"points": model.particle_count, "scene": "lattice" if lattice else "field",
+        bps = bytes_per_spring_update(model.spring_count, model.point_count, args.dtype)
+        entry = {"points": model.point_count, "scene": "lattice" if lattice else "field",
                  "radius_m": r, "springs": model.spring_count, "dt_s": dt, "build_s": build,
                  "bytes_per_spring_update": bps, "runs": {}}
         run = time_warp(model, args.device, args.dtype, dt, args.repeats)
@@ -314,7 +314,7 @@ def main_warp(args) -> None:
             entry["fraction_of_triad"] = bytes_s / machine["triad_Bps"]
             if machine.get("peak_bandwidth_Bps"):
                 entry["fraction_of_peak"] = bytes_s / machine["peak_bandwidth_Bps"]
-        if args.compare_numba and model.particle_count <= args.numba_max:
+        if args.compare_numba and model.point_count <= args.numba_max:
             import numba
 
             steps = max(2, min(2000, int(2e7 / max(model.spring_count, 1))))
@@ -370,7 +370,7 @@ def main(argv=None) -> None:
                                                                 args.repeats, dt)
         best = max((v.get("spring_updates_per_s", 0) for v in entry["runs"].values()),
                    default=0)
-        mb = min_bytes_per_spring_update(model.particle_count, model.spring_count)
+        mb = min_bytes_per_spring_update(model.point_count, model.spring_count)
         bound = bw["best_GBps"] * 1e9 / mb
         entry["min_bytes_per_spring_update"] = mb
         entry["bandwidth_bound_spring_updates_per_s"] = bound

@@ -51,7 +51,7 @@ def cube_drop(cells, drop, substeps, *, seconds=2.0):
     model = grid_body((cells,) * 3, (0, drop, 0), (L, L + drop, L))
     ground = GroundParams(model=GroundModel.CONTACT, restitution=0.3, friction=0.6)
     sim = Simulator(model, dt=1 / 60, integrator="implicit", ground=ground, substeps=substeps)
-    m = model.particle_mass
+    m = model.point_mass
     com, base, t = [], [], []
     for _ in range(round(seconds * 60)):
         sim.advance(1)
@@ -66,7 +66,7 @@ def cube_drop(cells, drop, substeps, *, seconds=2.0):
     rebound = float(com[low:].max() - com[low])
     lifted = bool(np.any(base[low:] > 1e-4))
     return {"cells": cells, "drop_m": drop, "substeps": substeps,
-            "points": model.particle_count, "com_rebound_m": rebound,
+            "points": model.point_count, "com_rebound_m": rebound,
             "base_left_plate": lifted, "settled_after_s": t[-1],
             "final_height_m": float(sim.state.x[:, 1].max())}
 

@@ -30,8 +30,8 @@ def sag(cells_across, *, E=5e4, L=0.1, a=0.04, seconds=3.0):
     ground = GroundParams(model=GroundModel.CONTACT, restitution=0.0, friction=0.0)
     sim = Simulator(model, dt=1 / 60, integrator="implicit", ground=ground)
     sim.advance(round(seconds * 60))
-    top = model.particle_x0[:, 1] > L - 1e-9
-    return float(L - sim.state.x[top, 1].mean()), model.particle_count
+    top = model.point_x0[:, 1] > L - 1e-9
+    return float(L - sim.state.x[top, 1].mean()), model.point_count
 
 
 def main(argv=None):

@@ -53,13 +53,13 @@ def wobble(cells, integrator, dt, *, theta=1.0, scheme="theta", substeps=1, seco
     settle.advance(90)
     state = settle.state
     state.v[:] = 0.0
-    y = model.particle_x0[:, 1]
+    y = model.point_x0[:, 1]
     state.v[:, 0] = v0 * np.sin(np.pi * y / (2 * L))
     if dt is None:
         dt = 0.5 * estimate_stability(model, "symplectic", 1.0).dt_max
     sim = Simulator(model, dt=dt, integrator=integrator, ground=ground, state=state,
                     substeps=substeps,
-                    implicit=ImplicitParams(scheme=scheme, theta=theta, tolerance=1e-6))
+                    implicit=ImplicitParams(scheme=scheme, theta=theta, cg_tolerance=1e-6))
     top = y > L - 1e-9
     x_rest = state.x[top, 0].mean()
     every = max(1, round((1 / 240) / dt))
@@ -83,7 +83,7 @@ def wobble(cells, integrator, dt, *, theta=1.0, scheme="theta", substeps=1, seco
                               substeps / (f * dt)) if implicit else None
     return {"integrator": integrator, "scheme": scheme if implicit else None,
             "theta": theta if implicit and scheme == "theta" else None,
-            "dt_s": dt, "substeps": substeps, "points": model.particle_count,
+            "dt_s": dt, "substeps": substeps, "points": model.point_count,
             "frequency_hz": float(f),
             "energy_kept_per_period": kept, "closed_form_kept_per_period": closed, "first_peak_m": float(peaks[0]) if peaks else None}
 

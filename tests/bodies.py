@@ -13,7 +13,7 @@ import numpy as np
 from jellysim.body import Body
 from jellysim.geometry.connect import canonical_springs, radius_springs
 from jellysim.geometry.sampling import box_field
-from jellysim.physics.material import tet_volumes
+from jellysim.geometry.tetra import tet_signed_volumes as tet_volumes
 
 _PAIRS = np.array([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)])
 

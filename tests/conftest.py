@@ -30,7 +30,7 @@ def spring_energy(model, x):
 
 
 def kinetic_energy(model, v):
-    return 0.5 * np.sum(model.particle_mass[:, None] * v * v)
+    return 0.5 * np.sum(model.point_mass[:, None] * v * v)
 
 
 from pathlib import Path  # noqa: E402

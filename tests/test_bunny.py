@@ -37,11 +37,11 @@ def _rests(path, points=None):
         warnings.simplefilter("error", StabilityWarning)  # the guard must not fire
         model = scene.build_model()
         sim = scene.simulator(model)
-    h0 = np.ptp(model.particle_x0[:, 1])
+    h0 = np.ptp(model.point_x0[:, 1])
     sim.advance(90)  # 1.5 s
     x = sim.state.x
     h = np.ptp(x[:, 1])
-    print(f"{path.name}: {model.particle_count} points, {sim.substeps} substeps: height "
+    print(f"{path.name}: {model.point_count} points, {sim.substeps} substeps: height "
           f"{h0 * 100:.2f} -> {h * 100:.2f} cm ({h / h0:.3f}); |v|max "
           f"{np.abs(sim.state.v).max():.3f} m/s")
     assert x[:, 1].min() >= -1e-9

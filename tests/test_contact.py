@@ -208,7 +208,7 @@ def _sliding_gelatin_block(integrator, backend="numba", mu=0.3, v0=1.0, frames=3
     sim = Simulator(model, dt=1 / 60, backend=backend, threads=1,
                     ground=contact_ground(0.0, mu), **_integrator(integrator))
     sim.state.v[:, 0] = v0
-    m = model.particle_mass / model.particle_mass.sum()
+    m = model.point_mass / model.point_mass.sum()
     com, speed, top = [m @ sim.state.x[:, 0]], [m @ sim.state.v[:, 0]], [sim.state.x[:, 1].max()]
     for _ in range(frames):
         sim.advance(1)

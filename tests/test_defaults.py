@@ -21,7 +21,7 @@ def test_scene_schema_defaults_are_the_dataclass_defaults():
         assert gr[key].default == getattr(G, key), key
     assert gr["model"].default == G.model.value
     assert (it["scheme"].default, it["theta"].default, it["cg_tolerance"].default,
-            it["cg_max_iterations"].default) == (I.scheme, I.theta, I.tolerance,
+            it["cg_max_iterations"].default) == (I.scheme, I.theta, I.cg_tolerance,
                                                  I.max_iterations)
     assert SCHEMA["mass"]["density"].default == params.REPORT_DENSITY
     assert tuple(SCHEMA["physics"]["gravity"].default) == params.GRAVITY

@@ -46,7 +46,7 @@ needs_mpi = pytest.mark.skipif(not HAVE_MPI, reason="the [mpi] extra (mpi4py, mp
 def test_partition_gives_each_point_one_balanced_owner(method):
     m = make_box_model(1000)
     for parts in (2, 3, 5):
-        owner = partition_points(m.particle_x0, m.spring_ij, parts, method=method)
+        owner = partition_points(m.point_x0, m.spring_ij, parts, method=method)
         counts = np.bincount(owner, minlength=parts)
         assert owner.shape == (1000,) and counts.sum() == 1000 and counts.min() > 0
         if method == "morton":  # contiguous Z-order ranges of equal size
@@ -57,8 +57,8 @@ def test_partition_gives_each_point_one_balanced_owner(method):
 
 def test_halo_layers_are_the_hop_distance_shells_of_the_spring_graph():
     m = make_box_model(400)
-    n = m.particle_count
-    owner = partition_points(m.particle_x0, m.spring_ij, 3)
+    n = m.point_count
+    owner = partition_points(m.point_x0, m.spring_ij, 3)
     xadj, adjncy = point_graph(n, m.spring_ij)
     ij = m.spring_ij
     graph = coo_matrix((np.ones(len(ij)), (ij[:, 0], ij[:, 1])), shape=(n, n))
@@ -71,7 +71,7 @@ def test_halo_layers_are_the_hop_distance_shells_of_the_spring_graph():
 
 def test_local_model_keeps_the_global_order_of_every_owned_points_springs():
     m = make_box_model(500)
-    owner = partition_points(m.particle_x0, m.spring_ij, 3)
+    owner = partition_points(m.point_x0, m.spring_ij, 3)
     part = LocalPart(m, owner, 1, 2)
     lm, g = part.model, part.glob
     assert np.all(np.diff(g) > 0)  # local numbering is monotone in the global one
@@ -100,7 +100,7 @@ def test_configurations_that_cannot_be_split_are_named():
 def _emulated(model, parts, depth, steps, method="morton", **kw):
     """P ranks in one process: local Simulators stepped one step at a time, ghosts copied
     from their owners after each step (what DistributedSimulator does with Isend/Irecv)."""
-    owner = partition_points(model.particle_x0, model.spring_ij, parts, method=method)
+    owner = partition_points(model.point_x0, model.spring_ij, parts, method=method)
     start = model.state()
     ranks = [LocalPart(model, owner, r, depth) for r in range(parts)]
     for r, part in enumerate(ranks):
@@ -112,7 +112,7 @@ def _emulated(model, parts, depth, steps, method="morton", **kw):
         s = Simulator(part.model, state=State(start.x[g].copy(), start.v[g].copy(),
                                               start.a[g].copy()),
                       check_stability=False, runaway_distance=1e3, **kw)
-        s.center[:] = model.particle_x0.mean(axis=0)
+        s.center[:] = model.point_x0.mean(axis=0)
         sims.append(s)
     for _ in range(steps):
         for s in sims:
@@ -122,7 +122,7 @@ def _emulated(model, parts, depth, steps, method="morton", **kw):
                 buf = np.empty((len(idx), 9))
                 LocalPart.pack(sims[q].state, ranks[q].send[r], buf)
                 part.unpack(sims[r].state, idx, buf)
-    x = np.full((model.particle_count, 3), np.nan)
+    x = np.full((model.point_count, 3), np.nan)
     for part, s in zip(ranks, sims):
         x[part.glob[part.owned]] = s.state.x[part.owned]
     return x

@@ -111,7 +111,7 @@ def test_free_fall_is_exact():
     sim = Simulator(model, dt=1 / 60)
     rng = np.random.default_rng(2)
     sim.state.v[:] = rng.standard_normal(sim.state.v.shape) * 0.05
-    m = model.particle_mass[:, None]
+    m = model.point_mass[:, None]
     p0 = (m * sim.state.v).sum(axis=0)
     c0 = (m * sim.state.x).sum(axis=0) / m.sum()
     sim.advance(30)

@@ -134,3 +134,22 @@ def test_no_source_file_over_600_lines():
         if n > MAX_LINES and rel not in OVERSIZE_OWNED_ELSEWHERE:
             long[rel] = n
     assert not long, f"files over {MAX_LINES} lines: {long}"
+
+
+LEAF_MODULES = {"jellysim.params", "jellysim.errors"}
+"""Modules that import nothing of ours: every module imports them at its top, where the
+dependency graph shows, never inside a function."""
+
+
+def test_leaf_modules_are_imported_at_module_level():
+    modules = _modules()
+    hidden = []
+    for name, path in modules.items():
+        if name in LEAF_MODULES:
+            continue
+        anywhere = _imports(name, path, modules, top_level_only=False)
+        top = _imports(name, path, modules, top_level_only=True)
+        hidden += [f"{name} -> {m}" for m in sorted((anywhere - top) & LEAF_MODULES)]
+    assert not hidden, "import these at the module's top: " + ", ".join(hidden)
+    for leaf in LEAF_MODULES:
+        assert not _imports(leaf, modules[leaf], modules, top_level_only=False)

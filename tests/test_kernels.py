@@ -18,7 +18,7 @@ def model_args(m):
 
 def perturbed(m, seed=0, scale=0.03):
     rng = np.random.default_rng(seed)
-    x = m.particle_x0 + scale * rng.standard_normal(m.particle_x0.shape)
+    x = m.point_x0 + scale * rng.standard_normal(m.point_x0.shape)
     v = rng.standard_normal(x.shape)
     return x, v
 
@@ -44,11 +44,11 @@ def test_accelerations_agree():
 def test_provot_agrees(all_pairs, gauss_seidel):
     m = make_box_model(150, r=0.4)
     x, _ = perturbed(m, 1, 0.01)
-    n = m.particle_count
+    n = m.point_count
     results = []
     for k in (npk, nbk):
         xx = x.copy()
-        res = k.provot(xx, m.particle_x0, rec.spring_arrays(m), 0.002, 4, 0.0, all_pairs,
+        res = k.provot(xx, m.point_x0, rec.spring_arrays(m), 0.002, 4, 0.0, all_pairs,
                        gauss_seidel, rec.explicit_scratch(n, m.spring_count))
         results.append((xx, res))
     assert np.allclose(results[0][0], results[1][0], rtol=0, atol=1e-12)

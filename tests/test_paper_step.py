@@ -115,14 +115,14 @@ def test_paper_preset_is_the_report_step_to_1e12_m():
         warnings.simplefilter("error")
         model = scene.build_model()
         sim = scene.simulator(model)
-    assert model.particle_count == 600
+    assert model.point_count == 600
     sim.advance(100)
 
     body = model.body
     x0 = np.array(body.points, dtype=np.float64)
     springs = np.array(body.springs, dtype=np.int64)
     mass = np.full(len(x0), 1141.0 * 1.0 / len(x0))  # the report's density x 1 m^3, even split
-    assert np.allclose(model.particle_mass, mass, rtol=1e-14)
+    assert np.allclose(model.point_mass, mass, rtol=1e-14)
     assert np.all(model.spring_stiffness == 2.0) and model.damping == 0.8
     x, v, a = x0.copy(), np.zeros_like(x0), np.zeros_like(x0)
     report_steps_compiled(100, x, v, a, x0, *neighbour_lists(len(x0), springs), 2.0, mass, 0.8,

@@ -55,7 +55,7 @@ def _frame_min_j(model, x):
 def _run_drop(body, material, drop, seconds, e=0.3):
     model = physical_model(_lifted(body, drop), material)
     sim = Simulator(model, dt=1 / 60, ground=_ground(e=e))
-    m = model.particle_mass
+    m = model.point_mass
     com, top, jmin = [], [], []
     for _ in range(int(seconds * 60)):
         sim.advance(1)
@@ -114,13 +114,13 @@ def _top_sway(material, substep_factor=1, seconds=1.5, v0=0.05):
     model = physical_model(body, material, gravity=(0.0, 0.0, 0.0))
     auto = Simulator(model, dt=1 / 60).substeps
     sim = Simulator(model, dt=1 / 60, substeps=auto * substep_factor)
-    y = model.particle_x0[:, 1]
+    y = model.point_x0[:, 1]
     sim.pin(np.flatnonzero(y < 1e-9))
     sim.state.v[:, 0] = v0 * y / 0.1
     top = np.flatnonzero(y > 0.1 - 1e-9)
-    x0 = model.particle_x0[top, 0].mean()
+    x0 = model.point_x0[top, 0].mean()
     out, energy = [], []
-    m = model.particle_mass
+    m = model.point_mass
     for _ in range(int(seconds * 60)):
         sim.advance(1)
         out.append(sim.state.x[top, 0].mean() - x0)
@@ -178,7 +178,7 @@ def test_sliding_block_stops_where_coulomb_says():
     model = physical_model(body, gelatin(damping_ratio=0.05, damping_frequency=20.0))
     sim = Simulator(model, dt=1 / 60, ground=_ground(e=0.0, mu=mu))
     sim.state.v[:, 0] = v0
-    m = model.particle_mass
+    m = model.point_mass
     x0 = m @ sim.state.x[:, 0] / m.sum()
     sim.advance(int(0.6 * 60))
     dist = m @ sim.state.x[:, 0] / m.sum() - x0
@@ -197,7 +197,7 @@ def test_hanging_bar_stretches_rho_g_l2_over_2e():
     model = physical_model(body, gelatin(youngs_modulus=E, poisson_ratio=0.3, damping_ratio=0.5,
                                          damping_frequency=3.0))
     sim = Simulator(model, dt=1 / 60)
-    y0 = model.particle_x0[:, 1]
+    y0 = model.point_x0[:, 1]
     sim.pin(np.flatnonzero(y0 > L - 1e-9))
     bottom = np.flatnonzero(y0 < 1e-9)
     sim.advance(int(3.0 * 60))
@@ -213,16 +213,16 @@ def test_pinned_points_moved_along_a_path_drag_the_body():
     body = _box((4, 4, 4), (0.04, 0.04, 0.04))
     model = physical_model(body, gelatin(damping_ratio=0.3, damping_frequency=4.0))
     sim = Simulator(model, dt=1 / 60)
-    y0 = model.particle_x0[:, 1]
+    y0 = model.point_x0[:, 1]
     top = np.flatnonzero(y0 > 0.04 - 1e-9)
     sim.pin(top, path=[[0.0, 0.0, 0.0, 0.0], [0.5, 0.05, 0.02, 0.0]])
-    m = model.particle_mass
-    c0 = m @ model.particle_x0 / m.sum()
+    m = model.point_mass
+    c0 = m @ model.point_x0 / m.sum()
     sim.advance(15)  # t = 0.25 s: half way
-    assert np.allclose(sim.state.x[top], model.particle_x0[top] + [0.025, 0.01, 0.0],
+    assert np.allclose(sim.state.x[top], model.point_x0[top] + [0.025, 0.01, 0.0],
                        atol=1e-12)
     sim.advance(105)  # t = 2 s: at rest below the moved pins
-    assert np.allclose(sim.state.x[top], model.particle_x0[top] + [0.05, 0.02, 0.0],
+    assert np.allclose(sim.state.x[top], model.point_x0[top] + [0.05, 0.02, 0.0],
                        atol=1e-12)
     c = m @ sim.state.x / m.sum()
     assert c[0] - c0[0] == pytest.approx(0.05, abs=0.002)
@@ -242,10 +242,10 @@ def test_mouse_drag_pulls_the_jello():
     corner = np.array([0.03, 0.03, 0.03])
     origin = corner + [0.0, 0.0, 1.0]  # a camera looking along -z at the corner
     grabbed = ctl.press(origin, [0.0, 0.0, -1.0])
-    assert np.allclose(model.particle_x0[grabbed], corner)
+    assert np.allclose(model.point_x0[grabbed], corner)
     target = ctl.move(origin + [0.03, 0.0, 0.0], [0.0, 0.0, -1.0])
     assert np.allclose(target, corner + [0.03, 0.0, 0.0])
-    m = model.particle_mass
+    m = model.point_mass
     c0 = m @ sim.state.x[:, 0] / m.sum()
     sim.advance(60)
     assert m @ sim.state.x[:, 0] / m.sum() - c0 > 0.005  # the body followed
@@ -270,10 +270,10 @@ def test_implicit_free_fall_momentum_is_exact_at_any_tolerance(backend):
 
     model = _spring_block((3, 3, 3), (0.03, 0.03, 0.03), lower=(0.0, 1.0, 0.0))
     sim = Simulator(model, dt=1 / 60, integrator="implicit", backend=backend,
-                    implicit=ImplicitParams(tolerance=0.05))
+                    implicit=ImplicitParams(cg_tolerance=0.05))
     rng = np.random.default_rng(5)
     sim.state.v[:] = rng.standard_normal(sim.state.v.shape) * 0.05
-    m = model.particle_mass[:, None]
+    m = model.point_mass[:, None]
     p0 = (m * sim.state.v).sum(axis=0)
     sim.advance(20)
     p = (m * sim.state.v).sum(axis=0)

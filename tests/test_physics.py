@@ -63,7 +63,7 @@ def test_free_fall_matches_exact_discrete_trajectory(backend, integrator):
     # paper: x_{n+1} = x_n + v_n dt, v_{n+1} = v_n + g dt  ->  x_n = x0 + n v0 dt + g dt^2 n(n-1)/2
     # symplectic: v first                                  ->  x_n = x0 + n v0 dt + g dt^2 n(n+1)/2
     tri = n * (n - 1) / 2 if integrator == "paper" else n * (n + 1) / 2
-    expected = model.particle_x0 + n * dt * v0 + g * dt**2 * tri
+    expected = model.point_x0 + n * dt * v0 + g * dt**2 * tri
     assert np.allclose(sim.state.x, expected, rtol=0, atol=1e-12)
     assert np.allclose(sim.state.v, v0 + n * dt * g, rtol=0, atol=1e-12)
 
@@ -75,11 +75,11 @@ def test_internal_forces_conserve_momentum(backend):
     rng = np.random.default_rng(1)
     state.x += 0.01 * rng.standard_normal(state.x.shape)
     state.v[:] = rng.standard_normal(state.v.shape)
-    p0 = (model.particle_mass[:, None] * state.v).sum(axis=0)
+    p0 = (model.point_mass[:, None] * state.v).sum(axis=0)
     sim = Simulator(model, dt=1e-3, integrator="symplectic", backend=backend, state=state)
     sim.advance(300)
-    p1 = (model.particle_mass[:, None] * sim.state.v).sum(axis=0)
-    scale = np.abs(model.particle_mass[:, None] * state.v).sum()
+    p1 = (model.point_mass[:, None] * sim.state.v).sum(axis=0)
+    scale = np.abs(model.point_mass[:, None] * state.v).sum()
     assert np.all(np.abs(p1 - p0) <= 1e-13 * scale * 300)
 
 
@@ -122,13 +122,13 @@ def test_provot_springs_enough_loops_puts_every_spring_in_band(backend, order):
 
     model = make_box_model(120, r=0.35)
     k = get_backend(backend)
-    x = model.particle_x0 + 0.02 * np.random.default_rng(5).standard_normal((120, 3))
-    n, ns = model.particle_count, model.spring_count
+    x = model.point_x0 + 0.02 * np.random.default_rng(5).standard_normal((120, 3))
+    n, ns = model.point_count, model.spring_count
     tau = 0.01
     loops = 3000 if order == "jacobi" else 400
     from jellysim.kernels import records as rec
 
-    passes, largest = k.provot(x, model.particle_x0, rec.spring_arrays(model), tau, loops,
+    passes, largest = k.provot(x, model.point_x0, rec.spring_arrays(model), tau, loops,
                                1e-13, False, order == "gauss-seidel",
                                rec.explicit_scratch(n, ns))
     L = np.linalg.norm(x[model.spring_ij[:, 1]] - x[model.spring_ij[:, 0]], axis=1)
@@ -141,14 +141,14 @@ def test_provot_all_pairs_limits_every_pair():
     from jellysim.kernels import numba_backend as k
 
     model = make_box_model(60, r=0.5)
-    x = model.particle_x0 + 0.01 * np.random.default_rng(6).standard_normal((60, 3))
+    x = model.point_x0 + 0.01 * np.random.default_rng(6).standard_normal((60, 3))
     n = 60
     from jellysim.kernels import records as rec
 
-    k.provot(x, model.particle_x0, rec.spring_arrays(model), 0.01, 5000, 1e-13, True, False,
+    k.provot(x, model.point_x0, rec.spring_arrays(model), 0.01, 5000, 1e-13, True, False,
              rec.explicit_scratch(n, model.spring_count))
     d = np.linalg.norm(x[:, None] - x[None], axis=2)
-    d0 = np.linalg.norm(model.particle_x0[:, None] - model.particle_x0[None], axis=2)
+    d0 = np.linalg.norm(model.point_x0[:, None] - model.point_x0[None], axis=2)
     iu = np.triu_indices(n, 1)
     assert np.max(np.abs(d[iu] / d0[iu] - 1)) <= 0.01 + 1e-9
 

@@ -24,10 +24,10 @@ def _top_sag_ratio(points: int) -> float:
     body = build_body(mesh, points=points, connect="radius", seed=0)
     model = physical_model(body, Material(youngs_modulus=E, density=RHO, model="springs"),
                            gravity=(0.0, -G, 0.0))
-    x = model.particle_x0
+    x = model.point_x0
     y0 = x[:, 1] - x[:, 1].min()
     forces = np.zeros_like(x)
-    forces[:, 1] = -model.particle_mass * G
+    forces[:, 1] = -model.point_mass * G
     held = np.zeros(x.shape, bool)
     held[y0 < 0.5 * L / len(x) ** (1 / 3), 1] = True  # resting on a frictionless plate
     u = static_displacements(x, model.spring_ij, model.spring_stiffness, forces, held)

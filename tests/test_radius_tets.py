@@ -122,7 +122,7 @@ steps = 1
     assert np.array_equal(body.springs, radius_springs(body.points, 0.03))
     # the radius springs are calibrated as a point cloud (a grid: its cells' point volumes)
     model = scene.build_model(body)
-    assert model.particle_count == body.point_count
+    assert model.point_count == body.point_count
 
 
 def test_cloud_tets_orphans_are_readmitted_or_reported():

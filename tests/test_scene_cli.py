@@ -161,7 +161,7 @@ def test_paper_cube_holds_with_all_pairs_and_flattens_with_springs_only(tmp_path
         warnings.simplefilter("error")  # the example runs without a stability warning
         model = scene.build_model()
         sim = scene.simulator(model)
-    assert model.particle_count == 600 and 9000 < model.spring_count < 11000
+    assert model.point_count == 600 and 9000 < model.spring_count < 11000
     sim.advance(100)
     y = sim.state.x[:, 1]
     assert y.min() >= 0.0 and y.min() < 1e-9  # landed, nothing below the ground
@@ -279,7 +279,7 @@ def test_surface_samples_option(tmp_path):
     """[body] surface_samples: on by default for Delaunay bodies (points on the surface, the
     tets fill the mesh), off gives the report's way; refused where it has no meaning."""
     from conftest import mesh_path
-    from jellysim.physics.material import tet_volumes
+    from jellysim.geometry.tetra import tet_signed_volumes as tet_volumes
 
     (tmp_path / "cube.obj").write_bytes(mesh_path("cube.obj").read_bytes())
     p = tmp_path / "cube.toml"
@@ -335,7 +335,7 @@ def test_spot_example_runs_from_a_plain_clone_and_stands(tmp_path):
     scene = Scene.load(ROOT / "examples" / "spot_drop.toml")
     model = scene.build_model()
     sim = scene.simulator(model)
-    h0 = np.ptp(model.particle_x0[:, 1])
+    h0 = np.ptp(model.point_x0[:, 1])
     sim.advance(60)  # 1 s: the drop (2 cm) and the landing
     x = sim.state.x
     assert x[:, 1].min() >= -1e-9 and x[:, 1].min() < 1e-6  # landed, not through the plate

@@ -24,10 +24,10 @@ def column_sag(cells, E=5e4, L=0.1, a=0.04):
     model = finalize(body, gravity=(0.0, -G, 0.0))
     ground = GroundParams(model=GroundModel.CONTACT, restitution=0.0, friction=0.0)
     sim = Simulator(model, dt=1 / 60, integrator="implicit", ground=ground,
-                    implicit=ImplicitParams(tolerance=1e-6))  # a static answer: solve tightly
+                    implicit=ImplicitParams(cg_tolerance=1e-6))  # a static answer: solve tightly
     sim.advance(180)
     assert np.abs(sim.state.v).max() < 1e-4  # settled
-    top = model.particle_x0[:, 1] > L - 1e-9
+    top = model.point_x0[:, 1] > L - 1e-9
     return L - sim.state.x[top, 1].mean()
 
 
@@ -51,7 +51,7 @@ def clamped_bar(cells, E, L=0.2, a=0.02):
 
 
 def measured_frequency(model, state, component, periods_guess, *, records=400):
-    tip = model.particle_x0[:, 0] > model.particle_x0[:, 0].max() - 1e-12
+    tip = model.point_x0[:, 0] > model.point_x0[:, 0].max() - 1e-12
     dt = 0.5 * estimate_stability(model, "symplectic", 1.0).dt_max
     sim = Simulator(model, dt=dt, integrator="symplectic", state=state)
     every = max(1, int(periods_guess / dt / records))
@@ -59,7 +59,7 @@ def measured_frequency(model, state, component, periods_guess, *, records=400):
     for _ in range(records):
         sim.advance(every)
         t.append(sim.state.t)
-        u.append((sim.state.x[tip, component] - model.particle_x0[tip, component]).mean())
+        u.append((sim.state.x[tip, component] - model.point_x0[tip, component]).mean())
     t, u = np.array(t), np.array(u)
     i = np.nonzero((u[:-1] > 0) & (u[1:] <= 0))[0]
     crossings = t[i] + u[i] / (u[i] - u[i + 1]) * (t[i + 1] - t[i])
@@ -72,7 +72,7 @@ def test_clamped_bar_first_longitudinal_mode(cells):
     E, L = 5e3, 0.2
     model = clamped_bar(cells, E, L)
     state = model.state()
-    x = model.particle_x0[:, 0]
+    x = model.point_x0[:, 0]
     state.x[:, 0] += 1e-4 * np.sin(np.pi * x / (2 * L))  # the first mode's shape
     expected = np.sqrt(E / RHO) / (4 * L)
     f = measured_frequency(model, state, 0, 2.2 / expected)
@@ -83,7 +83,7 @@ def test_cantilever_first_bending_mode_euler_bernoulli():
     E, L, a = 5e3, 0.2, 0.02
     model = clamped_bar((40, 4, 4), E, L, a)
     state = model.state()
-    xi = model.particle_x0[:, 0] / L
+    xi = model.point_x0[:, 0] / L
     state.x[:, 1] += 1e-4 * xi**2 * (3 - xi) / 2  # static tip-load shape, close to mode 1
     inertia, area = a**4 / 12, a * a
     expected = 1.875**2 / (2 * np.pi) * np.sqrt(E * inertia / (RHO * area * L**4))
@@ -110,7 +110,7 @@ def test_implicit_energy_loss_per_period_matches_closed_form(theta):
 
     e0 = energy(state)
     sim = Simulator(model, dt=dt, integrator="implicit", state=state,
-                    implicit=ImplicitParams(theta=theta, tolerance=1e-12))
+                    implicit=ImplicitParams(theta=theta, cg_tolerance=1e-12))
     steps = 50
     sim.advance(steps)
     z2 = (omega * dt) ** 2
@@ -140,7 +140,7 @@ def test_bdf2_energy_loss_per_step_matches_closed_form(omega_dt):
         return 0.5 * k * ext**2 + 0.5 * m * np.sum(s.v**2)
 
     sim = Simulator(model, dt=dt, integrator="implicit", state=state,
-                    implicit=ImplicitParams(scheme="bdf2", tolerance=1e-12))
+                    implicit=ImplicitParams(scheme="bdf2", cg_tolerance=1e-12))
     assert sim.stability.dt_max == np.inf and "BDF2" in sim.stability.reason
     sim.advance(30)
     e1 = energy(sim.state)
@@ -165,7 +165,7 @@ def test_implicit_stable_at_frame_rate_for_stiff_fine_gelatin():
 
     E, L = 5e4, 0.1
     model = grid_body((19, 19, 19), (0, 0.02, 0), (L, L + 0.02, L), youngs_modulus=E)
-    assert model.particle_count == 8000
+    assert model.point_count == 8000
     ground = GroundParams(model=GroundModel.CONTACT, restitution=0.3, friction=0.6)
     with warnings.catch_warnings():
         warnings.simplefilter("error", StabilityWarning)  # the guard: stable at any dt

@@ -171,7 +171,7 @@ def test_two_runs_bitwise_equal_whatever_the_batching(warp):
 def test_blow_up_stops_at_the_same_step_as_numba(warp):
     m = make_box_model(200, stiffness=500.0, damping=0.0, point_mass=0.01)
     rng = np.random.default_rng(1)
-    kick = 0.01 * rng.standard_normal(m.particle_x0.shape)
+    kick = 0.01 * rng.standard_normal(m.point_x0.shape)
     results = []
     for backend in ("numba", "warp"):
         st = m.state()

@@ -28,6 +28,7 @@ if _os.environ.get("JELLYSIM_THREADING", "").lower() != "spin":
 from .body import Body
 from .model import Model, finalize
 from .params import (GRAVITY, REPORT_DENSITY, GroundModel, GroundParams, ImplicitParams,
+                     ImplicitScheme,
                      Integrator, ProvotOrder, ProvotPairs, ProvotParams)
 from .simulator import Simulator
 from .state import State
@@ -71,6 +72,7 @@ _LAZY = {
 
 __all__ = ["Body", "Model", "State", "Simulator", "finalize", "Integrator", "ProvotParams",
            "ProvotPairs", "ProvotOrder", "GroundParams", "GroundModel", "ImplicitParams",
+           "ImplicitScheme",
            "REPORT_DENSITY", "GRAVITY", "__version__", *_LAZY]
 
 

@@ -10,6 +10,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .params import REPORT_DENSITY
+
 __all__ = ["Body"]
 
 
@@ -68,7 +70,6 @@ class Body:
         (y is up).  Other keywords go to :func:`jellysim.build.build_body`.
         """
         from .build import _mesh_of, build_body
-        from .params import REPORT_DENSITY
 
         m = _mesh_of(mesh, size)
         if base is not None:

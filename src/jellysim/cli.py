@@ -5,7 +5,7 @@ import sys
 
 import click
 
-from .errors import JellysimError
+from .errors import JellysimError, RunInterrupted
 from .params import REPORT_DENSITY
 
 
@@ -97,7 +97,6 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         return cli_run(scene_file, out_dir, steps=steps, no_vtu=no_vtu, quiet=quiet,
                        partition=partition, video=video, usd=usd, glb=glb)
 
-    from .errors import RunInterrupted
     from .runner import prepare_out_dir, run_scene
     from .scene import Scene
 

@@ -12,6 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .params import REPORT_DENSITY
+from .errors import JellysimError
+
 __all__ = ["DEMO_SCENE", "DEMO_SHAPE", "DEMO_SHAPES", "build_demo_body", "demo_mesh",
            "run_demo"]
 
@@ -85,7 +88,6 @@ def build_demo_body(name: str = "jelly", points: int | None = None):
 
     from .build import build_body
     from .geometry.mesh import Mesh
-    from .params import REPORT_DENSITY
     from .skin import bind_body_skin
 
     shape = DEMO_SHAPES[name]
@@ -122,7 +124,6 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     from .runner import run_scene
     from .scene import Scene
 
-    from .errors import JellysimError
     from .runner import prepare_out_dir
 
     t0 = time.perf_counter()

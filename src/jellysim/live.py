@@ -24,7 +24,7 @@ class DragController:
     def __init__(self, sim, *, stiffness: float | None = None, reach: float | None = None):
         self.sim = sim
         self.stiffness = stiffness
-        x0 = sim.model.particle_x0
+        x0 = sim.model.point_x0
         self.reach = (0.1 * float(np.ptp(x0, axis=0).max())) if reach is None else reach
         """Largest distance [m] from the ray at which a point is grabbed."""
         self.point: int | None = None
@@ -96,7 +96,7 @@ def view_live(scene, *, size=(1024, 640), screenshot=None, frames: int = 0) -> N
     if tri is None or len(tri) == 0:
         from .geometry.tetra import boundary_faces
 
-        tri = boundary_faces(model.fem.tets, model.particle_count)
+        tri = boundary_faces(model.fem.tets, model.point_count)
     p = pv.Plotter(window_size=size, lighting="light kit")
     p.set_background("#f4f1ec")
     surf = pv.PolyData(sim.state.x.copy(), _faces(np.asarray(tri)))

@@ -35,11 +35,11 @@ class Model:
     scalar straight into its slot, so the second pass reads them sequentially.
     """
 
-    particle_x0: np.ndarray
+    point_x0: np.ndarray
     """Rest positions [m], shape (n, 3), float64."""
-    particle_mass: np.ndarray
+    point_mass: np.ndarray
     """Point masses [kg], shape (n,), float64, all > 0."""
-    particle_inv_mass: np.ndarray
+    point_inv_mass: np.ndarray
     """Inverse masses [1/kg], shape (n,), float64."""
     spring_ij: np.ndarray
     """Spring end points, shape (k, 2), int32, ``i < j``, rows unique and sorted."""
@@ -68,8 +68,8 @@ class Model:
     damping), or ``None`` for a springs-only body."""
 
     @property
-    def particle_count(self) -> int:
-        return int(self.particle_x0.shape[0])
+    def point_count(self) -> int:
+        return int(self.point_x0.shape[0])
 
     @property
     def spring_count(self) -> int:
@@ -78,7 +78,7 @@ class Model:
     @property
     def total_mass(self) -> float:
         """Total mass [kg]."""
-        return float(self.particle_mass.sum())
+        return float(self.point_mass.sum())
 
     def state(self):
         """A new :class:`~jellysim.state.State` at rest positions, zero velocity, with
@@ -157,9 +157,9 @@ def finalize(
     np.cumsum(np.bincount(springs[:, 1], minlength=n), out=second_ptr[1:])
 
     return Model(
-        particle_x0=_frozen(points, np.float64),
-        particle_mass=_frozen(mass, np.float64),
-        particle_inv_mass=_frozen(1.0 / mass, np.float64),
+        point_x0=_frozen(points, np.float64),
+        point_mass=_frozen(mass, np.float64),
+        point_inv_mass=_frozen(1.0 / mass, np.float64),
         spring_ij=_frozen(springs, np.int32),
         spring_rest_length=_frozen(rest, np.float64),
         spring_stiffness=_frozen(stiff, np.float64),

@@ -139,6 +139,15 @@ class GroundParams:
     """Contact model: static Coulomb friction coefficient [-] (default: ``friction``)."""
 
 
+class ImplicitScheme(str, Enum):
+    """Time discretisation of :attr:`Integrator.IMPLICIT` (see :class:`ImplicitParams`)."""
+
+    THETA = "theta"
+    """One-step theta-method (``theta = 1``: backward Euler)."""
+    BDF2 = "bdf2"
+    """Two-step backward differentiation formula (second order)."""
+
+
 @dataclass(frozen=True)
 class ImplicitParams:
     """Options of :attr:`Integrator.IMPLICIT`.
@@ -151,8 +160,8 @@ class ImplicitParams:
     ``w = (x_n - x_n-1) / 3 + beta v_n``; ``x += (x_n - x_n-1) / 3 + beta (v + dv)``.
     """
 
-    scheme: str = "theta"
-    """``"theta"`` (one-step theta-method, ``theta`` below) or ``"bdf2"`` (two-step BDF2:
+    scheme: ImplicitScheme = ImplicitScheme.THETA
+    """``THETA`` (one-step theta-method, ``theta`` below) or ``BDF2`` (two-step BDF2:
     second order, damps a vibration far less than backward Euler at the same dt: the 10 cm
     gelatin cube's 2.8 Hz wobble keeps 0.90 of its energy per period at dt = 1/60 s, 0.16 with
     backward Euler; ``theta`` is then unused).  Backward Euler is the robust one through
@@ -164,19 +173,22 @@ class ImplicitParams:
     ``(1 + (omega dt)^2)^-1/2`` per step); 1/2 = linearised implicit midpoint (no damping of
     a linear vibration, but the single linearised solve lets large, fast deformations gain
     energy).  See docs/physics.md for the measured damping."""
-    tolerance: float = 1e-3
+    cg_tolerance: float = 1e-3
     """Conjugate gradients stop when the residual is below this fraction of the right-hand
-    side."""
+    side [-] (relative; ``ProvotParams.tolerance`` is a length)."""
     max_iterations: int = 300
     """Conjugate-gradient iterations per step at most."""
 
     def __post_init__(self):
-        if self.scheme not in ("theta", "bdf2"):
-            raise ValueError(f"implicit scheme must be 'theta' or 'bdf2', got {self.scheme!r}")
+        try:
+            object.__setattr__(self, "scheme", ImplicitScheme(self.scheme))
+        except ValueError:
+            raise ValueError(f"implicit scheme must be 'theta' or 'bdf2', got {self.scheme!r}") \
+                from None
         if not 0.5 <= self.theta <= 1.0:
             raise ValueError(f"implicit theta must lie in [0.5, 1], got {self.theta}")
-        if not self.tolerance > 0:
-            raise ValueError(f"implicit tolerance must be > 0, got {self.tolerance}")
+        if not self.cg_tolerance > 0:
+            raise ValueError(f"implicit cg_tolerance must be > 0, got {self.cg_tolerance}")
         if not self.max_iterations >= 1:
             raise ValueError(f"implicit max_iterations must be >= 1, got {self.max_iterations}")
 

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import copy
 
-from .params import CONTACT_FRICTION, CONTACT_RESTITUTION, REPORT_DENSITY
+from .params import CONTACT_FRICTION, CONTACT_RESTITUTION, REPORT_DENSITY, Material
 
 __all__ = ["PRESETS", "GELATIN_DENSITY", "GELATIN_YOUNGS_MODULUS", "GELATIN_POISSON_RATIO",
            "GELATIN_DAMPING_RATIO", "apply_preset", "gelatin", "material"]
@@ -83,7 +83,6 @@ def apply_preset(raw: dict, name: str) -> dict:
 
 def gelatin(**changes):
     """The gelatin preset as a :class:`~jellysim.params.Material` (keyword changes win)."""
-    from .params import Material
 
     values = dict(density=GELATIN_DENSITY, youngs_modulus=GELATIN_YOUNGS_MODULUS,
                   poisson_ratio=GELATIN_POISSON_RATIO, damping_ratio=GELATIN_DAMPING_RATIO,

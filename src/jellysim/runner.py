@@ -23,7 +23,8 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import JellysimError, RunInterrupted, SimulationError
+from .errors import (BuildError, CheckpointError, JellysimError, ResourceError, RunInterrupted,
+                     SimulationError)
 from .io.checkpoint import CHECKPOINT, read_checkpoint, write_checkpoint
 from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream
 from .io.trajectory import trajectory_meta
@@ -101,7 +102,6 @@ def _check_disk(out_dir: Path, total: int, every: int, n: int, messages: list) -
     """Refuse a run whose trajectory cannot fit the free disk space; note a large one."""
     import shutil
 
-    from .errors import ResourceError
 
     frames = total // every + 2
     need = frames * n * 48 * 2  # positions + velocities, then the final .npz copy
@@ -140,7 +140,6 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
         sim = scene.simulator(model)
     messages = [str(w.message) for w in caught]
     if isinstance(skin, str) and skin == "auto":
-        from .errors import BuildError
         from .skin import default_skin
 
         try:
@@ -153,7 +152,7 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     if checkpoint_every is None:
         checkpoint_every = scene.params["output"].get("checkpoint_every")
     write_vtu = scene.params["output"]["vtu"] if vtu is None else vtu
-    _check_disk(out_dir, total, every, model.particle_count, messages)
+    _check_disk(out_dir, total, every, model.point_count, messages)
     stream_dir = out_dir / STREAM_DIR
     ckpt_path = out_dir / CHECKPOINT
     npz_path = out_dir / "trajectory.npz"
@@ -161,8 +160,6 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     resumed_from = None
     if resume:
         if not ckpt_path.exists() and npz_path.exists() and not stream_dir.exists():
-            from .errors import CheckpointError
-
             raise CheckpointError(f"{out_dir}: nothing to resume: the run has finished "
                                   f"({npz_path}); run without --resume to start afresh")
         ck = read_checkpoint(ckpt_path, scene=scene, model=model)
@@ -171,10 +168,8 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
         s.t, s.step = ck.t, ck.step
         sim.restore_internal_state(ck.internal)
         try:
-            stream = TrajectoryStream(stream_dir, model.particle_count, keep=ck.frames)
+            stream = TrajectoryStream(stream_dir, model.point_count, keep=ck.frames)
         except (OSError, ValueError) as exc:
-            from .errors import CheckpointError
-
             raise CheckpointError(f"{stream_dir}: cannot continue the trajectory stream "
                                   f"({exc}); start afresh without --resume") from None
         keep = ck.frames
@@ -184,7 +179,7 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
             if stale.exists():
                 stale.unlink()
         meta = trajectory_meta(model, scene_text=scene.text, params=scene.params, skin=skin)
-        stream = TrajectoryStream(stream_dir, model.particle_count, meta)
+        stream = TrajectoryStream(stream_dir, model.point_count, meta)
         keep = None
     series = PVDSeries(out_dir, keep=keep) if write_vtu else None
     skin_series = (PVDSeries(out_dir, "skin", keep=keep)

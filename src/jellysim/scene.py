@@ -13,8 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SceneError
-from .params import GRAVITY, REPORT_DENSITY, GroundParams, ImplicitParams, ProvotParams
+from .errors import JellysimError, SceneError
+from .params import (GRAVITY, MAX_ALL_PAIRS_POINTS, REPORT_DENSITY, GroundParams, ImplicitParams,
+                     ProvotOrder, ProvotPairs, ProvotParams)
 # Spec (one row of the schema) and the checks live in scene_spec; SCHEMA stays here
 from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-exported)
                               make_obstacle, validate_obstacles)
@@ -139,7 +140,7 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "theta": Spec("float", _I.theta, "Implicit: 1 = backward Euler (robust, damps), 0.5 = "
                       "midpoint (no damping of linear vibrations).", lambda v: 0.5 <= v <= 1,
                       "a number in [0.5, 1]"),
-        "cg_tolerance": _pos("Implicit: relative residual at which CG stops.", _I.tolerance),
+        "cg_tolerance": _pos("Implicit: relative residual at which CG stops.", _I.cg_tolerance),
         "cg_max_iterations": Spec("int", _I.max_iterations, "Implicit: CG iterations per step at most.",
                                   lambda v: v >= 1, "an integer >= 1"),
     },
@@ -355,7 +356,6 @@ class Scene:
     def _guard(self) -> None:
         """Refuse before building what cannot run: all-pairs Provot above its point limit,
         and bodies whose memory estimate exceeds the limit (:mod:`jellysim.resources`)."""
-        from .params import MAX_ALL_PAIRS_POINTS
         from .resources import check_body_memory
 
         b, s, p = self.params["body"], self.params["springs"], self.params["provot"]
@@ -377,7 +377,6 @@ class Scene:
 
     def build_body(self):
         from .body import Body
-        from .errors import JellysimError
         from .geometry.connect import radius_springs
         from .geometry.sampling import box_field
 
@@ -483,16 +482,12 @@ class Scene:
         return scene_fem_model(self.params, body)
 
     def provot_params(self):
-        from .params import ProvotOrder, ProvotPairs, ProvotParams
-
         p = self.params["provot"]
         return ProvotParams(enabled=p["enabled"], tau=p["tau"], loops=p["loops"],
                             pairs=ProvotPairs(p["pairs"]), order=ProvotOrder(p["order"]),
                             tolerance=p["tolerance"], velocity_update=p["velocity_update"])
 
     def ground_params(self):
-        from .params import GroundParams
-
         g = self.params["ground"]
         return GroundParams(enabled=g["enabled"], mu=g["mu"], nu=g["nu"], height=g["height"],
                             model=g["model"], restitution=g["restitution"],
@@ -536,14 +531,13 @@ class Scene:
     def simulator_kwargs(self, model=None, **overrides) -> dict:
         """The keyword arguments :meth:`simulator` passes to the Simulator (for ``model``)."""
         it = self.params["integrator"]
-        from .params import ImplicitParams
 
         kw = dict(dt=it["dt"], integrator=it["name"], provot=self.provot_params(),
                   ground=self.ground_params(), backend=it["backend"], threads=it["threads"],
                   device=it["device"], precision=it["precision"],
                   substeps=it["substeps"] if it["substeps"] is not None else "auto",
                   implicit=ImplicitParams(scheme=it["scheme"], theta=it["theta"],
-                                          tolerance=it["cg_tolerance"],
+                                          cg_tolerance=it["cg_tolerance"],
                                           max_iterations=it["cg_max_iterations"]),
                   obstacles=self.obstacles())
         if getattr(model, "fem", None) is not None:

@@ -18,6 +18,7 @@ import numpy as np
 from .errors import SceneError, SimulationError
 from .kernels import INTEGRATOR_CODES, STATUS_NONFINITE, STATUS_OK, Backend, get_backend
 from .params import (MAX_ALL_PAIRS_POINTS, GroundModel, GroundParams, ImplicitParams,
+                     ImplicitScheme,
                      Integrator, ProvotOrder, ProvotPairs, ProvotParams)
 from .handles import HandleMethods
 from .stability import StabilityEstimate, estimate_stability, implicit_accuracy
@@ -203,7 +204,7 @@ class Simulator(HandleMethods):
             raise SceneError("backend = 'warp' does not implement the physical (FEM) path yet "
                              "(tets, damping, handles): use backend = 'numba'")
         self._k = get_backend(self.backend, device=device, precision=precision)
-        n = model.particle_count
+        n = model.point_count
         if provot.enabled and ProvotPairs(provot.pairs) is ProvotPairs.ALL and (
                 n > MAX_ALL_PAIRS_POINTS):
             raise SceneError(
@@ -213,7 +214,7 @@ class Simulator(HandleMethods):
             threads = 1  # a substep's work is too small to pay for thread synchronisation
         self.threads = auto_threads(n) if threads is None else int(threads)
         self.state = model.state() if state is None else state
-        x0 = model.particle_x0
+        x0 = model.point_x0
         self.center = np.ascontiguousarray(x0.mean(axis=0))
         if runaway_distance is None:
             diag = float(np.linalg.norm(x0.max(axis=0) - x0.min(axis=0)))
@@ -246,8 +247,8 @@ class Simulator(HandleMethods):
                                         self.rest_speed)
         if self.integrator is Integrator.IMPLICIT:
             im = implicit
-            self._implicit_opts = rec.implicit_options(im.theta, im.tolerance,
-                                                       im.max_iterations, im.scheme == "bdf2")
+            self._implicit_opts = rec.implicit_options(im.theta, im.cg_tolerance,
+                                                       im.max_iterations, im.scheme is ImplicitScheme.BDF2)
             self._scratch = rec.implicit_scratch(n, k)
             sc = self._scratch
             # dv, r, z, p, ap, diag, b; cnrm (normal, target speed, impact speed, stuck)
@@ -303,7 +304,7 @@ class Simulator(HandleMethods):
         m, fem = self.model, self.model.fem
         assert isinstance(fem, FemArrays)
         t = fem.tet_count
-        n = m.particle_count
+        n = m.point_count
         self._q = np.zeros((t, 6))
         self._tet_force = np.zeros((4 * t, 3))
         self._tet_j = np.ones(t)
@@ -319,7 +320,7 @@ class Simulator(HandleMethods):
         use_springs = bool(m.spring_count and np.any(m.spring_stiffness != 0))
         springs = (m.spring_ij, m.spring_rest_length, m.spring_stiffness, m.point_first_ptr,
                    m.point_second_ptr, m.spring_second_slot, m.point_second_other, use_springs)
-        model_arrays = (m.particle_inv_mass, float(m.damping), m.gravity, springs)
+        model_arrays = (m.point_inv_mass, float(m.damping), m.gravity, springs)
         contact = (self._obstacle_kind, self._obstacle_data, float(self.rest_speed),
                    self.center, float(self.runaway_distance**2))
         scratch = (self._tet_force, self._tet_j, self._fsum, self._scalar, self._min_j)
@@ -518,7 +519,7 @@ class Simulator(HandleMethods):
 
     def _check_solves(self) -> None:
         worst = self._last_worst
-        tol = float(self.implicit.tolerance)
+        tol = float(self.implicit.cg_tolerance)
         if not worst > tol * (1 + 1e-9):
             return
         s = self.state

@@ -54,7 +54,7 @@ def _stiffness_matvec(model, u):
     """K u for the rest stiffness (tangent stiffness at the rest positions)."""
     i = model.spring_ij[:, 0]
     j = model.spring_ij[:, 1]
-    x = model.particle_x0
+    x = model.point_x0
     d = x[j] - x[i]
     length = np.linalg.norm(d, axis=1)
     nrm = d / np.where(length > 0, length, 1.0)[:, None]
@@ -77,7 +77,7 @@ def max_eigenvalue(model, *, iterations: int = 60, seed: int = 0) -> tuple[float
     k = model.spring_count
     if k == 0 or not np.any(model.spring_stiffness > 0):
         return 0.0, "no-springs"
-    m = model.particle_mass
+    m = model.point_mass
     if k > POWER_ITERATION_MAX_SPRINGS:
         i, j = model.spring_ij[:, 0], model.spring_ij[:, 1]
         cross = model.spring_stiffness / np.sqrt(m[i] * m[j])
@@ -116,7 +116,7 @@ def estimate_stability(model, integrator: Integrator, dt: float, *,
                                      "stable (linearised)")
         return StabilityEstimate(lam, method, 0.0 if lam > 0 else np.inf,
                                  f"implicit theta = {theta:g} < 1/2 amplifies undamped modes")
-    inv_m = model.particle_inv_mass
+    inv_m = model.point_inv_mass
     c_max = model.damping * float(inv_m.max())
     c_min = model.damping * float(inv_m.min())
     damping_limit = 2.0 / c_max if c_max > 0 else np.inf

@@ -29,7 +29,7 @@ class State:
         from .kernels import numpy_backend as nb
         from .kernels.records import point_arrays, spring_arrays
 
-        x = np.array(model.particle_x0, dtype=np.float64, copy=True)
+        x = np.array(model.point_x0, dtype=np.float64, copy=True)
         v = np.zeros_like(x)
         a = np.zeros_like(x)
         scalar = np.zeros(model.spring_count)

@@ -68,7 +68,7 @@ class LocalPart:
         from ..body import Body
         from ..model import finalize
 
-        n = model.particle_count
+        n = model.point_count
         self.rank = int(rank)
         self.owner = owner
         if depth is None:
@@ -87,9 +87,9 @@ class LocalPart:
             local_of[glob] = np.arange(glob.size)
             ij = model.spring_ij
             keep = (local_of[ij[:, 0]] >= 0) & (local_of[ij[:, 1]] >= 0)
-            body = Body(points=model.particle_x0[glob], springs=local_of[ij[keep]],
+            body = Body(points=model.point_x0[glob], springs=local_of[ij[keep]],
                         rest_length=model.spring_rest_length[keep],
-                        stiffness=model.spring_stiffness[keep], masses=model.particle_mass[glob],
+                        stiffness=model.spring_stiffness[keep], masses=model.point_mass[glob],
                         meta={"distributed_rank": self.rank})
             self.model = finalize(body, damping=model.damping, gravity=model.gravity)
         ghost = ~self.owned

@@ -49,8 +49,8 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
 
         kw = scene.simulator_kwargs(model)
         parts = 1 if replicated_reason(kw["integrator"], kw["provot"]) else size
-        return partition_points(model.particle_x0, model.spring_ij, min(parts,
-                                model.particle_count), method=partition)
+        return partition_points(model.point_x0, model.spring_ij, min(parts,
+                                model.point_count), method=partition)
 
     owner = on_root(comm, split)
     with warnings.catch_warnings(record=True) as caught:

@@ -112,7 +112,7 @@ class DistributedSimulator:
         self.integrator = Integrator(integrator)
         self.provot, self.ground, self.implicit = provot, ground, implicit
         self.dt_step = self.dt / self.substeps
-        n = model.particle_count
+        n = model.point_count
         if threads is None:  # the node's cores divided among the ranks on this node
             import numba
             from mpi4py import MPI
@@ -120,7 +120,7 @@ class DistributedSimulator:
             node = self.comm.Split_type(MPI.COMM_TYPE_SHARED)
             threads = max(1, numba.config.NUMBA_NUM_THREADS // node.Get_size())
             node.Free()
-        x0 = model.particle_x0
+        x0 = model.point_x0
         self.center = np.ascontiguousarray(x0.mean(axis=0))
         if runaway_distance is None:
             diag = float(np.linalg.norm(x0.max(axis=0) - x0.min(axis=0)))
@@ -278,7 +278,7 @@ class DistributedSimulator:
             displs = np.concatenate([[0], np.cumsum(counts)[:-1]])
             self.comm.Gatherv(mine.ravel(), [flat, counts, displs, _mpi_double()], root=root)
             order = np.argsort(self.owner, kind="stable")  # rank-major, global order within
-            allv = np.empty((self.model.particle_count, 9))
+            allv = np.empty((self.model.point_count, 9))
             allv[order] = flat.reshape(-1, 9)
             return State(allv[:, 0:3].copy(), allv[:, 3:6].copy(), allv[:, 6:9].copy(),
                          self.t, self.step)

@@ -53,7 +53,7 @@ def scene_hash(scene) -> str:
 
 def model_hash(model) -> str:
     h = hashlib.sha256()
-    for a in (model.particle_x0, model.particle_mass, model.spring_ij,
+    for a in (model.point_x0, model.point_mass, model.spring_ij,
               model.spring_rest_length, model.spring_stiffness, model.gravity):
         h.update(np.ascontiguousarray(a).tobytes())
     return h.hexdigest()
@@ -121,7 +121,7 @@ def read_checkpoint(path, *, scene=None, model=None) -> Checkpoint:
         raise CheckpointError(f"{path}: the body built from {getattr(scene, 'name', 'the scene')}"
                               " differs from the checkpoint's (a mesh or body file changed?); "
                               "start afresh without --resume")
-    if model is not None and ck.x.shape != (model.particle_count, 3):
+    if model is not None and ck.x.shape != (model.point_count, 3):
         raise CheckpointError(f"{path}: holds {ck.x.shape[0]} points, the body has "
-                              f"{model.particle_count}")
+                              f"{model.point_count}")
     return ck

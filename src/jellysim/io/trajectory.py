@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from .atomic import atomic_path
+from ..errors import JellysimError
 
 __all__ = ["Recorder", "Trajectory", "load_trajectory", "resolve_trajectory", "trajectory_meta"]
 
@@ -69,7 +70,7 @@ class Recorder:
         self.steps.append(int(state.step))
 
     def save(self, path, *, status: str = "complete") -> Path:
-        n = self.model.particle_count
+        n = self.model.point_count
         meta = trajectory_meta(self.model, scene_text=self.scene_text, params=self.params,
                                skin=self.skin)
         with atomic_path(path) as tmp:
@@ -92,7 +93,7 @@ def trajectory_meta(model, *, scene_text: str = "", params: dict | None = None,
     empty3 = np.zeros((0, 3), dtype=np.int64)
     empty4 = np.zeros((0, 4), dtype=np.int64)
     extra = skin.arrays() if skin is not None else {}
-    return dict(rest_positions=m.particle_x0, masses=m.particle_mass,
+    return dict(rest_positions=m.point_x0, masses=m.point_mass,
                 springs=m.spring_ij, rest_length=m.spring_rest_length,
                 stiffness=m.spring_stiffness, gravity=m.gravity,
                 triangles=body.triangles if body.triangles is not None else empty3,
@@ -147,7 +148,6 @@ def resolve_trajectory(path) -> Path:
     :mod:`jellysim.io.stream`); a run's output directory (its ``trajectory.npz``, else its
     stream); a missing ``.npz`` whose directory holds a stream (a run that was interrupted or
     killed before it could write the ``.npz``)."""
-    from ..errors import JellysimError
     from .stream import STREAM_DIR
 
     path = Path(path)
@@ -171,7 +171,6 @@ def load_trajectory(path, *, mmap: bool = False) -> Trajectory:
 
     ``mmap``: stream directories only: map the per-frame arrays read-only from disk instead of
     reading them (memory independent of the frame count)."""
-    from ..errors import JellysimError
 
     path = resolve_trajectory(path)
     try:

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 from enum import Enum
 
+from ..errors import SceneError
+
 __all__ = ["Backend", "get_backend", "STATUS_OK", "STATUS_NONFINITE", "STATUS_RUNAWAY"]
 
 STATUS_OK = 0
@@ -46,8 +48,6 @@ def get_backend(name: Backend | str = Backend.NUMBA, *, device: str | None = Non
     :class:`~jellysim.kernels.warp_backend.WarpBackend`): an object with ``run_steps``."""
     name = Backend(name)
     if name is Backend.WARP:
-        from ..errors import SceneError
-
         try:
             import warp  # noqa: F401
         except ImportError:

@@ -6,6 +6,7 @@ import numpy as np
 from numba import njit, prange
 
 from ._numba_opts import OPTS as _opts
+from .records import OBSTACLE_E, OBSTACLE_MU_K, OBSTACLE_MU_S
 from . import STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY
 from .contact_numpy import FRICTION_REL_TOL
 
@@ -109,13 +110,13 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
             vn_new = vn
             scale = 1.0
             if vn < 0.0:
-                vn_new = -g[6] * vn if -vn > rest_speed else 0.0
+                vn_new = -g[OBSTACLE_E] * vn if -vn > rest_speed else 0.0
                 dvn = vn_new - vn
                 speed = np.sqrt(tx * tx + ty * ty + tz * tz)
-                if speed <= g[7] * dvn:
+                if speed <= g[OBSTACLE_MU_S] * dvn:
                     scale = 0.0
                 elif speed > 0.0:
-                    scale = max(1.0 - g[8] * dvn / speed, 0.0)
+                    scale = max(1.0 - g[OBSTACLE_MU_K] * dvn / speed, 0.0)
             x[p, 0] += (scale - 1.0) * tx * dt
             x[p, 1] += (scale - 1.0) * ty * dt
             x[p, 2] += (scale - 1.0) * tz * dt
@@ -154,7 +155,7 @@ def contact_normals(x, v, obstacle_kind, obstacle_data, margin, contact_state, d
                 free = (first_ptr[q + 1] - first_ptr[q] + second_ptr[q + 1]
                         - second_ptr[q]) == 0
                 if impact > 0.0 and free:
-                    cnrm[q, 3] = obstacle_data[o, 6] * impact
+                    cnrm[q, 3] = obstacle_data[o, OBSTACLE_E] * impact
                 else:
                     cnrm[q, 3] = -(max(phi, 0.0) + gap - phi) / dt
                 cnrm[q, 4] = impact
@@ -219,7 +220,7 @@ def update_active_set(v, dv, b, ap, mass, cnrm, cobs, obstacle_data, contact_sta
         ox = friction[q, 0]
         oy = friction[q, 1]
         oz = friction[q, 2]
-        bound = obstacle_data[o, 8] * max(jn, 0.0)
+        bound = obstacle_data[o, OBSTACLE_MU_K] * max(jn, 0.0)
         state = contact_state[q]
         fx = 0.0
         fy = 0.0
@@ -227,7 +228,7 @@ def update_active_set(v, dv, b, ap, mass, cnrm, cobs, obstacle_data, contact_sta
         if jn < 0.0:
             state = _RELEASED
         elif cnrm[q, 5] > 0.0:
-            if jt > obstacle_data[o, 7] * jn:
+            if jt > obstacle_data[o, OBSTACLE_MU_S] * jn:
                 state = _FREE
                 fx = bound * tx / jt
                 fy = bound * ty / jt
@@ -275,11 +276,11 @@ def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contac
         ty = v[q, 1] - vn * ny
         tz = v[q, 2] - vn * nz
         speed = np.sqrt(tx * tx + ty * ty + tz * tz)
-        stick = speed <= max(obstacle_data[o, 7] * budget - used, 0.0)
+        stick = speed <= max(obstacle_data[o, OBSTACLE_MU_S] * budget - used, 0.0)
         if stick or was_stuck:
             scale = 0.0
         elif speed > 0.0:
-            scale = max(1.0 - max(obstacle_data[o, 8] * budget - used, 0.0) / speed, 0.0)
+            scale = max(1.0 - max(obstacle_data[o, OBSTACLE_MU_K] * budget - used, 0.0) / speed, 0.0)
         else:
             scale = 1.0
         x[q, 0] += (scale - 1.0) * tx * dt
@@ -289,7 +290,7 @@ def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contac
         v[q, 1] = scale * ty + vn * ny
         v[q, 2] = scale * tz + vn * nz
         if was_stuck:
-            holds = jt_norm <= obstacle_data[o, 7] * max(jn, 0.0)
+            holds = jt_norm <= obstacle_data[o, OBSTACLE_MU_S] * max(jn, 0.0)
         else:
             holds = stick
         if jn < 0.0:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .records import OBSTACLE_E, OBSTACLE_MU_K, OBSTACLE_MU_S
 from . import STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY
 
 
@@ -79,7 +80,7 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
         vn = np.einsum("ij,ij->i", vh, nh)
         vt = vh - vn[:, None] * nh
         app = vn < 0.0
-        e, mu_s, mu_k = geom[6], geom[7], geom[8]
+        e, mu_s, mu_k = geom[OBSTACLE_E], geom[OBSTACLE_MU_S], geom[OBSTACLE_MU_K]
         vn_new = np.where(app, np.where(-vn > rest_speed, -e * vn, 0.0), vn)
         dvn = vn_new - vn
         speed = np.sqrt(np.einsum("ij,ij->i", vt, vt))
@@ -146,7 +147,7 @@ def contact_normals(x, v, obstacle_kind, obstacle_data, margin, contact_state, d
         cnrm[hit, 0:3] = nrm[hit]
         impact = np.where(-vn[hit] > rest_speed, -vn[hit], 0.0)
         free = (np.diff(first_ptr) + np.diff(second_ptr))[hit] == 0
-        cnrm[hit, 3] = np.where((impact > 0.0) & free, obstacle_data[o, 6] * impact,
+        cnrm[hit, 3] = np.where((impact > 0.0) & free, obstacle_data[o, OBSTACLE_E] * impact,
                                 -(np.maximum(phi[hit], 0.0) + gap[hit] - phi[hit]) / dt)
         cnrm[hit, 4] = impact
         cnrm[hit, 5] = np.where(contact_state[hit] == CONTACT_STUCK, 1.0, 0.0)
@@ -214,12 +215,12 @@ def update_active_set(v, dv, b, ap, mass, cnrm, cobs, obstacle_data, contact_sta
     vt = vt - np.einsum("ij,ij->i", vt, nrm)[:, None] * nrm
     speed = np.sqrt(np.einsum("ij,ij->i", vt, vt))
     old = friction[on].copy()
-    bound = data[:, 8] * np.maximum(jn, 0.0)
+    bound = data[:, OBSTACLE_MU_K] * np.maximum(jn, 0.0)
     new = np.zeros_like(old)
     state = contact_state[on].copy()
     pulls = jn < 0.0
     state[pulls] = CONTACT_RELEASED
-    slips = ~pulls & stuck & (jt_norm > data[:, 7] * jn)
+    slips = ~pulls & stuck & (jt_norm > data[:, OBSTACLE_MU_S] * jn)
     state[slips] = CONTACT_FREE
     new[slips] = bound[slips, None] * jt[slips] / np.where(jt_norm > 0, jt_norm, 1.0)[slips,
                                                                                       None]
@@ -267,12 +268,12 @@ def constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data, dt, contac
     vn = np.einsum("ij,ij->i", vv, nrm)
     vt = vv - vn[:, None] * nrm
     speed = np.sqrt(np.einsum("ij,ij->i", vt, vt))
-    stick = speed <= np.maximum(data[:, 7] * budget - used, 0.0)
-    left = np.maximum(data[:, 8] * budget - used, 0.0)
+    stick = speed <= np.maximum(data[:, OBSTACLE_MU_S] * budget - used, 0.0)
+    left = np.maximum(data[:, OBSTACLE_MU_K] * budget - used, 0.0)
     scale = np.where(stick | was_stuck, 0.0,
                      np.maximum(1.0 - left / np.where(speed > 0, speed, 1.0), 0.0))
     x[on] += ((scale - 1.0)[:, None] * vt) * dt
     v[on] = scale[:, None] * vt + vn[:, None] * nrm
-    holds = np.where(was_stuck, jt_norm <= data[:, 7] * np.maximum(jn, 0.0), stick)
+    holds = np.where(was_stuck, jt_norm <= data[:, OBSTACLE_MU_S] * np.maximum(jn, 0.0), stick)
     contact_state[idx[holds]] = CONTACT_STUCK
     contact_state[idx[jn < 0.0]] = CONTACT_RELEASED

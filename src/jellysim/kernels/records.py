@@ -24,7 +24,7 @@ from collections import namedtuple
 
 import numpy as np
 
-__all__ = ["SpringArrays", "PointArrays", "ProvotOptions", "GroundGuard", "Obstacles",
+__all__ = ["OBSTACLE_E", "OBSTACLE_MU_S", "OBSTACLE_MU_K", "SpringArrays", "PointArrays", "ProvotOptions", "GroundGuard", "Obstacles",
            "ExplicitScratch", "ImplicitOptions", "ImplicitScratch", "spring_arrays",
            "point_arrays", "provot_options", "ground_guard", "obstacles", "explicit_scratch",
            "implicit_options", "implicit_scratch"]
@@ -52,6 +52,10 @@ GroundGuard = namedtuple("GroundGuard", "paper height mu nu center bound2")
 """The report's ground (``paper`` bool; plane ``y = height`` [m], ``mu``, ``nu``) and the
 runaway guard: a point farther than ``sqrt(bound2)`` [m] from ``center`` [m] (3,) stops the
 run."""
+
+OBSTACLE_E, OBSTACLE_MU_S, OBSTACLE_MU_K = 6, 7, 8
+"""Columns of an obstacle's ``data`` row after its 6 geometry numbers: restitution e, static
+and kinetic Coulomb friction coefficients [-] (:func:`jellysim.physics.contact.pack_obstacles`)."""
 
 Obstacles = namedtuple("Obstacles", "kind data rest_speed")
 """Static obstacles (:func:`jellysim.physics.contact.pack_obstacles`): ``kind`` (m,) int32,
@@ -85,7 +89,7 @@ def spring_arrays(model) -> SpringArrays:
 
 def point_arrays(model) -> PointArrays:
     m = model
-    return PointArrays(m.particle_x0, m.particle_mass, m.particle_inv_mass, float(m.damping),
+    return PointArrays(m.point_x0, m.point_mass, m.point_inv_mass, float(m.damping),
                        np.ascontiguousarray(m.gravity, dtype=np.float64))
 
 

@@ -37,6 +37,7 @@ import weakref
 import numpy as np
 import warp as wp
 
+from ..errors import SceneError
 from . import STATUS_OK
 from .warp_kernels import (k_add_velocity, k_apply_dx, k_contact, k_drift, k_finish,
                            k_force_first, k_force_second, k_fused_first, k_fused_second,
@@ -54,7 +55,6 @@ _KERNEL_MODULE = "jellysim.kernels.warp_kernels"
 def resolve_device(device: str | None = None) -> str:
     """``"cuda"`` (the default GPU) when one is present, else ``"cpu"``; a named device
     (``"cpu"``, ``"cuda"``, ``"cuda:1"``) is checked to exist."""
-    from ..errors import SceneError
 
     wp.init()
     if device in (None, "", "auto"):
@@ -189,7 +189,6 @@ class WarpBackend:
     _instances: dict = {}
 
     def __init__(self, device: str | None = None, precision: str = "float64"):
-        from ..errors import SceneError
 
         if precision not in PRECISIONS:
             raise SceneError(f"warp precision must be one of {', '.join(PRECISIONS)}, got "

@@ -101,7 +101,8 @@ class Box(_Surface):
 
 def pack_obstacles(obstacles) -> tuple[np.ndarray, np.ndarray]:
     """Kernel arrays for ``obstacles``: kinds, shape (m,), int32 (0 plane, 1 sphere, 2 box), and
-    data, shape (m, 9), float64: 6 geometry numbers [m] then restitution, mu_s, mu_k [-]."""
+    data, shape (m, 9), float64: 6 geometry numbers [m] then restitution, mu_s, mu_k [-] (columns
+    :data:`~jellysim.kernels.records.OBSTACLE_E`, ``OBSTACLE_MU_S``, ``OBSTACLE_MU_K``)."""
     rows = [o.row() for o in obstacles]
     kind = np.array([r[0] for r in rows], dtype=np.int32)
     data = np.array([r[1] for r in rows], dtype=np.float64).reshape(len(rows), 9)

@@ -202,12 +202,6 @@ def fem_arrays(points: np.ndarray, tets: np.ndarray, *, youngs_modulus: float,
         damping_frequency=float(damping_frequency), branch_ratio=g, branch_time=tau)
 
 
-def lumped_masses(points: np.ndarray, fem: FemArrays, density: float) -> np.ndarray:
-    """Point masses [kg], shape (n,): a quarter of each incident tet's mass."""
-    w = np.repeat(float(density) * fem.rest_volume / 4.0, 4)
-    return np.bincount(fem.tets.ravel(), weights=w, minlength=len(points)).astype(np.float64)
-
-
 def elastic_energy(fem: FemArrays, x: np.ndarray) -> float:
     """Stored Stable Neo-Hookean energy [J] of the tets at positions ``x`` [m], shape (n, 3)
     (zero at rest; the damping branch's energy is not included)."""

@@ -42,21 +42,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..body import Body
+from ..geometry.tetra import tet_signed_volumes
 
 __all__ = ["spring_weights", "virial_stiffness", "relaxation_stiffness", "kinematic_stiffness",
            "static_compliance",
            "youngs_from_stiffness", "network_youngs_modulus", "calibrate_springs",
-           "point_masses", "point_volumes", "surface_points", "tet_volumes", "spring_tets",
+           "point_masses", "point_volumes", "surface_points", "spring_tets",
            "static_displacements"]
 
 _VOIGT = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
-
-
-def tet_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
-    """Signed volumes [m^3], shape (t,), of tets (t, 4) over points [m] (n, 3)."""
-    p = points[tets]
-    return np.einsum("ij,ij->i", p[:, 1] - p[:, 0],
-                     np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0])) / 6.0
 
 
 def spring_tets(body: Body):
@@ -85,7 +79,7 @@ def point_volumes(body: Body, *, density: float | None = None) -> np.ndarray:
     n = body.point_count
     tets = spring_tets(body)
     if tets is not None:
-        vol = np.abs(tet_volumes(body.points, tets))
+        vol = np.abs(tet_signed_volumes(body.points, tets))
         return np.bincount(tets.ravel(), weights=np.repeat(vol / 4, 4), minlength=n)
     if body.masses is not None and density:
         return np.asarray(body.masses, dtype=np.float64) / density
@@ -114,7 +108,7 @@ def spring_weights(body: Body, *, point_volume=None) -> np.ndarray:
         raise ValueError("a spring has zero rest length")
     tets = spring_tets(body)
     if tets is not None:
-        vol = np.abs(tet_volumes(pts, tets))
+        vol = np.abs(tet_signed_volumes(pts, tets))
         pairs = np.array([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)])
         e = np.sort(tets[:, pairs].reshape(-1, 2), axis=1)
         key = e[:, 0] * n + e[:, 1]
@@ -495,7 +489,7 @@ def static_compliance(points, springs, stiffness, tets) -> np.ndarray:
     faces = boundary_faces(tets, n)
     p = points[faces]
     an = 0.5 * np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # outward normal x area
-    volume = float(np.abs(tet_volumes(points, tets)).sum())
+    volume = float(np.abs(tet_signed_volumes(points, tets)).sum())
     load = np.zeros((3 * n, 6))
     for v, (i, j) in enumerate(_VOIGT):
         t = np.zeros_like(an)  # traction sigma n for the unit Voigt stress v

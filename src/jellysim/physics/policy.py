@@ -37,7 +37,8 @@ def physical_model(body, material: Material = Material(), *, gravity=GRAVITY,
         from the tets or the body volume).
     """
     from ..model import finalize
-    from .fem import fem_arrays, lumped_masses
+    from ..geometry.tetra import lump_tet_masses
+    from .fem import fem_arrays
 
     if material.model is MaterialModel.FEM:
         if body.tets is None or len(body.tets) == 0:
@@ -49,7 +50,7 @@ def physical_model(body, material: Material = Material(), *, gravity=GRAVITY,
                          poisson_ratio=material.poisson_ratio,
                          damping_ratio=material.damping_ratio,
                          damping_frequency=material.damping_frequency)
-        mass = lumped_masses(body.points, fem, material.density)
+        mass = lump_tet_masses(body.points, fem.tets, material.density)
         lonely = mass <= 0
         if lonely.any():
             # points in no tet (stragglers of a carved point cloud): give them the mean mass so

@@ -28,7 +28,7 @@ def _forces(model, x, out, scratch):
 def fem_omega_max(model, *, iterations: int = 60, seed: int = 0) -> float:
     """Estimated largest angular frequency [rad/s] of the body at rest (5 % margin added)."""
     fem = model.fem
-    x0 = np.array(model.particle_x0)
+    x0 = np.array(model.point_x0)
     n = x0.shape[0]
     scratch = (np.zeros((4 * fem.tet_count, 3)), np.zeros(fem.tet_count),
                np.zeros(model.spring_count),
@@ -36,7 +36,7 @@ def fem_omega_max(model, *, iterations: int = 60, seed: int = 0) -> float:
     f0 = np.zeros((n, 3))
     f1 = np.zeros((n, 3))
     _forces(model, x0, f0, scratch)
-    rs = np.sqrt(model.particle_inv_mass)[:, None]
+    rs = np.sqrt(model.point_inv_mass)[:, None]
     y = np.random.default_rng(seed).standard_normal((n, 3))
     span = float(np.linalg.norm(x0.max(axis=0) - x0.min(axis=0)))
     lam = 0.0
