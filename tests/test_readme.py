@@ -212,3 +212,20 @@ def test_readme_and_example_mesh_paths_exist_in_a_plain_clone():
             continue
         assert mesh.is_file(), f"{scene.name}: {body['path']} missing"
         assert not tracked or str(mesh.relative_to(ROOT)) in tracked
+
+
+def test_readme_gelatin_cow_rests_within_ten_percent_of_its_height(tmp_path):
+    """The README's "Physical jello from Python" block, at 800 points (its 1.5 s drop kept):
+    the firm-gelatin cow lands and rests within 10 % of its height (statics: its legs strain
+    ~6 % at 100 kPa, tests/test_bunny.py)."""
+    _copy_repo(tmp_path)
+    (code,) = [b for b in _blocks("python") if "the cow rests at" in b]
+    code = re.sub(r"points=\d+", "points=800", code)
+    code = re.sub(r"sim\.advance\(60\)", "sim.advance(2)", code)
+    code += ("\n_rest = sum(tops[-30:]) / 30 / height\n"
+             "print('REST', _rest)\n"
+             "assert 0.9 <= _rest <= 1.01, _rest\n")
+    res = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=_env(),
+                         capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, f"{code}\n{res.stdout}\n{res.stderr}"
+    print(res.stdout.strip().splitlines()[-1])
