@@ -310,6 +310,9 @@ class Simulator(HandleMethods):
         self._tet_j = np.ones(t)
         self._fsum = np.zeros((n, 3))
         self._min_j = np.ones(1)
+        self._squeezed = np.zeros(1, dtype=np.int8)
+        """1 while the last chunk squeezed a tet below ``RETAKE_BELOW_J + 0.05``: the next
+        chunk starts at half the substep (a body that rests compressed is not taken twice)."""
         self.min_tet_volume_ratio = 1.0
         """Smallest ``J = det F`` (deformed / rest volume) of any tet at any substep so far
         [-]; <= 0 means a tet was inverted."""
@@ -335,8 +338,9 @@ class Simulator(HandleMethods):
 
         kern = fem_numpy if self.backend is Backend.NUMPY else fem_numba
         s, hd = self.state, self.handles
-        # one kernel call per frame when pins follow a path (targets per frame), else one batch
-        chunk = 1 if hd.paths else steps
+        # one kernel call per frame: pins that follow a path get their targets per frame, and
+        # a frame retaken (a blow-up, a strong compression) costs one frame, not the batch
+        chunk = 1
         done = 0
         status = STATUS_OK
         while done < steps and status == STATUS_OK:
@@ -346,7 +350,9 @@ class Simulator(HandleMethods):
             hd.targets(t0 + n * self.dt, hd.pin_to)
             saved = (s.x.copy(), s.v.copy(), s.a.copy(), self._q.copy())
             running_min_j = float(self._min_j[0])
-            squeezed = False  # retaken once at half the substep for a strong compression
+            # at half the substep: a chunk retaken for a strong compression, and the chunks
+            # after it while the compression lasts
+            squeezed = bool(self._squeezed[0])
             for attempt in range(self.MAX_SUBSTEP_DOUBLINGS + 2):
                 sub = self.substeps * (2 if squeezed else 1)
                 self._min_j[0] = 1.0  # this chunk's smallest J
@@ -367,6 +373,7 @@ class Simulator(HandleMethods):
                 warnings.warn(f"an unstable impact at t = {t0:.4g} s: the physical path took "
                               f"those {n} frame(s) again with {self.substeps} substeps per frame "
                               "(and keeps them)", StabilityWarning, stacklevel=3)
+            self._squeezed[0] = self._min_j[0] < self.RETAKE_BELOW_J + 0.05
             self._min_j[0] = min(running_min_j, float(self._min_j[0]))
             done += n if status == STATUS_OK else (k + sub - 1) // sub
         self.min_tet_volume_ratio = float(self._min_j[0])
@@ -426,7 +433,7 @@ class Simulator(HandleMethods):
         :class:`SceneError` when ``d`` does not fit this simulator (another body or
         integrator)."""
         own = self.internal_state()
-        missing = sorted(set(own) - set(d) - {"_last.0", "_last.1"})
+        missing = sorted(set(own) - set(d) - {"_last.0", "_last.1", "_squeezed"})
         extra = sorted(set(d) - set(own) - {"_last.0", "_last.1"})
         if missing or extra:
             raise SceneError(f"saved simulator state does not fit this simulator (missing "
@@ -434,13 +441,13 @@ class Simulator(HandleMethods):
         for key in own:
             if key in self._COUNTERS:
                 continue
-            if key.startswith("_last."):
+            if key.startswith("_last.") or key not in d:  # (_squeezed: not in older files)
                 continue
             if own[key].shape != np.shape(d[key]) or own[key].dtype != np.asarray(d[key]).dtype:
                 raise SceneError(f"saved simulator state '{key}' has shape "
                                  f"{np.shape(d[key])}, expected {own[key].shape}")
         for key in own:
-            if key in self._COUNTERS or key.startswith("_last."):
+            if key in self._COUNTERS or key.startswith("_last.") or key not in d:
                 continue
             name, _, i = key.partition(".")
             target = getattr(self, name)[int(i)] if i else getattr(self, name)
