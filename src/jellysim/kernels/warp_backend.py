@@ -42,6 +42,7 @@ import numpy as np
 import warp as wp
 
 from . import STATUS_OK
+from . import warp_fem  # noqa: F401 (its module is loaded with the others, compiled once)
 from .warp_contact import Guard, k_add_velocity, k_contact, k_finish, k_step_end
 from .warp_kernels import (Accel, k_drift, k_force_first, k_force_second, k_fused_first,
                            k_fused_second, k_triad)
