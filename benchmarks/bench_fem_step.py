@@ -14,7 +14,7 @@ root:
 
     PYTHONPATH=src python benchmarks/bench_fem_step.py [--cells 10 21 46] [--backend numba warp]
         [--device auto|cpu|cuda:0] [--dtype float32|float64] [--frames 10] [--repeats 3]
-        [--threads N]
+        [--threads N] [--numba-max-tets 1000000]
 
 On a GPU (``pip install -e ".[gpu]"``), e.g.:
 
@@ -98,6 +98,8 @@ def main(argv=None):
     ap.add_argument("--frames", type=int, default=10, help="frames per timed window")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--threads", type=int, default=None, help="numba threads")
+    ap.add_argument("--numba-max-tets", type=int, default=1_000_000,
+                    help="larger bodies are timed on warp only (numba: minutes per frame)")
     args = ap.parse_args(argv)
     result = {"benchmark": "physical substep (gelatin grid, FEM), dt = 1/60 s",
               "cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
@@ -114,6 +116,10 @@ def main(argv=None):
         row = {"cells": cells, "points": model.particle_count, "tets": model.fem.tet_count,
                "runs": {}}
         for backend in args.backend:
+            if backend == "numba" and model.fem.tet_count > args.numba_max_tets:
+                row["runs"][backend] = {"skipped": f"over --numba-max-tets "
+                                                   f"{args.numba_max_tets}"}
+                continue
             row["runs"][backend] = time_backend(model, backend, args)
         result["sizes"].append(row)
         print(json.dumps(row), flush=True, file=__import__("sys").stderr)
