@@ -244,3 +244,28 @@ def test_device_copy_path_without_host_views(warp):
     sim.advance(3)
     ref.advance(3)
     _close(ref, sim)
+
+
+def test_gelatin_scene_runs_on_warp_from_the_cli(warp, tmp_path):
+    """A scene with the gelatin preset (the physical path) and ``--backend warp``: accepted
+    (no longer refused) and the trajectory is numba's to 1e-12 m."""
+    from pathlib import Path
+
+    from click.testing import CliRunner
+
+    from jellysim.cli import cli
+    from jellysim.io.trajectory import load_trajectory
+
+    scene = Path(__file__).resolve().parents[1] / "examples" / "gelatin_cube.toml"
+    trajs = []
+    for backend in ("numba", "warp"):
+        out = tmp_path / backend
+        r = CliRunner().invoke(cli, ["run", str(scene), "--backend", backend, "--steps", "6",
+                                     "--out", str(out), "--quiet", "--no-vtu",
+                                     "--set", "body.points=216"])
+        assert r.exit_code == 0, r.output
+        trajs.append(load_trajectory(out / "trajectory.npz"))
+    assert trajs[1].params["integrator"]["backend"] == "warp"
+    assert trajs[0].positions.shape == trajs[1].positions.shape
+    assert np.abs(trajs[0].positions - trajs[1].positions).max() <= 1e-12
+    assert np.ptp(trajs[0].positions[:, :, 1].mean(axis=1)) > 1e-4  # it fell
