@@ -1,7 +1,9 @@
-"""Warp backend: the explicit step on an NVIDIA GPU (CUDA) or on Warp's CPU device.
+"""Warp backend: the explicit step and the physical path on an NVIDIA GPU (CUDA) or on Warp's
+CPU device.
 
 Same physics, same arithmetic order and the same ``run_steps`` signature as
-:mod:`.numba_backend` (so ``get_backend("warp")`` drops into the Simulator); Warp is imported
+:mod:`.numba_backend` (and ``physical_steps`` as :mod:`.fem_numba`), so ``get_backend("warp")``
+drops into the Simulator; Warp is imported
 only when this module is (``pip install 'jellysim[gpu]'``).  What it runs:
 
 * the integrators ``paper`` (the report's order: ``x += v dt; v += a dt; a = F(x, v) / m``, eq. 1
