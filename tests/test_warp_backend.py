@@ -201,25 +201,30 @@ def test_unsupported_integrator_is_refused():
     with pytest.raises(SceneError, match="backend = 'warp' supports integrators paper and "
                                          "symplectic; name = 'implicit'"):
         Simulator(m, dt=0.01, integrator="implicit", backend="warp")
-    # the gelatin preset's implicit integrator, in a scene file: the file and key are named
-    text = (ROOT / "examples" / "gelatin_cube.toml").read_text()
-    with pytest.raises(SceneError, match=r"gelatin\.toml: \[integrator\] backend = 'warp'"):
-        Scene.from_text(text.replace("[integrator]", "[integrator]\nbackend = \"warp\""),
-                        name="gelatin.toml")
+    # the implicit integrator in a scene file: the file and key are named
+    text = (ROOT / "examples" / "paper_cube.toml").read_text()
+    with pytest.raises(SceneError, match=r"cube\.toml: \[integrator\] backend = 'warp'"):
+        Scene.from_text(text.replace('name = "paper"', 'name = "implicit"\nbackend = "warp"'),
+                        name="cube.toml")
     with pytest.raises(SceneError, match="apply to backend = 'warp' only"):
         Simulator(m, dt=0.01, backend="numba", precision="float32")
 
 
-def test_demo_with_warp_backend_names_what_is_missing(tmp_path):
+def test_demo_accepts_backend_warp(warp, tmp_path):
+    # the physical path runs on Warp (tests/test_warp_physical.py compares it with numba)
     from click.testing import CliRunner
 
     from jellysim.cli import cli
+    from jellysim.io.trajectory import load_trajectory
 
     r = CliRunner().invoke(cli, ["demo", "--backend", "warp", "--out", str(tmp_path),
+                                 "--frames", "2", "--size", "64x48", "--points", "200",
                                  "--quiet"])
-    assert r.exit_code == 2
-    assert "backend = 'warp' supports integrators paper and symplectic" in r.output
-    assert not (tmp_path / "demo.mp4").exists()
+    assert r.exit_code == 0, r.output
+    traj = load_trajectory(tmp_path / "demo" / "trajectory.npz")
+    assert traj.params["integrator"]["backend"] == "warp"
+    assert traj.frame_count == 2 and np.all(np.isfinite(traj.positions))
+    assert (tmp_path / "demo.mp4").stat().st_size > 0
 
 
 def test_cli_run_backend_warp_reproduces_numba(warp, tmp_path):

@@ -122,17 +122,11 @@ def apply_override(raw: dict, item: str, name: str) -> None:
 def check_backend(backend: str, integrator: str, device: str = "auto",
                   precision: str = "float64", *, where: str = "", physical: bool = False) -> None:
     """Refuse combinations the backends do not implement (a :class:`SceneError` naming the
-    ``[integrator]`` keys).  ``physical``: the scene asks for the FEM material."""
+    ``[integrator]`` keys).  ``physical``: the scene asks for the FEM material (which every
+    backend implements)."""
     from .kernels import WARP_INTEGRATORS
 
     at = f"{where}: " if where else ""
-    if backend == "warp" and physical:
-        raise SceneError(
-            f"{at}[integrator] backend = 'warp' supports integrators "
-            f"{' and '.join(WARP_INTEGRATORS)} on spring bodies; the physical path ([material] "
-            "youngs_modulus with model 'fem' or 'auto': tets, damping, handles) is not "
-            "implemented on Warp: use backend = 'numba' (the default), or [material] model = "
-            "'springs'")
     if backend == "warp" and integrator not in WARP_INTEGRATORS:
         raise SceneError(
             f"{at}[integrator] backend = 'warp' supports integrators "

@@ -99,7 +99,8 @@ class Simulator(HandleMethods):
     ground: :class:`~jellysim.params.GroundParams` for a ground plane (``GroundParams()`` =
         the report's mu/nu ground at y = 0, as in a scene); ``None`` (default): none.
     backend: ``"numba"`` (default), ``"numpy"`` (the reference) or ``"warp"`` (NVIDIA Warp,
-        integrators ``paper`` and ``symplectic``; ``pip install 'jellysim[gpu]'``).
+        integrators ``paper`` and ``symplectic``, and the physical path; ``pip install
+        'jellysim[gpu]'``).
     device, precision: Warp only: ``"auto"`` (a GPU when present, else Warp's CPU device),
         ``"cpu"``, ``"cuda"``, ``"cuda:N"``; ``"float64"`` or ``"float32"``.
     threads: numba threads (default: :func:`auto_threads`).  Results do not depend on it.
@@ -200,9 +201,6 @@ class Simulator(HandleMethods):
         from .scene import check_backend
 
         check_backend(self.backend.value, self.integrator.value, device or "auto", precision)
-        if self.physical and self.backend is Backend.WARP:
-            raise SceneError("backend = 'warp' does not implement the physical (FEM) path yet "
-                             "(tets, damping, handles): use backend = 'numba'")
         self._k = get_backend(self.backend, device=device, precision=precision)
         n = model.point_count
         if provot.enabled and ProvotPairs(provot.pairs) is ProvotPairs.ALL and (
@@ -336,7 +334,7 @@ class Simulator(HandleMethods):
     def _advance_physical(self, steps):
         from .kernels import fem_numba, fem_numpy
 
-        kern = fem_numpy if self.backend is Backend.NUMPY else fem_numba
+        kern = {Backend.NUMPY: fem_numpy, Backend.WARP: self._k}.get(self.backend, fem_numba)
         s, hd = self.state, self.handles
         # one kernel call per frame: pins that follow a path get their targets per frame, and
         # a frame retaken (a blow-up, a strong compression) costs one frame, not the batch

@@ -6,7 +6,8 @@ Backends with the same function names and signatures:
 * :mod:`.numba_backend` - numba ``parallel=True`` versions, race-free (every per-point sum is
   a gather in a fixed order), so results are bitwise identical for any thread count;
 * :mod:`.warp_backend` - NVIDIA Warp (a GPU, or Warp's CPU device): the explicit step
-  (``run_steps``) only; optional (``pip install 'jellysim[gpu]'``).
+  (``run_steps``) and the physical path (``physical_steps``, the twin of
+  :func:`.fem_numba.physical_steps`); optional (``pip install 'jellysim[gpu]'``).
 
 Each backend is split by concern (``forces_*``, ``provot_*``, ``contact_*``, ``implicit_*``,
 ``steps_*``); its functions take the records of :mod:`.records` (the backend interface: the
@@ -45,7 +46,8 @@ def get_backend(name: Backend | str = Backend.NUMBA, *, device: str | None = Non
     """The kernels for ``name`` (``"numpy"``, ``"numba"`` or ``"warp"``).
 
     ``device`` and ``precision`` apply to ``"warp"`` only (see
-    :class:`~jellysim.kernels.warp_backend.WarpBackend`): an object with ``run_steps``."""
+    :class:`~jellysim.kernels.warp_backend.WarpBackend`): an object with ``run_steps`` and
+    ``physical_steps``."""
     name = Backend(name)
     if name is Backend.WARP:
         try:

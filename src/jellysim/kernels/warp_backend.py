@@ -1,7 +1,9 @@
-"""Warp backend: the explicit step on an NVIDIA GPU (CUDA) or on Warp's CPU device.
+"""Warp backend: the explicit step and the physical path on an NVIDIA GPU (CUDA) or on Warp's
+CPU device.
 
 Same physics, same arithmetic order and the same ``run_steps`` signature as
-:mod:`.numba_backend` (so ``get_backend("warp")`` drops into the Simulator); Warp is imported
+:mod:`.numba_backend` (and ``physical_steps`` as :mod:`.fem_numba`), so ``get_backend("warp")``
+drops into the Simulator; Warp is imported
 only when this module is (``pip install 'jellysim[gpu]'``).  What it runs:
 
 * the integrators ``paper`` (the report's order: ``x += v dt; v += a dt; a = F(x, v) / m``, eq. 1
@@ -26,9 +28,13 @@ steps after a failure return at once, so the state is left as after the failing 
 numba.  The state (and ``max_corr``) is copied back when the call returns.  Device copies of a
 Model's arrays are cached per Model (uploaded once).
 
-The kernels (:mod:`.warp_kernels`) are one Warp module with float32 and float64 overloads:
-one compilation (about 10 s of CPU cold, then Warp's kernel cache: ``~/.cache/warp`` or
-``WARP_CACHE_PATH``).
+The physical (FEM) path (Stable Neo-Hookean tets, the damping branch, handles, contact) is
+:meth:`WarpBackend.physical_steps` (:mod:`.warp_physical`, kernels in :mod:`.warp_fem`).
+
+The kernels are four Warp modules (:mod:`.warp_kernels`: integrator and spring forces;
+:mod:`.warp_provot`; :mod:`.warp_contact`: contact, ground, checks; :mod:`.warp_fem`), each
+with float32 and float64 overloads (:mod:`.warp_common`): compiled once (seconds of CPU cold,
+then Warp's kernel cache: ``~/.cache/warp`` or ``WARP_CACHE_PATH``).
 """
 from __future__ import annotations
 
@@ -39,16 +45,19 @@ import warp as wp
 
 from ..errors import SceneError
 from . import STATUS_OK
-from .warp_kernels import (k_add_velocity, k_apply_dx, k_contact, k_drift, k_finish,
-                           k_force_first, k_force_second, k_fused_first, k_fused_second,
-                           k_provot_all, k_provot_check, k_provot_first, k_provot_gs,
-                           k_provot_second, k_step_end, k_triad)
+from . import warp_fem  # noqa: F401 (its module is loaded with the others, compiled once)
+from .warp_contact import Guard, k_add_velocity, k_contact, k_finish, k_step_end
+from .warp_kernels import (Accel, k_drift, k_force_first, k_force_second, k_fused_first,
+                           k_fused_second, k_triad)
+from .warp_provot import (ProvotBuf, k_apply_dx, k_provot_all, k_provot_check,
+                          k_provot_first, k_provot_gs, k_provot_second)
 
 __all__ = ["WarpBackend", "run_steps", "PRECISIONS", "resolve_device", "device_info",
            "bytes_per_spring_update", "k_triad"]
 
 PRECISIONS = ("float64", "float32")
-_KERNEL_MODULE = "jellysim.kernels.warp_kernels"
+_KERNEL_MODULES = ("jellysim.kernels.warp_kernels", "jellysim.kernels.warp_provot",
+                   "jellysim.kernels.warp_contact", "jellysim.kernels.warp_fem")
 
 
 # -- host side -----------------------------------------------------------------------------------
@@ -198,7 +207,8 @@ class WarpBackend:
         self.wp_dtype = wp.float64 if precision == "float64" else wp.float32
         self.np_dtype = np.float64 if precision == "float64" else np.float32
         self._models: dict = {}
-        wp.load_module(module=_KERNEL_MODULE, device=self.device)
+        for module in _KERNEL_MODULES:
+            wp.load_module(module=module, device=self.device)
 
     @classmethod
     def get(cls, device: str | None = None, precision: str = "float64") -> WarpBackend:
@@ -252,7 +262,11 @@ class WarpBackend:
         fuse = paper and loops > 0 and not all_pairs and not gs
         tau, tol = T(p["tau"]), T(p["tolerance"])
         g = p["gravity"]
-        force_args = (T(p["damping"]), T(g[0]), T(g[1]), T(g[2]))
+        acc = Accel[T]()
+        acc.inv_mass, acc.damping = dm.inv_mass, p["damping"]
+        acc.gx, acc.gy, acc.gz = g
+        pb = ProvotBuf[T]()
+        pb.dx, pb.cnt, pb.max_corr, pb.largest = dm.dx, dm.cnt, dm.max_corr, dm.largest
         kind = wp.array(p["obstacle_kind"].astype(np.int32), device=dev)
         odata = wp.array(p["obstacle_data"].astype(self.np_dtype).reshape(-1, 9), dtype=T,
                          device=dev)
@@ -261,8 +275,8 @@ class WarpBackend:
         def forces():
             L(k_force_first, n, [dm.x, dm.spring_j, dm.rest, dm.stiff, dm.first_ptr,
                                  dm.second_slot, dm.scal, dm.a, ctl])
-            L(k_force_second, n, [dm.x, dm.v, dm.inv_mass, *force_args, dm.second_ptr,
-                                  dm.second_other, dm.scal, dm.a, ctl])
+            L(k_force_second, n, [dm.x, dm.v, acc, dm.second_ptr, dm.second_other, dm.scal,
+                                  dm.a, ctl])
 
         def provot_pass(reduce):
             if all_pairs:
@@ -284,11 +298,9 @@ class WarpBackend:
                 last = loops == 1 and not obstacles
                 reduce = int(loops > 1)
                 L(k_fused_first, n, [dm.x, dm.spring_j, dm.rest, dm.stiff, dm.first_ptr,
-                                     dm.second_slot, tau, dm.scal, dm.pscal, dm.a, dm.dx,
-                                     dm.cnt, ctl])
-                L(k_fused_second, n, [dm.x, dm.v, dm.inv_mass, *force_args, dm.second_ptr,
-                                      dm.second_other, dm.scal, dm.pscal, dm.a, dm.dx, dm.cnt,
-                                      dm.max_corr, reduce, dm.largest, ctl])
+                                     dm.second_slot, tau, dm.scal, dm.pscal, dm.a, pb, ctl])
+                L(k_fused_second, n, [dm.x, dm.v, acc, dm.second_ptr, dm.second_other,
+                                      dm.scal, dm.pscal, dm.a, pb, reduce, ctl])
                 if not last:
                     L(k_apply_dx, n, [dm.x, dm.dx, 0, ctl])
                 pending = int(last)
@@ -308,8 +320,11 @@ class WarpBackend:
             else:
                 for i in range(loops):
                     provot_pass(int(i < loops - 1))
-        finish = [dt, int(p["ground"]), T(p["height"]), T(p["mu"]), T(p["nu"]),
-                  *(T(c) for c in p["center"]), T(p["bound2"]), dm.counts, ctl]
+        gd = Guard[T]()
+        gd.ground, gd.height, gd.mu, gd.nu = int(p["ground"]), p["height"], p["mu"], p["nu"]
+        gd.cx, gd.cy, gd.cz = p["center"]
+        gd.bound2 = p["bound2"]
+        finish = [dt, gd, dm.counts, ctl]
         if obstacles:
             if save:
                 L(k_add_velocity, n, [dm.v, dm.x, dm.x_pre, dt, ctl])
@@ -325,7 +340,7 @@ class WarpBackend:
                 for c in cmds:
                     c.launch()
             graph = cap.graph
-        prog = {"cmds": cmds, "graph": graph, "keep": (kind, odata)}
+        prog = {"cmds": cmds, "graph": graph, "keep": (kind, odata, acc, pb, gd)}
         if len(dm.programs) >= 8:
             dm.programs.pop(next(iter(dm.programs)))
         dm.programs[key] = prog
@@ -409,6 +424,15 @@ class WarpBackend:
         status = int(ctl[0])
         done = int(ctl[1]) if status != STATUS_OK else int(nsteps)
         return done, status
+
+    def physical_steps(self, nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arrays,
+                       scratch):
+        """The physical (FEM) path's driver on the device: the signature and results of
+        :func:`jellysim.kernels.fem_numba.physical_steps` (:mod:`.warp_physical`)."""
+        from .warp_physical import physical_steps
+
+        return physical_steps(self, nsteps, dt, x, v, a, model_arrays, fem, handles,
+                              contact_arrays, scratch)
 
     def replay_resident(self, x0, nsteps: int) -> int:
         """Benchmarks: run ``nsteps`` more steps of the last ``run_steps`` call of the model
