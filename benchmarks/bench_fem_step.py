@@ -113,7 +113,7 @@ def main(argv=None):
         result["device"] = wb.device_info(wb.resolve_device(args.device))
     for cells in args.cells:
         model = gelatin_grid(cells)
-        row = {"cells": cells, "points": model.particle_count, "tets": model.fem.tet_count,
+        row = {"cells": cells, "points": model.point_count, "tets": model.fem.tet_count,
                "runs": {}}
         for backend in args.backend:
             if backend == "numba" and model.fem.tet_count > args.numba_max_tets:

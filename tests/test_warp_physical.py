@@ -54,7 +54,7 @@ def _cube(cells=3, size=0.04, lift=0.01, springs=0.0):
 
 def _handles(sim):
     """Every handle at once: a pin, a point force, a gravity scale, the mouse drag."""
-    n = sim.model.particle_count
+    n = sim.model.point_count
     sim.pin([0])
     sim.apply_force([n - 1, n - 2], [0.0, 0.02, 0.01])
     sim.set_gravity_scale(np.arange(n // 2), 0.5)
@@ -103,7 +103,7 @@ def test_float64_agrees_with_numba_every_substep(warp, springs):
     assert ref.state.x[:, 1].min() < 0.002  # it reached the ground (contact acted)
     assert np.abs(ref._q).max() > 1e-4
     assert ref.min_tet_volume_ratio < 0.99
-    assert np.array_equal(sim.state.x[0], model.particle_x0[0])  # the pin held
+    assert np.array_equal(sim.state.x[0], model.point_x0[0])  # the pin held
 
 
 def test_float64_agrees_over_frames_with_a_pin_path(warp):
@@ -111,14 +111,14 @@ def test_float64_agrees_over_frames_with_a_pin_path(warp):
     (their targets interpolated per substep on the device), a gelatin cube hanging from them."""
     model = _cube(lift=0.0)
     ref, sim = _pair(model, 1 / 60, ground=GroundParams(model=GroundModel.CONTACT))
-    top = np.flatnonzero(model.particle_x0[:, 1] > 0.04 - 1e-9)
+    top = np.flatnonzero(model.point_x0[:, 1] > 0.04 - 1e-9)
     for s in (ref, sim):
         s.pin(top, path=[[0.0, 0.0, 0.0, 0.0], [0.2, 0.03, 0.02, 0.0]])
     for _ in range(12):
         ref.advance(1)
         sim.advance(1)
         _close(ref, sim)
-    assert np.allclose(sim.state.x[top], model.particle_x0[top] + [0.03, 0.02, 0.0],
+    assert np.allclose(sim.state.x[top], model.point_x0[top] + [0.03, 0.02, 0.0],
                        atol=1e-12)
 
 
@@ -164,7 +164,7 @@ def _drop(backend, precision="float64", frames=30):
 def test_float32_drop_within_documented_bound(warp):
     ref, a = _drop("numba")
     sim, b = _drop("warp", "float32")
-    size = np.ptp(ref.model.particle_x0, axis=0).max()
+    size = np.ptp(ref.model.point_x0, axis=0).max()
     worst = np.abs(a - b).max() / size
     print(f"float32 vs float64, gelatin drop: {worst:.3g} of the body size")
     assert 0.0 < worst <= FLOAT32_FEM_DROP_BOUND
