@@ -45,9 +45,13 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
     model, messages = on_root(comm, build)
 
     def split():
+        from .fem import coupling_pairs
         from .local import replicated_reason
 
         kw = scene.simulator_kwargs(model)
+        if getattr(model, "fem", None) is not None:  # the physical path: tets couple points
+            return partition_points(model.particle_x0, coupling_pairs(model), size,
+                                    method=partition)
         parts = 1 if replicated_reason(kw["integrator"], kw["provot"]) else size
         return partition_points(model.particle_x0, model.spring_ij, min(parts,
                                 model.particle_count), method=partition)
@@ -56,6 +60,7 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         sim = DistributedSimulator(model, comm=comm, owner=owner, **scene.simulator_kwargs(model))
+        prepare(scene, sim)
     if rank == 0:
         messages += [str(w.message) for w in caught]
         if sim.replicated:
@@ -129,6 +134,29 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
     path = recorder.save(out_dir / "trajectory.npz")
     return RunResult(out_dir, path, series.pvd_path if series else None,
                      len(recorder.times), total, stepped, messages)
+
+
+def prepare(scene, sim) -> None:
+    """:meth:`Scene.prepare` for a :class:`~.simulator.DistributedSimulator`: the initial
+    velocity on every local point, and the ``[[handle]]`` tables, whose points are selected
+    from the global start positions (the same on every rank)."""
+    import types
+
+    import numpy as np
+
+    from ..errors import SceneError
+    from ..handles import apply_handle_tables
+
+    sim.state.v[:] = np.asarray(scene.params["body"]["velocity"], dtype=np.float64)
+    if scene.params.get("handle"):
+        x = sim.global_start.x
+        view = types.SimpleNamespace(state=types.SimpleNamespace(x=x), pin=sim.pin,
+                                     apply_force=sim.apply_force,
+                                     set_gravity_scale=sim.set_gravity_scale)
+        try:
+            apply_handle_tables(view, scene.params["handle"])
+        except SceneError as exc:
+            raise SceneError(f"{scene.name}: {exc}") from None
 
 
 def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,

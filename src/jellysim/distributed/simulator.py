@@ -1,5 +1,8 @@
 """DistributedSimulator: the :class:`~jellysim.simulator.Simulator` API over MPI ranks.
 
+(The physical (FEM) path has its own driver, :mod:`.fem`, mixed in; what follows is the
+springs path.)
+
 Every rank holds the global Model (rank 0 builds it and broadcasts, see :mod:`.runner`), owns
 a part of the points (:mod:`.partition`) and runs an ordinary ``Simulator`` on its local Model
 (owned points + ghost layers, :mod:`.local`) one kernel (sub)step at a time.  After each
@@ -11,6 +14,7 @@ from __future__ import annotations
 
 import os
 import types
+import warnings
 
 import numpy as np
 
@@ -18,6 +22,7 @@ from ..errors import SceneError, SimulationError
 from ..kernels import STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY
 from ..params import GroundParams, ImplicitParams, Integrator, ProvotParams
 from ..state import State
+from .fem import PhysicalMethods
 from .local import LocalPart, combine_status, halo_depth, replicated_reason
 from .partition import partition_points
 
@@ -63,7 +68,7 @@ def on_root(comm, fn):
     return value
 
 
-class DistributedSimulator:
+class DistributedSimulator(PhysicalMethods):
     """Time-steps one global Model split among the ranks of ``comm``.
 
     Same keyword arguments as :class:`~jellysim.simulator.Simulator`, plus:
@@ -77,16 +82,19 @@ class DistributedSimulator:
     ``state`` is this rank's *local* state (owned points and ghosts, local numbering);
     :meth:`gather` assembles the global one on one rank.  Results (positions, velocities,
     status, the step of a failure) are bitwise equal to a serial run for the explicit
-    integrators with Jacobi Provot on springs; the configurations listed by
+    integrators with Jacobi Provot on springs, and for the physical (FEM) path
+    (:mod:`.fem`; handles take global point indices); the configurations listed by
     :func:`~.local.replicated_reason` run the whole body on every rank (equal, no speed-up).
     """
+
+    split_implicit = False
 
     def __init__(self, model, *, dt: float, comm=None, partition: str = "morton",
                  owner=None, integrator=Integrator.SYMPLECTIC,
                  provot: ProvotParams = ProvotParams(enabled=False),
                  ground: GroundParams = GroundParams(enabled=False), backend="numba",
                  threads: int | None = None, runaway_distance: float | None = None,
-                 check_stability: bool = True, state=None, substeps: int | str = 1,
+                 check_stability: bool = True, state=None, substeps: int | str = "auto",
                  implicit: ImplicitParams = ImplicitParams(), obstacles=(),
                  rest_speed: float | None = None, device: str | None = None,
                  precision: str = "float64"):
@@ -99,11 +107,19 @@ class DistributedSimulator:
         rank, size = self.comm.Get_rank(), self.comm.Get_size()
         self.rank, self.size = rank, size
         self.model = model
-        if getattr(model, "fem", None) is not None:
-            raise SceneError("the physical (FEM) path is not distributed over MPI ranks yet: "
-                             "run the scene without mpiexec (or with [material] model = "
-                             "'springs')")
         self.dt = float(dt)
+        self.halo_bytes = 0
+        """Bytes this rank sent to other ranks so far (ghost exchanges)."""
+        self.comm_seconds = 0.0
+        """Wall time this rank spent in the exchange and the status agreement [s]."""
+        self.stability = None
+        if getattr(model, "fem", None) is not None:  # the physical path: distributed/fem.py
+            self.model, self.provot, self.ground, self.implicit = model, provot, ground, implicit
+            self._center_and_bound(model, runaway_distance)
+            self._init_physical(model, state, owner, partition, integrator, provot, backend,
+                                threads, substeps)
+            self._pack_obstacles(model, ground, obstacles, rest_speed)
+            return
         if substeps == "auto":  # the springs path: one step per dt unless asked
             substeps = 1
         self.substeps = int(substeps)
@@ -121,11 +137,7 @@ class DistributedSimulator:
             threads = max(1, numba.config.NUMBA_NUM_THREADS // node.Get_size())
             node.Free()
         x0 = model.particle_x0
-        self.center = np.ascontiguousarray(x0.mean(axis=0))
-        if runaway_distance is None:
-            diag = float(np.linalg.norm(x0.max(axis=0) - x0.min(axis=0)))
-            runaway_distance = max(100.0 * diag, 100.0)
-        self.runaway_distance = float(runaway_distance)
+        self._center_and_bound(model, runaway_distance)
         self.replicated = replicated_reason(self.integrator, provot)
         if self.replicated is None and size > n:
             self.replicated = f"more ranks ({size}) than points ({n})"
@@ -158,17 +170,45 @@ class DistributedSimulator:
             self.local = Simulator(self.part.model, state=local_state, **common)
             self.local.center[:] = self.center  # runaway bound about the *body's* centre
             self._setup_exchange()
+        self.split_implicit = not self.replicated and self.integrator is Integrator.IMPLICIT
+        """The implicit integrator split among the ranks (:mod:`.implicit`)."""
+        if self.split_implicit:
+            from .fem import _rest_thinness
+
+            self._rest_thin, self._collapse_check = on_root(
+                self.comm, lambda: _rest_thinness(model.particle_x0))
         self.state = self.local.state
         """This rank's local :class:`~jellysim.state.State` (owned points and ghosts)."""
-        self.stability = None
         if check_stability and rank == 0:
             self.check_stability()
-        self.halo_bytes = 0
-        """Bytes this rank sent to other ranks so far (ghost exchanges)."""
-        self.comm_seconds = 0.0
-        """Wall time this rank spent in the exchange and the status agreement [s]."""
 
     # -- setup ------------------------------------------------------------------------------
+    def _center_and_bound(self, model, runaway_distance):
+        x0 = model.particle_x0
+        self.center = np.ascontiguousarray(x0.mean(axis=0))
+        if runaway_distance is None:
+            diag = float(np.linalg.norm(x0.max(axis=0) - x0.min(axis=0)))
+            runaway_distance = max(100.0 * diag, 100.0)
+        self.runaway_distance = float(runaway_distance)
+
+    def _pack_obstacles(self, model, ground, obstacles, rest_speed):
+        """Obstacles and the contact ground as the serial Simulator packs them."""
+        from ..params import GroundModel
+        from ..physics.contact import Plane, pack_obstacles
+
+        obstacles = tuple(obstacles)
+        if ground.enabled and GroundModel(ground.model) is GroundModel.CONTACT:
+            obstacles = (Plane(point=(0.0, ground.height, 0.0), normal=(0.0, 1.0, 0.0),
+                               restitution=ground.restitution, friction=ground.friction,
+                               static_friction=ground.static_friction),) + obstacles
+        try:
+            self._obstacle_kind, self._obstacle_data = pack_obstacles(obstacles)
+        except ValueError as exc:
+            raise SceneError(str(exc)) from None
+        if rest_speed is None:
+            rest_speed = 2.0 * float(np.linalg.norm(model.gravity)) * self.dt_step
+        self.rest_speed = float(rest_speed)
+
     def _setup_exchange(self):
         needs = self.part.needs()
         requests = self.comm.alltoall([needs.get(r) for r in range(self.size)])
@@ -197,7 +237,13 @@ class DistributedSimulator:
         if steps <= 0:
             return
         done, status = 0, STATUS_OK
-        if self.replicated:
+        if self.physical:
+            before = self._thinness() if self._collapse_check else None
+            done, status = self._advance_physical(int(steps))
+        elif self.split_implicit:
+            before = self._thinness() if self._collapse_check else None
+            done, status = self._advance_implicit(int(steps))
+        elif self.replicated:
             try:
                 self.local.advance(int(steps))
                 done = int(steps)
@@ -218,17 +264,57 @@ class DistributedSimulator:
         self.state.step, self.state.t = self.step, self.t
         if status != STATUS_OK:
             self._raise(status)
+        if self.physical or self.split_implicit:
+            self._check_collapse(before, done)
+        if self.split_implicit:
+            with warnings.catch_warnings():
+                if self.rank != 0:
+                    warnings.simplefilter("ignore")
+                self.local._check_solves()
+
+    def _advance_implicit(self, steps):
+        """:meth:`Simulator._advance_implicit` with the distributed solve (:mod:`.implicit`)."""
+        from .implicit import implicit_steps_distributed
+
+        loc, s, sub = self.local, self.state, self.substeps
+        bdf2 = loc._implicit_opts.bdf2
+        changed = bdf2 and loc._last is not None and not (
+            np.array_equal(loc._last[0], s.x) and np.array_equal(loc._last[1], s.v))
+        flag = np.array([1 if changed else 0], dtype=np.int8)
+        self.comm.Allreduce(_mpi_in_place(), flag, op=_mpi_max())
+        if flag[0]:
+            loc._fresh[:] = 1  # the state was changed from outside: restart the history
+        import numba
+
+        previous = numba.get_num_threads()
+        numba.set_num_threads(max(1, min(loc.threads, numba.config.NUMBA_NUM_THREADS)))
+        try:
+            done, status, iters, worst = implicit_steps_distributed(self, steps * sub,
+                                                                    self.dt_step)
+        finally:
+            numba.set_num_threads(previous)
+        if bdf2:
+            loc._last = (s.x.copy(), s.v.copy())
+        loc.cg_iterations += int(iters)
+        loc._last_worst = float(worst)
+        loc.cg_worst_residual = max(loc.cg_worst_residual, float(worst))
+        return (done + sub - 1) // sub, status
 
     def _substep(self) -> int:
-        from mpi4py import MPI
-        import time
-
         try:
             self.local.advance(1)
             status = STATUS_OK
         except SimulationError:
             status = self.part.owned_status(self.local.state, self.center,
                                             self.runaway_distance**2)
+        return self._agree(status)
+
+    def _agree(self, status) -> int:
+        """The run status agreed by all ranks (one ``Allreduce``); the ghost exchange when
+        it is OK."""
+        from mpi4py import MPI
+        import time
+
         t0 = time.perf_counter()
         flags = np.array([status == STATUS_NONFINITE, status == STATUS_RUNAWAY], dtype=np.int8)
         self.comm.Allreduce(MPI.IN_PLACE, flags, op=MPI.MAX)
@@ -241,7 +327,7 @@ class DistributedSimulator:
     def _exchange(self):
         from mpi4py import MPI
 
-        s, part = self.local.state, self.part
+        s, part = self.state, self.part
         reqs = [self.comm.Irecv(buf, source=r, tag=7) for r, buf in self._recvbuf.items()]
         for r, idx in part.send.items():
             buf = self._sendbuf[r]
@@ -284,6 +370,18 @@ class DistributedSimulator:
                          self.t, self.step)
         self.comm.Gatherv(mine.ravel(), None, root=root)
         return None
+
+
+def _mpi_in_place():
+    from mpi4py import MPI
+
+    return MPI.IN_PLACE
+
+
+def _mpi_max():
+    from mpi4py import MPI
+
+    return MPI.MAX
 
 
 def _mpi_double():
