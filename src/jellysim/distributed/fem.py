@@ -84,7 +84,6 @@ class PhysicalMethods:
         from ..handles import Handles
         from ..params import Integrator
         from ..simulator import PHYSICAL_PARALLEL_MIN_TETS, Simulator, StabilityWarning
-        from ..state import State
         from .local import LocalPart
         from .partition import partition_points, point_graph
         from .simulator import on_root
@@ -99,7 +98,7 @@ class PhysicalMethods:
         if str(backend) not in ("numba", "Backend.NUMBA"):
             raise SceneError(f"backend = {str(backend)!r}: the physical (FEM) path runs on "
                              "backend = 'numba' under mpiexec")
-        rank, size, n = self.rank, self.size, model.particle_count
+        rank, size, n = self.rank, self.size, self.info.n
         self.physical = True
         self.replicated = None
         self.integrator = Integrator.SYMPLECTIC
@@ -115,55 +114,50 @@ class PhysicalMethods:
                 f"{self.dt / self.needed_substeps:.3g} s for this material and mesh: use "
                 f"substeps >= {self.needed_substeps} (or 'auto')", StabilityWarning, stacklevel=3)
         self.dt_step = self.dt / self.substeps
-        pairs = coupling_pairs(model)
-        if owner is None:
-            owner = on_root(self.comm, lambda: partition_points(
-                model.particle_x0, pairs, size, method=partition))
-        self.owner = np.asarray(owner, dtype=np.int32)
-        if self.owner.shape != (n,) or self.owner.min() < 0 or self.owner.max() >= size:
-            raise ValueError(f"owner must have shape ({n},) with values in [0, {size})")
+        cache = {}
+
+        def graph():  # built once, where the model is
+            if "graph" not in cache:
+                pairs = coupling_pairs(model)
+                cache["pairs"], cache["graph"] = pairs, point_graph(n, pairs)
+            return cache["graph"]
+
+        self._set_owner(owner, lambda: (graph(), partition_points(
+            model.particle_x0, cache["pairs"], size, method=partition))[1])
+
+        def build(r):
+            part = LocalPart(model, self.owner, r, 1, graph=graph())
+            fem, part.tets_global = local_fem(model.fem, part.glob, self.owner == r)
+            part.model = dataclasses.replace(part.model, fem=fem)
+            return part
+
         self.depth = 1
-        self.part = part = LocalPart(model, self.owner, rank, 1, graph=point_graph(n, pairs))
-        fem, self.tets_global = local_fem(model.fem, part.glob, self.owner == rank)
-        self.local_model = dataclasses.replace(part.model, fem=fem)
+        self.part, self.state = self._distribute(build, model, state)
+        cache.clear()
+        part = self.part
+        self.local_model = m = part.model
+        fem = m.fem
         if threads is None:
-            threads = 1 if model.fem.tet_count < PHYSICAL_PARALLEL_MIN_TETS else (
+            threads = 1 if self.info.tet_count < PHYSICAL_PARALLEL_MIN_TETS else (
                 self._node_threads())
         self.threads = int(threads)
-        if state is None:
-            state = model.state()
-        self.global_start = state
-        self.step, self.t = int(state.step), float(state.t)
-        g = part.glob
-        self.state = State(x=state.x[g].copy(), v=state.v[g].copy(), a=state.a[g].copy(),
-                           t=state.t, step=state.step)
-        m = self.local_model
         t_local = fem.tet_count
         self._q = np.zeros((t_local, 6))
         self._tet_force = np.zeros((4 * t_local, 3))
         self._tet_j = np.ones(t_local)
-        self._fsum = np.zeros((g.size, 3))
+        self._fsum = np.zeros((part.glob.size, 3))
         self._scalar = np.zeros(m.spring_count)
         self._min_j = np.ones(1)
         self.min_tet_volume_ratio = 1.0
         """Smallest ``J`` of any tet at any substep so far (agreed by all ranks) [-]."""
-        self.handles = Handles.empty(g.size)
+        self.handles = Handles.empty(part.glob.size)
         """This rank's handle arrays (local points; set them with :meth:`pin` etc.)."""
         self._global_paths = []
-        self._use_springs = bool(model.spring_count and np.any(model.spring_stiffness != 0))
-        self._total_mass = model.total_mass
+        self._use_springs = self.info.use_springs
+        self._total_mass = self.info.total_mass
         rest = on_root(self.comm, lambda: _rest_thinness(model.particle_x0))
         self._rest_thin, self._collapse_check = rest
         self._setup_exchange()
-
-    def _node_threads(self):
-        import numba
-        from mpi4py import MPI
-
-        node = self.comm.Split_type(MPI.COMM_TYPE_SHARED)
-        threads = max(1, numba.config.NUMBA_NUM_THREADS // node.Get_size())
-        node.Free()
-        return threads
 
     def _tuples(self, h):
         m, fem = self.local_model, self.local_model.fem
@@ -261,16 +255,19 @@ class PhysicalMethods:
         return out
 
     def _check_collapse(self, before, steps):
+        """:meth:`Simulator._check_collapse` with the thinness reduced over the ranks (the
+        same value everywhere) and the error built on rank 0."""
         from ..simulator import Simulator
+        from .simulator import raise_agreed
 
-        if before is None or steps <= 0:
+        if before is None or steps <= 0 or before < 0.25 * self._rest_thin:
             return
+        after = self._thinness()
         view = types.SimpleNamespace(
             _rest_thin=self._rest_thin, state=types.SimpleNamespace(step=self.step, t=self.t),
-            _thinness=lambda x: self._thinness(), integrator=self.integrator,
-            model=self.model, stability=self.stability, dt_step=self.dt_step,
-            implicit=self.implicit)
-        Simulator._check_collapse(view, before, steps)
+            _thinness=lambda x: after, integrator=self.integrator, model=self.model,
+            stability=self.stability, dt_step=self.dt_step, implicit=self.implicit)
+        raise_agreed(self.comm, lambda: Simulator._check_collapse(view, before, steps))
 
     # -- handles (global point indices) -----------------------------------------------------
     def _local_rows(self, indices):
@@ -339,7 +336,7 @@ class PhysicalMethods:
             d[0] = -1.0
             return
         if stiffness is None:
-            stiffness = self._total_mass * float(np.linalg.norm(self.model.gravity)) / 0.01
+            stiffness = self._total_mass * float(np.linalg.norm(self.info.gravity)) / 0.01
         rows, _ = self._local_rows([int(point)])
         d[0] = float(rows[0]) if rows.size else -1.0
         d[1:4] = np.asarray(target, dtype=np.float64).reshape(3)
