@@ -264,7 +264,8 @@ class PhysicalMethods:
             return
         after = self._thinness()
         view = types.SimpleNamespace(
-            _rest_thin=self._rest_thin, state=types.SimpleNamespace(step=self.step, t=self.t),
+            _rest_thin=self._rest_thin,
+            state=types.SimpleNamespace(step=self.step, t=self.t, x=None),
             _thinness=lambda x: after, integrator=self.integrator, model=self.model,
             stability=self.stability, dt_step=self.dt_step, implicit=self.implicit)
         raise_agreed(self.comm, lambda: Simulator._check_collapse(view, before, steps))
