@@ -313,28 +313,38 @@ def test_mpiexec_physical_path_is_bitwise_equal_to_serial(tmp_path, scene, ranks
 
 # -- the implicit integrator, split among ranks ----------------------------------------------
 @needs_mpi
-@pytest.mark.parametrize("scheme,ranks", [("theta", 2), ("bdf2", 3)])
-def test_mpiexec_implicit_solve_is_split_and_agrees_with_serial_to_the_cg_tolerance(
-        tmp_path, scheme, ranks):
-    base = (DATA / "implicit_springs.toml").read_text()
-    if scheme == "bdf2":
-        base = base.replace('name = "implicit"', 'name = "implicit"\nscheme = "bdf2"')
-    errors = {}
-    for tol in (1e-4, 1e-8):
-        scene = tmp_path / f"s{tol:g}.toml"
-        scene.write_text(base.replace("cg_tolerance = 1e-6", f"cg_tolerance = {tol:g}"))
-        ref = _serial(scene, tmp_path / f"serial{tol:g}")
-        proc, _ = _mpirun(ranks, "-m", "jellysim.cli", "run", str(scene), "--out",
-                          str(tmp_path / f"mpi{tol:g}"), "--quiet", "--no-vtu")
-        assert proc.returncode == 0, proc.stderr
-        assert "whole body" not in proc.stderr  # split among the ranks, not replicated
-        got = load_trajectory(tmp_path / f"mpi{tol:g}" / "trajectory.npz")
-        assert got.positions.shape == ref.positions.shape
-        x = ref.positions
-        assert x[0, :, 1].min() > 0.09 and x[-1, :, 1].min() < 0.01  # it fell and landed
-        travel = np.abs(x - x[0]).max()
-        errors[tol] = np.abs(got.positions - x).max() / travel
-    # the dot products sum in another order: the runs agree to the solver's tolerance, and
-    # closer as it tightens
-    assert errors[1e-4] < 1e-2 and errors[1e-8] < 1e-6
-    assert errors[1e-8] < errors[1e-4]
+@pytest.mark.parametrize("scheme,ranks,where", [("theta", 2, "lean"), ("bdf2", 3, "full")])
+def test_mpiexec_implicit_solve_is_split_and_agrees_with_serial_within_the_cg_tolerance(
+        scheme, ranks, where):
+    import json
+
+    tol = 1e-6
+    proc, _ = _mpirun(ranks, str(DATA / "implicit_check.py"), scheme, str(tol), where)
+    assert proc.returncode == 0, proc.stderr
+    got = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert got["lean"] == (where == "lean")
+    assert 0 < got["owned"] < got["owned_total"] == 500 and got["ghosts"] > 0  # split
+    assert got["travel"] > 0.1  # the body vibrated and turned: every step a real solve
+    # dot products summed in another order: the same solution to within the CG tolerance
+    assert got["rel_error"] < tol and got["v_rel_error"] < tol
+    assert abs(got["cg_iterations"] - got["serial_cg_iterations"]) <= 0.02 * got[
+        "serial_cg_iterations"]
+
+
+@needs_mpi
+def test_mpiexec_implicit_scene_with_contact_runs_split(tmp_path):
+    path = DATA / "implicit_springs.toml"
+    ref = _serial(path, tmp_path / "serial")
+    proc, _ = _mpirun(2, "-m", "jellysim.cli", "run", str(path), "--out", str(tmp_path / "mpi"),
+                      "--quiet", "--no-vtu")
+    assert proc.returncode == 0, proc.stderr
+    assert "whole body" not in proc.stderr  # split among the ranks, not replicated
+    got = load_trajectory(tmp_path / "mpi" / "trajectory.npz").positions
+    x = ref.positions
+    assert got.shape == x.shape
+    flying = x[:, :, 1].min(axis=1) > 0.01  # before the landing: equal to the CG tolerance
+    assert flying.sum() >= 3
+    assert np.abs(got[flying] - x[flying]).max() < 1e-6 * np.abs(x - x[0]).max()
+    # a contact event amplifies rounding (serially too: CG tolerance 1e-8 vs 1e-12 moves points
+    # by centimetres after this landing), so afterwards: the same physics, not the same digits
+    assert got[:, :, 1].min() > -1e-12 and got[-1, :, 1].min() < 1e-9  # landed, never below
