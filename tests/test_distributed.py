@@ -311,6 +311,25 @@ def test_mpiexec_physical_path_is_bitwise_equal_to_serial(tmp_path, scene, ranks
         assert np.allclose(x[:, top, 0] - x[0, top, 0], want[:, None], atol=1e-12)
 
 
+@needs_mpi
+def test_mpiexec_physical_path_retries_an_unstable_impact_like_serial(tmp_path):
+    # 8 substeps per frame where 72 are needed: the impact blows up and the frames are taken
+    # again with 16, then 32 substeps (serially too); every rank must agree on each retry
+    scene = tmp_path / "retry.toml"
+    scene.write_text((DATA / "gelatin_drop.toml").read_text().replace(
+        "steps = 14", "steps = 14\nsubsteps = 8"))
+    said = run_scene(Scene.load(scene), tmp_path / "serial", progress=False, vtu=False).warnings
+    assert sum("again with 32 substeps per frame" in w for w in said) == 1
+    ref = load_trajectory(tmp_path / "serial" / "trajectory.npz")
+    proc, _ = _mpirun(3, "-m", "jellysim.cli", "run", str(scene), "--out",
+                      str(tmp_path / "mpi"), "--quiet", "--no-vtu")
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr.count("again with 32 substeps per frame") == 1  # said once, by rank 0
+    got = load_trajectory(tmp_path / "mpi" / "trajectory.npz")
+    assert np.array_equal(got.positions, ref.positions)
+    assert np.array_equal(got.velocities, ref.velocities)
+
+
 # -- the implicit integrator, split among ranks ----------------------------------------------
 @needs_mpi
 @pytest.mark.parametrize("scheme,ranks,where", [("theta", 2, "lean"), ("bdf2", 3, "full")])

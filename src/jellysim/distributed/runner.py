@@ -98,6 +98,9 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
         bar.start()
         task = bar.add_task("run", total=total)
     stepped = 0.0
+    during = warnings.catch_warnings(record=True)  # run-time warnings: into the result
+    caught = during.__enter__()
+    warnings.simplefilter("always")
     try:
         done = 0
         while done < total:
@@ -117,10 +120,12 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
             recorder.save(out_dir / "trajectory.npz", status=f"failed: {exc}")
         raise
     finally:
+        during.__exit__(None, None, None)
         if bar is not None:
             bar.stop()
     if rank != 0:
         return None
+    messages += [str(w.message) for w in caught]
     path = recorder.save(out_dir / "trajectory.npz")
     return RunResult(out_dir, path, series.pvd_path if series else None,
                      len(recorder.times), total, stepped, messages)
