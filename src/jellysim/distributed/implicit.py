@@ -22,6 +22,8 @@ run to the CG tolerance, not bitwise.
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 from numba import njit
 
@@ -79,6 +81,7 @@ class _Comm:
         """Ghost rows of ``u`` (local, shape (n, 3)) from their owners."""
         from mpi4py import MPI
 
+        t0 = time.perf_counter()
         sim, part = self.sim, self.sim.part
         reqs = [sim.comm.Irecv(buf, source=r, tag=11) for r, buf in self.recv.items()]
         for r, idx in part.send.items():
@@ -89,18 +92,24 @@ class _Comm:
         MPI.Request.Waitall(reqs)
         for r, idx in part.recv.items():
             u[idx] = self.recv[r]
+        sim.comm_seconds += time.perf_counter() - t0
 
     def dots(self, a, b, c=None, d=None):
         c = a if c is None else c
         d = b if d is None else d
-        s = self.sim._global_sum(np.array(_owned_dots(a, b, c, d, self.owned)))
+        local = np.array(_owned_dots(a, b, c, d, self.owned))
+        t0 = time.perf_counter()
+        s = self.sim._global_sum(local)
+        self.sim.comm_seconds += time.perf_counter() - t0
         return float(s[0]), float(s[1])
 
     def reduce(self, value, op):
         from mpi4py import MPI
 
+        t0 = time.perf_counter()
         buf = np.array([value], dtype=np.float64)
         self.sim.comm.Allreduce(MPI.IN_PLACE, buf, op=MPI.MIN if op == "min" else MPI.MAX)
+        self.sim.comm_seconds += time.perf_counter() - t0
         return float(buf[0])
 
 
