@@ -342,6 +342,7 @@ def test_mpiexec_implicit_solve_is_split_and_agrees_with_serial_within_the_cg_to
     assert proc.returncode == 0, proc.stderr
     got = json.loads(proc.stdout.strip().splitlines()[-1])
     assert got["lean"] == (where == "lean")
+    assert got["others_hold_global"] == (where == "full")  # lean: only rank 0 holds the body
     assert 0 < got["owned"] < got["owned_total"] == 500 and got["ghosts"] > 0  # split
     assert got["travel"] > 0.1  # the body vibrated and turned: every step a real solve
     # dot products summed in another order: the same solution to within the CG tolerance
