@@ -12,7 +12,10 @@ Halo sizes (no MPI needed)::
 Throughput (rank 0 prints one JSON line; run it for P = 1, 2, ... with the same N for strong
 scaling, N proportional to P for weak scaling)::
 
-    mpiexec -n 2 python -m benchmarks.bench_mpi step --points 100000 --threads 1
+    mpiexec -n 2 python -m benchmarks.bench_mpi step --points 100000 --threads 1 [--lean]
+
+(``--lean``: the model on rank 0 only, which sends each rank its part, as ``mpiexec jellysim
+run`` does; default: every rank holds the global model.)
 
 Bitwise equality with the serial Simulator on rank 0 (one JSON line)::
 
@@ -80,30 +83,19 @@ def step(args) -> None:
     comm = MPI.COMM_WORLD
     rank, size = comm.Get_rank(), comm.Get_size()
     t0 = time.perf_counter()
-    model = comm.bcast(make_model(args.points) if rank == 0 else None, root=0)
+    model = make_model(args.points) if rank == 0 else None
+    if not args.lean:  # every rank holds the global model (else: rank 0 sends the parts)
+        model = comm.bcast(model, root=0)
     build_s = time.perf_counter() - t0
     sim = DistributedSimulator(model, comm=comm, dt=1e-3, integrator="paper",
                                provot=ProvotParams(loops=1, tau=0.001),
                                ground=GroundParams(), threads=args.threads,
                                check_stability=False, partition=args.partition)
-    sim.advance(2)  # warm up (loads the compiled kernels)
-    windows, comm_s = [], []
-    b0 = sim.halo_bytes
-    for _ in range(args.repeats):
-        comm.Barrier()
-        c0, t = sim.comm_seconds, time.perf_counter()
-        sim.advance(args.steps)
-        windows.append(time.perf_counter() - t)
-        comm_s.append(sim.comm_seconds - c0)
-    per_step_bytes = (sim.halo_bytes - b0) / (args.repeats * args.steps)
-    finite = bool(np.all(np.isfinite(sim.state.x)))
-    mine = {"comm_s": float(np.sum(comm_s)), "total_s": float(np.sum(windows)),
-            "ghosts": int((~sim.part.owned).sum()), "owned": int(sim.part.owned.sum()),
-            "halo_bytes_per_step": per_step_bytes, "finite": finite}
-    ranks = comm.gather(mine, root=0)
+    setup_s = time.perf_counter() - t0 - build_s
+    med, ranks = _timed(comm, sim, args, args.steps)
     if rank == 0:
-        med = float(np.median(windows))
         print(json.dumps({"bench": "mpi_step", "ranks": size, "threads_per_rank": args.threads,
+                          "lean": sim.lean, "setup_s": setup_s,
                           "points": model.particle_count, "springs": model.spring_count,
                           "partition": args.partition, "steps_per_window": args.steps,
                           "steps_per_s": args.steps / med, "build_s": build_s,
@@ -251,6 +243,7 @@ def main() -> None:
     s.add_argument("--repeats", type=int, default=5)
     s.add_argument("--threads", type=int, default=1)
     s.add_argument("--partition", default="morton", choices=["morton", "metis"])
+    s.add_argument("--lean", action="store_true", help="the model on rank 0 only")
     c = sub.add_parser("check")
     c.add_argument("--points", type=int, default=100000)
     c.add_argument("--steps", type=int, default=20)
