@@ -15,7 +15,7 @@ import hashlib
 import os
 from pathlib import Path
 
-_PACKAGES = ("kernels", "geometry", "physics")
+_PACKAGES = ("kernels", "geometry", "physics", "distributed")
 """Sub-packages of jellysim with ``@njit(cache=True)`` functions."""
 
 _done = False

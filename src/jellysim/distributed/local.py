@@ -28,9 +28,6 @@ __all__ = ["LocalPart", "halo_depth", "replicated_reason"]
 def replicated_reason(integrator, provot) -> str | None:
     """Why a configuration cannot be split among ranks (then every rank runs the whole
     body: results stay equal to serial, without speed-up), or ``None`` when it can."""
-    if Integrator(integrator) is Integrator.IMPLICIT:
-        return ("the implicit integrator is not distributed yet (its conjugate-gradient "
-                "solve runs as one kernel)")
     if provot.enabled and provot.loops > 0:
         if ProvotPairs(provot.pairs) is ProvotPairs.ALL:
             return "provot pairs = 'all' couples every point with every other"

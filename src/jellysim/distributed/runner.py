@@ -29,7 +29,6 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
     Returns the :class:`~jellysim.runner.RunResult` on rank 0, ``None`` elsewhere."""
     from ..io.trajectory import Recorder
     from ..io.vtk import PVDSeries
-    from .partition import partition_points
     from .simulator import DistributedSimulator, on_root, world
 
     comm = world() if comm is None else comm
@@ -42,20 +41,16 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
             model = scene.build_model()
         return model, [str(w.message) for w in caught]
 
-    model, messages = on_root(comm, build)
-
-    def split():
-        from .local import replicated_reason
-
-        kw = scene.simulator_kwargs(model)
-        parts = 1 if replicated_reason(kw["integrator"], kw["provot"]) else size
-        return partition_points(model.point_x0, model.spring_ij, min(parts,
-                                model.point_count), method=partition)
-
-    owner = on_root(comm, split)
+    # rank 0 alone holds the global model: it sends every rank its part (DistributedSimulator)
+    model = on_root(comm, build, share=False)
+    model, messages = (model if rank == 0 else (None, None))
+    kw = on_root(comm, lambda: {k: v for k, v in scene.simulator_kwargs(model).items()
+                                if k != "state"})
+    state = scene.simulator_kwargs(model).get("state") if rank == 0 else None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        sim = DistributedSimulator(model, comm=comm, owner=owner, **scene.simulator_kwargs(model))
+        sim = DistributedSimulator(model, comm=comm, partition=partition, state=state, **kw)
+        prepare(scene, sim)
     if rank == 0:
         messages += [str(w.message) for w in caught]
         if sim.replicated:
@@ -103,6 +98,9 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
         bar.start()
         task = bar.add_task("run", total=total)
     stepped = 0.0
+    during = warnings.catch_warnings(record=True)  # run-time warnings: into the result
+    caught = during.__enter__()
+    warnings.simplefilter("always")
     try:
         done = 0
         while done < total:
@@ -122,13 +120,50 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
             recorder.save(out_dir / "trajectory.npz", status=f"failed: {exc}")
         raise
     finally:
+        during.__exit__(None, None, None)
         if bar is not None:
             bar.stop()
     if rank != 0:
         return None
+    messages += [str(w.message) for w in caught]
     path = recorder.save(out_dir / "trajectory.npz")
     return RunResult(out_dir, path, series.pvd_path if series else None,
                      len(recorder.times), total, stepped, messages)
+
+
+def prepare(scene, sim) -> None:
+    """:meth:`Scene.prepare` for a :class:`~.simulator.DistributedSimulator`: the initial
+    velocity on every local point, and the ``[[handle]]`` tables, whose points rank 0 selects
+    from the global start positions; every rank then makes the same handle calls."""
+    import types
+
+    import numpy as np
+
+    from ..errors import SceneError
+    from ..handles import apply_handle_tables
+    from .simulator import on_root
+
+    sim.state.v[:] = np.asarray(scene.params["body"]["velocity"], dtype=np.float64)
+    if not scene.params.get("handle"):
+        return
+
+    def select():
+        calls = []
+
+        def record(name):
+            return lambda *args, **kw: calls.append((name, args, kw))
+
+        view = types.SimpleNamespace(state=types.SimpleNamespace(x=sim.global_start.x),
+                                     pin=record("pin"), apply_force=record("apply_force"),
+                                     set_gravity_scale=record("set_gravity_scale"))
+        try:
+            apply_handle_tables(view, scene.params["handle"])
+        except SceneError as exc:
+            raise SceneError(f"{scene.name}: {exc}") from None
+        return calls
+
+    for name, args, kw in on_root(sim.comm, select):
+        getattr(sim, name)(*args, **kw)
 
 
 def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
