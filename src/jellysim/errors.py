@@ -2,7 +2,8 @@
 from __future__ import annotations
 
 __all__ = ["JellysimError", "SceneError", "SimulationError", "MeshError", "BuildError",
-           "JelloFileError", "RunInterrupted", "CheckpointError", "ResourceError"]
+           "JelloFileError", "RunInterrupted", "CheckpointError", "ResourceError",
+           "StabilityWarning", "SolverWarning"]
 
 
 class JellysimError(Exception):
@@ -51,3 +52,12 @@ class CheckpointError(JellysimError, ValueError):
 
 class ResourceError(JellysimError, ValueError):
     """A request would need more memory (or work) than allowed; nothing was built."""
+
+
+class StabilityWarning(UserWarning):
+    """The time step exceeds the estimated stable limit."""
+
+
+class SolverWarning(UserWarning):
+    """A linear solve stopped above its tolerance (see
+    :data:`jellysim.simulator.CG_ERROR_RESIDUAL`)."""

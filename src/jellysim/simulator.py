@@ -15,12 +15,13 @@ import warnings
 
 import numpy as np
 
-from .errors import SceneError, SimulationError
+from .errors import SceneError, SimulationError, SolverWarning, StabilityWarning
 from .kernels import INTEGRATOR_CODES, STATUS_NONFINITE, STATUS_OK, Backend, get_backend
 from .params import (MAX_ALL_PAIRS_POINTS, GroundModel, GroundParams, ImplicitParams,
                      ImplicitScheme,
                      Integrator, ProvotOrder, ProvotPairs, ProvotParams)
 from .handles import HandleMethods
+from .physical_stepping import PhysicalStepping
 from .stability import StabilityEstimate, estimate_stability, implicit_accuracy
 
 __all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads"]
@@ -36,14 +37,6 @@ PHYSICAL_PARALLEL_MIN_TETS = 50_000
 """Below this many tets the physical path runs on one thread: it takes 4 parallel regions per
 substep and 100+ substeps per frame, so synchronising threads costs more than it saves on a
 small body (and far more when another process competes for the cores)."""
-
-
-class StabilityWarning(UserWarning):
-    """The time step exceeds the estimated stable limit."""
-
-
-class SolverWarning(UserWarning):
-    """A linear solve stopped above its tolerance (see :data:`CG_ERROR_RESIDUAL`)."""
 
 
 CG_ERROR_RESIDUAL = 0.1
@@ -85,7 +78,7 @@ def auto_threads(point_count: int) -> int:
     return 1 if load > 2.0 * (os.cpu_count() or 1) else most
 
 
-class Simulator(HandleMethods):
+class Simulator(HandleMethods, PhysicalStepping):
     """Time-steps one :class:`~jellysim.model.Model`.
 
     Parameters
@@ -274,108 +267,6 @@ class Simulator(HandleMethods):
         self.stability: StabilityEstimate | None = None
         if check_stability and not self.physical:
             self.check_stability()
-
-    # -- physical path (FEM, symplectic substeps) ------------------------------------------
-    SUBSTEP_SAFETY = 0.7
-    """Fraction of the linear stability limit ``2 / omega_max`` (at rest) used as the substep.
-    Large compression stiffens the material above its rest stiffness, so a chunk of frames in
-    which some tet was compressed below :attr:`RETAKE_BELOW_J` of its volume is taken again
-    with twice the substeps (0.35 of the limit).  Measured (docs/physics.md): a 5 kPa ball
-    dropped 50 cm blows up at 0.5 throughout (and, retaken with twice the substeps, ends a
-    frame with an inverted tet); at 0.35 every tet stays positive (smallest J 0.07)."""
-
-    RETAKE_BELOW_J = 0.8
-    """A chunk whose smallest tet volume ratio ``J`` fell below this is retaken at half the
-    substep: a tet squeezed to J along one axis stiffens its fastest mode by up to ~1 / J, and
-    0.7 / 0.8 < 1 keeps the symplectic step inside its stability limit above it."""
-
-    @classmethod
-    def _auto_substeps(cls, model, dt) -> int:
-        from .physics.stability_fem import fem_omega_max
-
-        h = cls.SUBSTEP_SAFETY * 2.0 / fem_omega_max(model)
-        return max(1, int(np.ceil(float(dt) / h)))
-
-    def _setup_physical(self):
-        from .physics.fem import FemArrays
-
-        m, fem = self.model, self.model.fem
-        assert isinstance(fem, FemArrays)
-        t = fem.tet_count
-        n = m.point_count
-        self._q = np.zeros((t, 6))
-        self._tet_force = np.zeros((4 * t, 3))
-        self._tet_j = np.ones(t)
-        self._fsum = np.zeros((n, 3))
-        self._min_j = np.ones(1)
-        self._squeezed = np.zeros(1, dtype=np.int8)
-        """1 while the last chunk squeezed a tet below ``RETAKE_BELOW_J + 0.05``: the next
-        chunk starts at half the substep (a body that rests compressed is not taken twice)."""
-        self.min_tet_volume_ratio = 1.0
-        """Smallest ``J = det F`` (deformed / rest volume) of any tet at any substep so far
-        [-]; <= 0 means a tet was inverted."""
-
-    def _physical_tuples(self, h):
-        m, fem = self.model, self.model.fem
-        ft = fem.kernel_tuple(self._q, h)
-        use_springs = bool(m.spring_count and np.any(m.spring_stiffness != 0))
-        springs = (m.spring_ij, m.spring_rest_length, m.spring_stiffness, m.point_first_ptr,
-                   m.point_second_ptr, m.spring_second_slot, m.point_second_other, use_springs)
-        model_arrays = (m.point_inv_mass, float(m.damping), m.gravity, springs)
-        contact = (self._obstacle_kind, self._obstacle_data, float(self.rest_speed),
-                   self.center, float(self.runaway_distance**2))
-        scratch = (self._tet_force, self._tet_j, self._fsum, self._scalar, self._min_j)
-        return model_arrays, ft, contact, scratch
-
-    MAX_SUBSTEP_DOUBLINGS = 3
-    """A chunk that blows up is taken again from its start with twice the substeps, up to
-    this many times (a hard impact compresses tets far beyond their rest stiffness)."""
-
-    def _advance_physical(self, steps):
-        from .kernels import fem_numba, fem_numpy
-
-        kern = {Backend.NUMPY: fem_numpy, Backend.WARP: self._k}.get(self.backend, fem_numba)
-        s, hd = self.state, self.handles
-        # one kernel call per frame: pins that follow a path get their targets per frame, and
-        # a frame retaken (a blow-up, a strong compression) costs one frame, not the batch
-        chunk = 1
-        done = 0
-        status = STATUS_OK
-        while done < steps and status == STATUS_OK:
-            n = min(chunk, steps - done)
-            t0 = s.t + done * self.dt
-            hd.targets(t0, hd.pin_from)
-            hd.targets(t0 + n * self.dt, hd.pin_to)
-            saved = (s.x.copy(), s.v.copy(), s.a.copy(), self._q.copy())
-            running_min_j = float(self._min_j[0])
-            # at half the substep: a chunk retaken for a strong compression, and the chunks
-            # after it while the compression lasts
-            squeezed = bool(self._squeezed[0])
-            for attempt in range(self.MAX_SUBSTEP_DOUBLINGS + 2):
-                sub = self.substeps * (2 if squeezed else 1)
-                self._min_j[0] = 1.0  # this chunk's smallest J
-                model_arrays, ft, contact, scratch = self._physical_tuples(self.dt / sub)
-                k, status = kern.physical_steps(n * sub, self.dt / sub, s.x, s.v, s.a,
-                                                model_arrays, ft, hd.tuple(), contact, scratch)
-                compressed = status == STATUS_OK and self._min_j[0] < self.RETAKE_BELOW_J
-                if (status == STATUS_OK and (squeezed or not compressed)) or (
-                        attempt == self.MAX_SUBSTEP_DOUBLINGS + 1):
-                    break
-                for dst, src in zip((s.x, s.v, s.a, self._q), saved):
-                    dst[:] = src
-                if status == STATUS_OK:
-                    squeezed = True
-                    continue
-                self.substeps *= 2
-                self.dt_step = self.dt / self.substeps
-                warnings.warn(f"an unstable impact at t = {t0:.4g} s: the physical path took "
-                              f"those {n} frame(s) again with {self.substeps} substeps per frame "
-                              "(and keeps them)", StabilityWarning, stacklevel=3)
-            self._squeezed[0] = self._min_j[0] < self.RETAKE_BELOW_J + 0.05
-            self._min_j[0] = min(running_min_j, float(self._min_j[0]))
-            done += n if status == STATUS_OK else (k + sub - 1) // sub
-        self.min_tet_volume_ratio = float(self._min_j[0])
-        return done, status
 
     def check_stability(self) -> StabilityEstimate:
         """Estimate the largest stable dt; warn when ``dt`` exceeds it."""

@@ -28,6 +28,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..kernels import STATUS_OK
+from ..params import Integrator
 
 __all__ = ["coupling_pairs", "local_fem", "PhysicalMethods"]
 
@@ -82,7 +83,6 @@ class PhysicalMethods:
     def _init_physical(self, model, state, owner, partition, integrator, provot, backend,
                        threads, substeps):
         from ..handles import Handles
-        from ..params import Integrator
         from ..simulator import PHYSICAL_PARALLEL_MIN_TETS, Simulator, StabilityWarning
         from .local import LocalPart
         from .partition import partition_points, point_graph
@@ -214,7 +214,10 @@ class PhysicalMethods:
                                   f"took those {n} frame(s) again with {self.substeps} "
                                   "substeps per frame (and keeps them)", StabilityWarning,
                                   stacklevel=4)
-            self._squeezed[0] = self._min_j[0] < Simulator.RETAKE_BELOW_J + 0.05
+            if self._min_j[0] < Simulator.RETAKE_BELOW_J + 0.05:
+                self._squeezed[0] = Simulator.SQUEEZED_FRAMES
+            elif self._squeezed[0] > 0:
+                self._squeezed[0] -= 1
             self._min_j[0] = min(running_min_j, float(self._min_j[0]))
             done += n if status == STATUS_OK else (k + sub - 1) // sub
         mj = np.array([self._min_j[0]])
