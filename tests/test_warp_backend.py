@@ -207,7 +207,7 @@ def test_unsupported_integrator_is_refused():
         Scene.from_text(text.replace("[integrator]", "[integrator]\nbackend = \"warp\""),
                         name="gelatin.toml")
     with pytest.raises(SceneError, match="apply to backend = 'warp' only"):
-        Simulator(m, dt=0.01, backend="numba", precision="float32")
+        Simulator(m, dt=0.01, backend="numba", device="cuda")
 
 
 def test_demo_with_warp_backend_names_what_is_missing(tmp_path):

@@ -26,8 +26,8 @@ import numpy as np
 
 __all__ = ["SpringArrays", "PointArrays", "ProvotOptions", "GroundGuard", "Obstacles",
            "ExplicitScratch", "ImplicitOptions", "ImplicitScratch", "spring_arrays",
-           "point_arrays", "provot_options", "ground_guard", "obstacles", "explicit_scratch",
-           "implicit_options", "implicit_scratch"]
+           "point_arrays", "provot_options", "ground_guard", "obstacles",
+           "explicit_scratch", "implicit_options", "implicit_scratch"]
 
 SpringArrays = namedtuple("SpringArrays", "ij rest stiff first_ptr second_ptr second_slot "
                                           "second_other first_other")
@@ -36,7 +36,8 @@ SpringArrays = namedtuple("SpringArrays", "ij rest stiff first_ptr second_ptr se
 p are ``first_ptr[p]:first_ptr[p+1]``), ``second_ptr`` (n + 1,) into the second-point list,
 ``second_slot`` (k,) int32 (spring -> its slot in that list), ``second_other`` (k,) int32
 (slot -> the spring's first point), ``first_other`` (k,) int32 (spring -> its second point:
-``ij[:, 1]`` in 4 bytes, what the per-point sweeps read).  See :class:`jellysim.model.Model`."""
+``ij[:, 1]`` in 4 bytes, what the per-point sweeps read).  ``rest`` and ``stiff`` are float32
+for ``precision = "float32"`` (:func:`spring_arrays`).  See :class:`jellysim.model.Model`."""
 
 PointArrays = namedtuple("PointArrays", "x0 mass inv_mass damping gravity")
 """Rest positions ``x0`` [m] (n, 3), ``mass`` [kg] (n,), ``inv_mass`` [1/kg] (n,), the damping
@@ -58,8 +59,10 @@ Obstacles = namedtuple("Obstacles", "kind data rest_speed")
 ``data`` (m, 9), ``rest_speed`` [m/s] below which a contact rests."""
 
 ExplicitScratch = namedtuple("ExplicitScratch", "spring_scalar provot_scalar dx count max_corr "
-                                                "x_pre")
-"""Scratch of :func:`run_steps`: (k,), (k,), (n, 3), (n,) int64, (n,), (n, 3)."""
+                                                "x_pre v_alt force")
+"""Scratch of :func:`run_steps`: (k,), (k,), (n, 3), (n,) int64, (n,); ``x_pre``, ``v_alt``
+(n, 3) in the state's dtype (the fused step's second position/velocity buffers) and ``force``
+(n, 3) float64 (its partial force sums)."""
 
 ImplicitOptions = namedtuple("ImplicitOptions", "theta tolerance max_iterations bdf2")
 """The implicit step: ``theta`` in [1/2, 1], CG relative ``tolerance`` and ``max_iterations``,
@@ -73,9 +76,12 @@ ImplicitScratch = namedtuple("ImplicitScratch", "spring_scalar frame spring_vec 
 ``hist`` (4, n, 3) and ``fresh`` (n,) uint8 (carried)."""
 
 
-def spring_arrays(model) -> SpringArrays:
+def spring_arrays(model, dtype=np.float64) -> SpringArrays:
+    """``dtype=np.float32`` (``precision = "float32"``): rest lengths and stiffnesses stored
+    in float32 (the kernels still compute in float64)."""
     m = model
-    return SpringArrays(m.spring_ij, m.spring_rest_length, m.spring_stiffness,
+    return SpringArrays(m.spring_ij, np.ascontiguousarray(m.spring_rest_length, dtype=dtype),
+                        np.ascontiguousarray(m.spring_stiffness, dtype=dtype),
                         m.point_first_ptr, m.point_second_ptr, m.spring_second_slot,
                         m.point_second_other,
                         np.ascontiguousarray(m.spring_ij[:, 1], dtype=np.int32))
@@ -105,9 +111,11 @@ def obstacles(kind=None, data=None, rest_speed=0.0) -> Obstacles:
     return Obstacles(kind, data, float(rest_speed))
 
 
-def explicit_scratch(n: int, k: int) -> ExplicitScratch:
+def explicit_scratch(n: int, k: int, dtype=np.float64) -> ExplicitScratch:
+    """``dtype``: the state's (float64, or float32 for ``precision = "float32"``)."""
     return ExplicitScratch(np.zeros(k), np.zeros(k), np.zeros((n, 3)),
-                           np.zeros(n, dtype=np.int64), np.zeros(n), np.zeros((n, 3)))
+                           np.zeros(n, dtype=np.int64), np.zeros(n), np.zeros((n, 3), dtype),
+                           np.zeros((n, 3), dtype), np.zeros((n, 3)))
 
 
 def implicit_options(theta=1.0, tolerance=1e-3, max_iterations=300, bdf2=False):
