@@ -7,8 +7,7 @@ other in each repeat so that the shared machine's load hits all alike:
 * ``old``: the kernels of an earlier commit, imported as a package ``oldk`` (a copy of that
   commit's ``src/jellysim/kernels``);
 * ``new``: this tree's kernels, float64 (the fused one-region step);
-* ``new_f32``: the same with the state, rest lengths and stiffnesses in float32
-  (``precision = "float32"``).
+* ``new_f32``: the same with the state in float32 (``precision = "float32"``).
 
 Make the old package once (``35b3a87``: the last commit before the fused step)::
 
@@ -54,14 +53,13 @@ def main(argv=None) -> None:
         steps = max(4, min(2000, int(3e7 / k)))
         x0 = m.particle_x0
         springs, points = rec.spring_arrays(m), rec.point_arrays(m)
-        springs32 = rec.spring_arrays(m, np.float32)
         po = rec.provot_options(1, 0.001)
         gg = rec.ground_guard(True, 0.0, 0.1, 0.2, x0.mean(axis=0), 1e8)
         ob = rec.obstacles()
         scratch = {np.float64: rec.explicit_scratch(n, k), np.float32:
                    rec.explicit_scratch(n, k, np.float32)}
         variants = {"old": (old, np.float64, springs), "new": (new, np.float64, springs),
-                    "new_f32": (new, np.float32, springs32)}
+                    "new_f32": (new, np.float32, springs)}
         for threads in (1, 2):
             numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
             rates = {name: [] for name in variants}
@@ -98,7 +96,7 @@ def main(argv=None) -> None:
             entry["springs"] = k
             out["scenes"][f"{n}_points_{threads}t"] = entry
             print(json.dumps({f"{n}_{threads}t": entry}), flush=True)
-        del model, springs, springs32, scratch, variants
+        del model, springs, scratch, variants
     out["load_average_after"] = os.getloadavg()
     print(json.dumps(out, indent=1))
 

@@ -245,7 +245,7 @@ class Simulator(HandleMethods):
             int(p.loops) if p.enabled else 0, p.tau, p.tolerance,
             ProvotPairs(p.pairs) is ProvotPairs.ALL,
             ProvotOrder(p.order) is ProvotOrder.GAUSS_SEIDEL, p.velocity_update)
-        self._springs = rec.spring_arrays(model, np.float32 if f32 else np.float64)
+        self._springs = rec.spring_arrays(model)
         self._ground = rec.ground_guard(g.enabled and GroundModel(g.model) is GroundModel.PAPER,
                                         g.height, g.mu, g.nu, self.center,
                                         self.runaway_distance**2)

@@ -36,8 +36,7 @@ SpringArrays = namedtuple("SpringArrays", "ij rest stiff first_ptr second_ptr se
 p are ``first_ptr[p]:first_ptr[p+1]``), ``second_ptr`` (n + 1,) into the second-point list,
 ``second_slot`` (k,) int32 (spring -> its slot in that list), ``second_other`` (k,) int32
 (slot -> the spring's first point), ``first_other`` (k,) int32 (spring -> its second point:
-``ij[:, 1]`` in 4 bytes, what the per-point sweeps read).  ``rest`` and ``stiff`` are float32
-for ``precision = "float32"`` (:func:`spring_arrays`).  See :class:`jellysim.model.Model`."""
+``ij[:, 1]`` in 4 bytes, what the per-point sweeps read).  See :class:`jellysim.model.Model`."""
 
 PointArrays = namedtuple("PointArrays", "x0 mass inv_mass damping gravity")
 """Rest positions ``x0`` [m] (n, 3), ``mass`` [kg] (n,), ``inv_mass`` [1/kg] (n,), the damping
@@ -76,12 +75,9 @@ ImplicitScratch = namedtuple("ImplicitScratch", "spring_scalar frame spring_vec 
 ``hist`` (4, n, 3) and ``fresh`` (n,) uint8 (carried)."""
 
 
-def spring_arrays(model, dtype=np.float64) -> SpringArrays:
-    """``dtype=np.float32`` (``precision = "float32"``): rest lengths and stiffnesses stored
-    in float32 (the kernels still compute in float64)."""
+def spring_arrays(model) -> SpringArrays:
     m = model
-    return SpringArrays(m.spring_ij, np.ascontiguousarray(m.spring_rest_length, dtype=dtype),
-                        np.ascontiguousarray(m.spring_stiffness, dtype=dtype),
+    return SpringArrays(m.spring_ij, m.spring_rest_length, m.spring_stiffness,
                         m.point_first_ptr, m.point_second_ptr, m.spring_second_slot,
                         m.point_second_other,
                         np.ascontiguousarray(m.spring_ij[:, 1], dtype=np.int32))

@@ -1,24 +1,30 @@
-"""Numba: the report's step with one Jacobi Provot pass over the springs, fused per point.
+"""Numba: the report's step with one Jacobi Provot pass over the springs, in two regions.
 
 The case ``benchmarks/bench_step.py`` times (integrator ``paper``, Provot ``pairs = "springs"``,
-``order = "jacobi"``, one loop, no obstacles) as ONE parallel region per step instead of four
-(drift, two force/Provot sweeps, finish).  Each point computes the force and the Provot
-correction of *all* its springs itself (its first list, then its second list: each spring is
-computed twice, once from each end), so no spring scalar is stored and read back and no
-barrier separates the sweeps.  The two ends compute the spring's length from ``x_q - x_p`` and
-``x_p - x_q``, which round identically, and every per-point sum is taken in the order of the
-two-sweep kernels (:func:`.forces_numba._accelerations_provot_fused`: first list, then second
-list), so the results are bitwise those of the unfused path, for any thread count.
+``order = "jacobi"``, one loop, no obstacles) as TWO parallel regions per step instead of four
+(drift, two force/Provot sweeps, finish).  The first sweep (per point p, its first list)
+computes each spring's length once, its force and Provot scalars, and writes them into the
+spring's slot of its second point's list, as :func:`.forces_numba._accelerations_provot_fused`
+does; the second (per point q) gathers its slots, then finishes q at once: acceleration,
+Provot move, the report's ground rule, the checks and the NEXT step's drift (elementwise, so it
+joins the region).  Same formulas, same summation order: the results are bitwise those of the
+four-region path (tested), for any thread count.
 
-Positions and velocities are double-buffered: step ``s`` reads ``(xr, vr)`` (after its drift)
-and writes ``(xw, vw)`` = the finished step ``s`` already drifted for step ``s + 1`` (the next
-step's drift is elementwise, so it joins the region).  A failing step (non-finite, runaway) is
-retaken from the intact read buffers without the drift, so the caller sees the state after the
-failing step, as with the unfused path.
+Positions and velocities are double-buffered (the second sweep reads the neighbours' positions
+while it writes the finished ones): step ``s`` reads ``(xr, vr)`` (after its drift) and writes
+``(xw, vw)``.  A failing step (non-finite, runaway) is retaken from the intact read buffers
+without the drift, so the caller sees the state after the failing step, as before.
 
-The state arrays may be float64 or float32 (``precision = "float32"``): the spring arithmetic
-and every sum are float64 (the rest lengths and stiffnesses are float64 and promote them), only
-the stored positions/velocities/accelerations round to float32.
+Tried and dropped (``benchmarks/bench_fused.py``, same process, 2026-11-29): computing every
+spring from both ends in ONE region per step (nothing stored, but twice the square roots and
+divisions: 0.76x on one thread at 600 points); a spring-once sweep over 64 fixed point chunks
+adding each in-chunk spring to both ends at once (0.93x at 100k points).
+
+The state arrays may be float64 or float32 (``precision = "float32"``): every length, force and
+sum is computed in float64 (the loads are widened), only the stored positions, velocities and
+accelerations round to float32.  (Measured: no faster than float64 on this machine's CPU, where
+the step is compute-bound; float32 arithmetic per spring and float32 rest lengths and
+stiffnesses were slower still, 0.93x, from the conversions.)
 """
 from __future__ import annotations
 
@@ -73,9 +79,9 @@ def _consts(points, g, ctl):
 
 @njit(**_opts)
 def paper_region(xr, vr, xw, vw, a, springs, points, tau, g, ctl, scratch):
-    """:func:`paper_region` computing each spring once (two parallel regions): the first
-    sweep writes the spring's force and Provot scalars into its second-list slot, the second
-    gathers them (as :func:`.forces_numba._accelerations_provot_fused`), then finishes."""
+    """One step (see the module docstring): reads ``xr, vr``, writes ``xw, vw, a``; record
+    fields are unpacked before the parallel loops (extracting arrays from a record inside one
+    costs reference counting per point)."""
     n = xr.shape[0]
     rest, stiff = springs.rest, springs.stiff
     first_ptr, second_ptr = springs.first_ptr, springs.second_ptr
