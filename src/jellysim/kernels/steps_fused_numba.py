@@ -18,7 +18,13 @@ without the drift, so the caller sees the state after the failing step, as befor
 Tried and dropped (``benchmarks/bench_fused.py``, same process, 2026-11-29): computing every
 spring from both ends in ONE region per step (nothing stored, but twice the square roots and
 divisions: 0.76x on one thread at 600 points); a spring-once sweep over 64 fixed point chunks
-adding each in-chunk spring to both ends at once (0.93x at 100k points).
+adding each in-chunk spring to both ends at once (0.93x at 100k points); the scalars stored in
+spring order (contiguous, so the compiler vectorises the first sweep with ``fastmath =
+{"reassoc"}``: vsqrtpd, gathers) and read back through a slot -> spring index (0.87x at 600
+points, 0.59x at 100k: the indexed reads of the second sweep cost more than the vector square
+roots gain).  Alone, the first sweep's arithmetic vectorised runs 4.5 ns per spring against
+5.2 scalar (600 points, one thread), so the step is bound by the per-spring arithmetic and the
+scattered slot stores (8.1 ns per spring at 100k), not by memory bandwidth.
 
 The state arrays may be float64 or float32 (``precision = "float32"``): every length, force and
 sum is computed in float64 (the loads are widened), only the stored positions, velocities and
