@@ -36,21 +36,22 @@ def _drive(m, steps, *, fused, velocity_update=False, dt=0.002, dtype=np.float64
            start=None, threads=1):
     """``run_steps`` with one Provot pass: the fused step, or (``fused=False``) the two-sweep
     kernels (two passes allowed, the second skipped by a tolerance no move exceeds: the same
-    arithmetic as one pass); returns (done, status, x, v, a)."""
+    arithmetic as one pass); returns (done, status, x, v, a, each point's last Provot move)."""
     x = (m.particle_x0 if start is None else start).astype(dtype)
     v, a = np.zeros_like(x), np.zeros_like(x)
     po = rec.provot_options(1 if fused else 2, 0.001, 0.0 if fused else 1e9,
                             velocity_update=velocity_update)
+    scratch = rec.explicit_scratch(m.particle_count, m.spring_count, dtype)
     args = (rec.spring_arrays(m), rec.point_arrays(m), po,
             rec.ground_guard(True, 0.0, 0.1, 0.2, m.particle_x0.mean(axis=0), 1e4),
-            rec.obstacles(), rec.explicit_scratch(m.particle_count, m.spring_count, dtype))
+            rec.obstacles(), scratch)
     previous = numba.get_num_threads()
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     try:
         done, status = nbk.run_steps(steps, dt, 0, x, v, a, *args)
     finally:
         numba.set_num_threads(previous)
-    return done, status, x, v, a
+    return done, status, x, v, a, scratch.max_corr
 
 
 @pytest.mark.parametrize("velocity_update", [False, True])
@@ -65,6 +66,7 @@ def test_fused_step_is_bitwise_the_two_sweep_kernels(velocity_update, steps):
     assert runs[0][:2] == (steps, 0)
     if steps > 20:
         assert np.sum(runs[0][2][:, 1] == 0.0) > 0  # the ground rule acted
+        assert runs[0][5].max() > 0.0  # Provot moved points (and the moves are reported)
 
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 numba threads")

@@ -44,10 +44,10 @@ from .provot_numba import _provot_c_inv
 
 
 @njit(cache=True, inline="always")
-def _finish_point(p, xr, vr, xw, vw, a, fsum, inv_mass, gravity, center, consts):
+def _finish_point(p, xr, vr, xw, vw, a, fsum, inv_mass, gravity, center, consts, max_corr):
     """Point p's acceleration, Provot move, ground rule, checks and (``drift``) the next
-    step's drift, written to ``xw``/``vw``/``a``; returns (non-finite, runaway) as 0/1 and
-    the Provot move [m].  ``consts`` = (damping, paper, height, mu, nu, bound2, dt, drift,
+    step's drift, written to ``xw``/``vw``/``a``, and the Provot move [m] to ``max_corr[p]``;
+    returns (non-finite, runaway) as 0/1.  ``consts`` = (damping, paper, height, mu, nu, bound2, dt, drift,
     velocity_update)."""
     fx, fy, fz, sx, sy, sz, cnt = fsum
     damping, paper, height, mu, nu, bound2, dt, drift, velocity_update = consts
@@ -59,6 +59,7 @@ def _finish_point(p, xr, vr, xw, vw, a, fsum, inv_mass, gravity, center, consts)
         sx /= cnt
         sy /= cnt
         sz /= cnt
+    max_corr[p] = np.sqrt(sx * sx + sy * sy + sz * sz)
     xw[p, 0] = xr[p, 0] + sx
     xw[p, 1] = xr[p, 1] + sy
     xw[p, 2] = xr[p, 2] + sz
@@ -73,7 +74,7 @@ def _finish_point(p, xr, vr, xw, vw, a, fsum, inv_mass, gravity, center, consts)
         for c in range(3):
             xw[p, c] += vw[p, c] * dt
             vw[p, c] += a[p, c] * dt
-    return bad, far, np.sqrt(sx * sx + sy * sy + sz * sz)
+    return bad, far
 
 
 @njit(cache=True, inline="always")
@@ -93,9 +94,8 @@ def paper_region(xr, vr, xw, vw, a, springs, points, tau, g, ctl, scratch):
     first_ptr, second_ptr = springs.first_ptr, springs.second_ptr
     second_slot, second_other = springs.second_slot, springs.second_other
     first_other = springs.first_other
-    sscal, pscal, dx, max_corr = (scratch.spring_scalar, scratch.provot_scalar, scratch.dx,
-                                  scratch.max_corr)
-    count, force = scratch.count, scratch.force
+    sscal, pscal, dx = scratch.spring_scalar, scratch.provot_scalar, scratch.dx
+    count, force, max_corr = scratch.count, scratch.force, scratch.max_corr
     inv_mass, gravity, center = points.inv_mass, points.gravity, g.center
     consts = _consts(points, g, ctl)
     for p in prange(n):
@@ -159,9 +159,8 @@ def paper_region(xr, vr, xw, vw, a, springs, points, tau, g, ctl, scratch):
             sy += cp * ey
             sz += cp * ez
             cnt += cp != 0.0
-        bad, far, corr = _finish_point(q, xr, vr, xw, vw, a, (fx, fy, fz, sx, sy, sz, cnt),
-                                       inv_mass, gravity, center, consts)
-        max_corr[q] = corr
+        bad, far = _finish_point(q, xr, vr, xw, vw, a, (fx, fy, fz, sx, sy, sz, cnt),
+                                 inv_mass, gravity, center, consts, max_corr)
         nonfinite += bad
         runaway += far
     return _status(nonfinite, runaway)
