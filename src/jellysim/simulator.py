@@ -239,13 +239,13 @@ class Simulator(HandleMethods):
         # with them and the state arrays only
         from .kernels import records as rec
 
+        self._springs = rec.spring_arrays(model)
         self._points = rec.point_arrays(model)
         p, g = provot, ground
         self._provot_opts = rec.provot_options(
             int(p.loops) if p.enabled else 0, p.tau, p.tolerance,
             ProvotPairs(p.pairs) is ProvotPairs.ALL,
             ProvotOrder(p.order) is ProvotOrder.GAUSS_SEIDEL, p.velocity_update)
-        self._springs = rec.spring_arrays(model)
         self._ground = rec.ground_guard(g.enabled and GroundModel(g.model) is GroundModel.PAPER,
                                         g.height, g.mu, g.nu, self.center,
                                         self.runaway_distance**2)
