@@ -19,10 +19,15 @@ and each step must read and write the point state, x and v read and written, a w
 ``MIN_BYTES = 20 + 120 n / k`` bytes per spring-update (n points, k springs; about 24 bytes at
 33 springs per point), independent of any layout, and no implementation on this machine
 exceeds B / MIN_BYTES spring-updates/s; the script prints the achieved fraction of that bound.
-For comparison, the present layout moves per spring in the fused sweep
-(``_accelerations_provot_fused``): the index pair 16, rest 8, stiffness 8, second-list slot 4,
-force and Provot scalars written 16 and read back 16, the other end's index 8 =
-``LAYOUT_BYTES`` = 76 (plus the point arrays).
+For comparison, the fused step (``kernels/steps_fused_numba.py``, two parallel regions per
+step) moves per spring: the other end's index 4 (first sweep) and 4 (second sweep), rest 8,
+stiffness 8, the second-list slot 4, the force and Provot scalars written into the slot (16,
+plus the lines' read for ownership, 16) and read back (16) = ``LAYOUT_BYTES`` = 76 (plus the
+point arrays).
+
+The numba backend is timed in float64 and float32 (``precision = "float32"``: the state stored
+in float32, the arithmetic in float64), on 1 and 2 threads (``numba_1t``, ``numba_2t``,
+``numba_f32_1t``, ``numba_f32_2t``); each run's fraction of the bound is printed.
 
 Run:  python -m benchmarks.bench_step [--sizes 600,10000,100000,1000000] [--repeats 5]
 
@@ -52,7 +57,7 @@ import time
 import numpy as np
 
 LAYOUT_BYTES = 76
-"""Bytes per spring the present layout moves in the fused sweep (see the docstring)."""
+"""Bytes per spring the fused step moves (see the docstring)."""
 SPRING_MIN_BYTES = 20
 POINT_MIN_BYTES = 120
 
@@ -181,14 +186,16 @@ def scene_dt(model) -> float:
     return min(0.01, 0.5 * estimate_stability(model, "paper", 0.01).dt_max)
 
 
-def time_steps(model, backend: str, threads: int, steps: int, repeats: int, dt: float) -> dict:
+def time_steps(model, backend: str, threads: int, steps: int, repeats: int, dt: float,
+               precision: str = "float64") -> dict:
     from jellysim.errors import SimulationError
     from jellysim.params import GroundParams, ProvotParams
     from jellysim.simulator import Simulator
 
     sim = Simulator(model, dt=dt, integrator="paper", backend=backend, threads=threads,
                     provot=ProvotParams(tau=0.001, loops=1, pairs="springs"),
-                    ground=GroundParams(mu=0.1, nu=0.2), check_stability=False)
+                    ground=GroundParams(mu=0.1, nu=0.2), check_stability=False,
+                    precision=precision)
     sim.advance(1)  # compile / load cache, first touch
     rates = []
     corrected = []
@@ -351,9 +358,10 @@ def main(argv=None) -> None:
     if args.backend == "warp":
         return main_warp(args)
     bw = stream_triad()
-    result = {"machine": {"cpu_count": os.cpu_count(), "numba_threads": numba.config.NUMBA_NUM_THREADS,
+    result = {"machine": {"cpu_count": os.cpu_count(),
+                          "numba_threads": numba.config.NUMBA_NUM_THREADS,
                           "python": platform.python_version(), "numba": numba.__version__,
-                          "numpy": np.__version__},
+                          "numpy": np.__version__, "load_average": os.getloadavg()},
               "stream_triad": bw, "layout_bytes_per_spring": LAYOUT_BYTES,
               "scenes": []}
     for n in [int(s) for s in args.sizes.split(",")]:
@@ -362,12 +370,15 @@ def main(argv=None) -> None:
         dt = scene_dt(model)
         entry = {"points": n, "radius_m": r, "springs": model.spring_count, "dt_s": dt,
                  "build_s": build, "steps_per_window": steps, "runs": {}}
-        for backend, threads in [("numba", 1), ("numba", 2), ("numpy", 1)]:
+        for backend, threads, precision in [("numba", 1, "float64"), ("numba", 2, "float64"),
+                                            ("numba", 1, "float32"), ("numba", 2, "float32"),
+                                            ("numpy", 1, "float64")]:
             if backend == "numpy" and n > args.numpy_max:
                 continue
             s = steps if backend == "numba" else max(1, steps // 50)
-            entry["runs"][f"{backend}_{threads}t"] = time_steps(model, backend, threads, s,
-                                                                args.repeats, dt)
+            name = f"{backend}_{'f32_' if precision == 'float32' else ''}{threads}t"
+            entry["runs"][name] = time_steps(model, backend, threads, s, args.repeats, dt,
+                                             precision)
         best = max((v.get("spring_updates_per_s", 0) for v in entry["runs"].values()),
                    default=0)
         mb = min_bytes_per_spring_update(model.point_count, model.spring_count)
@@ -375,8 +386,12 @@ def main(argv=None) -> None:
         entry["min_bytes_per_spring_update"] = mb
         entry["bandwidth_bound_spring_updates_per_s"] = bound
         entry["fraction_of_bandwidth_bound"] = best / bound
+        for run in entry["runs"].values():
+            if "spring_updates_per_s" in run:
+                run["fraction_of_bandwidth_bound"] = run["spring_updates_per_s"] / bound
         result["scenes"].append(entry)
         print(json.dumps(entry), flush=True, file=__import__("sys").stderr)
+    result["machine"]["load_average_after"] = os.getloadavg()
     print(json.dumps(result, indent=2))
 
 

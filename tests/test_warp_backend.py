@@ -207,7 +207,7 @@ def test_unsupported_integrator_is_refused():
         Scene.from_text(text.replace('name = "paper"', 'name = "implicit"\nbackend = "warp"'),
                         name="cube.toml")
     with pytest.raises(SceneError, match="apply to backend = 'warp' only"):
-        Simulator(m, dt=0.01, backend="numba", precision="float32")
+        Simulator(m, dt=0.01, backend="numba", device="cuda")
 
 
 def test_demo_accepts_backend_warp(warp, tmp_path):

@@ -61,7 +61,7 @@ def cli() -> None:
 @click.option("--device", default=None,
               help="Warp device: auto (a GPU when present), cpu, cuda, cuda:N.")
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default=None,
-              help="Warp arithmetic precision.")
+              help="float64 or float32 (warp; numba explicit step).")
 @click.option("--threads", type=click.IntRange(min=1), default=None,
               help="Numba threads (overrides the scene's [integrator] threads; default: by "
                    "problem size).  Results do not depend on it.")

@@ -98,7 +98,7 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
               help="Kernels (default: the demo scene's, numba).")
 @click.option("--device", default=None, help="Warp device: auto, cpu, cuda, cuda:N.")
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default=None,
-              help="Warp arithmetic precision.")
+              help="float64 or float32 (warp; numba explicit step).")
 @click.option("--threads", type=click.IntRange(min=1), default=None,
               help="Numba threads (default: by problem size).")
 @click.option("--overwrite", is_flag=True,

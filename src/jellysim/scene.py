@@ -120,8 +120,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         choices=("numba", "numpy", "warp")),
         "device": Spec("str", "auto", "Warp device: 'auto' (a GPU when present, else the "
                        "CPU), 'cpu', 'cuda' or 'cuda:N' (backend = 'warp' only)."),
-        "precision": Spec("str", "float64", "Warp arithmetic: 'float64' (bitwise the numba "
-                          "backend's on the CPU device) or 'float32' (backend = 'warp' only).",
+        "precision": Spec("str", "float64", "'float64' or 'float32': Warp arithmetic "
+                          "(float64: bitwise the numba backend's on the CPU device); numba's "
+                          "explicit step stores x, v, a in float32 and sums in float64.",
                           choices=("float64", "float32")),
         "threads": Spec("int", None, "Numba threads (default: by problem size).",
                         lambda v: v >= 1, "an integer >= 1"),

@@ -132,6 +132,16 @@ def check_backend(backend: str, integrator: str, device: str = "auto",
             f"{at}[integrator] backend = 'warp' supports integrators "
             f"{' and '.join(WARP_INTEGRATORS)}; name = {integrator!r} is not implemented on "
             "Warp: use backend = 'numba' (the default) or an explicit integrator")
-    if backend != "warp" and (precision != "float64" or device not in ("auto", "", None)):
-        raise SceneError(f"{at}[integrator] device and precision apply to backend = 'warp' "
-                         f"only (backend = {backend!r} computes in float64 on the CPU)")
+    if backend != "warp" and device not in ("auto", "", None):
+        raise SceneError(f"{at}[integrator] device = {device!r}: devices apply to backend = "
+                         f"'warp' only (backend = {backend!r} runs on the CPU)")
+    if precision == "float32" and backend == "numba" and physical:
+        raise SceneError(f"{at}[integrator] precision = 'float32' on backend = 'numba' applies "
+                         "to spring bodies; the physical (FEM) path computes in float64: use "
+                         "precision = 'float64' (or [material] model = 'springs')")
+    if precision == "float32" and (backend == "numpy" or integrator == "implicit"):
+        raise SceneError(
+            f"{at}[integrator] precision = 'float32' applies to backend = 'warp' and to "
+            f"backend = 'numba' with an explicit integrator (paper, symplectic); backend = "
+            f"{backend!r} with name = {integrator!r} computes in float64: use precision = "
+            "'float64'")

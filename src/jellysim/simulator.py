@@ -94,8 +94,10 @@ class Simulator(HandleMethods, PhysicalStepping):
     backend: ``"numba"`` (default), ``"numpy"`` (the reference) or ``"warp"`` (NVIDIA Warp,
         integrators ``paper`` and ``symplectic``, and the physical path; ``pip install
         'jellysim[gpu]'``).
-    device, precision: Warp only: ``"auto"`` (a GPU when present, else Warp's CPU device),
-        ``"cpu"``, ``"cuda"``, ``"cuda:N"``; ``"float64"`` or ``"float32"``.
+    device: Warp only: ``"auto"`` (a GPU when present, else Warp's CPU device), ``"cpu"``,
+        ``"cuda"``, ``"cuda:N"``.
+    precision: ``"float64"`` or ``"float32"`` (Warp; numba's explicit step: x, v, a stored in
+        float32, sums in float64, ``state`` float64 holding float32 values; docs/architecture.md).
     threads: numba threads (default: :func:`auto_threads`).  Results do not depend on it.
     runaway_distance: a point farther than this [m] from the body's starting centre stops the
         run (default: 100 x the body's bounding-box diagonal, at least 100 m).
@@ -195,6 +197,11 @@ class Simulator(HandleMethods, PhysicalStepping):
 
         check_backend(self.backend.value, self.integrator.value, device or "auto", precision)
         self._k = get_backend(self.backend, device=device, precision=precision)
+        self.precision = precision
+        f32 = self.backend is Backend.NUMBA and precision == "float32"
+        if f32 and self.physical:
+            raise SceneError("precision = 'float32' on backend 'numba' applies to spring "
+                             "bodies; the physical (FEM) path computes in float64")
         n = model.point_count
         if provot.enabled and ProvotPairs(provot.pairs) is ProvotPairs.ALL and (
                 n > MAX_ALL_PAIRS_POINTS):
@@ -252,8 +259,11 @@ class Simulator(HandleMethods, PhysicalStepping):
             self._last = None  # (x, v) at the end of the last advance
             self._frame, self._spring_vec = sc.frame, sc.spring_vec
         else:
-            self._scratch = rec.explicit_scratch(n, k)
+            dtype = np.float32 if f32 else np.float64
+            self._scratch = rec.explicit_scratch(n, k, dtype)
             sc = self._scratch
+            # float32 copies of the state the kernels advance (precision = "float32")
+            self._state32 = tuple(np.zeros((n, 3), dtype) for _ in range(3)) if f32 else None
             # the scratch arrays under their former names (other integration paths use them)
             self._dx, self._count, self._max_corr = sc.dx, sc.count, sc.max_corr
             self._x_pre, self._provot_scalar = sc.x_pre, sc.provot_scalar
@@ -322,7 +332,10 @@ class Simulator(HandleMethods, PhysicalStepping):
         :class:`SceneError` when ``d`` does not fit this simulator (another body or
         integrator)."""
         own = self.internal_state()
-        missing = sorted(set(own) - set(d) - {"_last.0", "_last.1", "_squeezed"})
+        # tolerated when absent (files of earlier versions): arrays added since, all of them
+        # rebuilt every step (_squeezed: a frame count; _scratch fields appended at the end)
+        missing = sorted(k for k in set(own) - set(d) - {"_last.0", "_last.1", "_squeezed"}
+                         if not k.startswith("_scratch."))
         extra = sorted(set(d) - set(own) - {"_last.0", "_last.1"})
         if missing or extra:
             raise SceneError(f"saved simulator state does not fit this simulator (missing "
@@ -453,10 +466,15 @@ class Simulator(HandleMethods, PhysicalStepping):
     def _advance_explicit(self, steps):
         s = self.state
         sub = self.substeps
+        state = self._state32 or (s.x, s.v, s.a)
+        for mine, theirs in zip(self._state32 or (), (s.x, s.v, s.a)):
+            mine[...] = theirs  # precision = "float32": the kernels advance float32 copies
         done, status = self._k.run_steps(
-            steps * sub, self.dt_step, INTEGRATOR_CODES[self.integrator.value], s.x, s.v, s.a,
+            steps * sub, self.dt_step, INTEGRATOR_CODES[self.integrator.value], *state,
             self._springs, self._points, self._provot_opts, self._ground, self._obstacles,
             self._scratch)
+        for mine, theirs in zip(self._state32 or (), (s.x, s.v, s.a)):
+            theirs[...] = mine
         # a failing substep counts its whole step
         return (done + sub - 1) // sub, status
 

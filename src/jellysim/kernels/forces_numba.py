@@ -22,7 +22,7 @@ def accelerations(x, v, points, springs, spring_scalar, a_out):
         fx = 0.0
         fy = 0.0
         fz = 0.0
-        px, py, pz = x[p, 0], x[p, 1], x[p, 2]
+        px, py, pz = np.float64(x[p, 0]), np.float64(x[p, 1]), np.float64(x[p, 2])
         for s in range(first_ptr[p], first_ptr[p + 1]):
             q = first_other[s]
             dx = x[q, 0] - px
@@ -43,7 +43,7 @@ def accelerations(x, v, points, springs, spring_scalar, a_out):
         fx = a_out[q, 0]
         fy = a_out[q, 1]
         fz = a_out[q, 2]
-        qx, qy, qz = x[q, 0], x[q, 1], x[q, 2]
+        qx, qy, qz = np.float64(x[q, 0]), np.float64(x[q, 1]), np.float64(x[q, 2])
         for t in range(second_ptr[q], second_ptr[q + 1]):
             c = spring_scalar[t]
             i = second_other[t]
@@ -76,7 +76,7 @@ def _accelerations_provot_fused(x, v, points, springs, tau, spring_scalar, provo
         sy = 0.0
         sz = 0.0
         cnt = 0
-        px, py, pz = x[p, 0], x[p, 1], x[p, 2]
+        px, py, pz = np.float64(x[p, 0]), np.float64(x[p, 1]), np.float64(x[p, 2])
         for s in range(first_ptr[p], first_ptr[p + 1]):
             q = first_other[s]
             ex = x[q, 0] - px
@@ -112,7 +112,7 @@ def _accelerations_provot_fused(x, v, points, springs, tau, spring_scalar, provo
         sy = dx[q, 1]
         sz = dx[q, 2]
         cnt = int(max_corr[q])
-        qx, qy, qz = x[q, 0], x[q, 1], x[q, 2]
+        qx, qy, qz = np.float64(x[q, 0]), np.float64(x[q, 1]), np.float64(x[q, 2])
         for t in range(second_ptr[q], second_ptr[q + 1]):
             i = second_other[t]
             ex = x[i, 0] - qx

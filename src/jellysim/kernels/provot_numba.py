@@ -40,7 +40,7 @@ def _provot_jacobi_springs(x, springs, tau, spring_scalar, dx, count, max_corr):
         sy = 0.0
         sz = 0.0
         cnt = 0
-        px, py, pz = x[p, 0], x[p, 1], x[p, 2]
+        px, py, pz = np.float64(x[p, 0]), np.float64(x[p, 1]), np.float64(x[p, 2])
         for s in range(first_ptr[p], first_ptr[p + 1]):
             q = first_other[s]
             ex = x[q, 0] - px
@@ -62,7 +62,7 @@ def _provot_jacobi_springs(x, springs, tau, spring_scalar, dx, count, max_corr):
         sy = dx[q, 1]
         sz = dx[q, 2]
         cnt = count[q]
-        qx, qy, qz = x[q, 0], x[q, 1], x[q, 2]
+        qx, qy, qz = np.float64(x[q, 0]), np.float64(x[q, 1]), np.float64(x[q, 2])
         for t in range(second_ptr[q], second_ptr[q + 1]):
             c = spring_scalar[t]
             i = second_other[t]
@@ -124,9 +124,9 @@ def _provot_jacobi_all(x, x0, tau, dx, max_corr):
 
 @njit(cache=True)
 def _gs_pair(x, a, b, rest, tau):
-    ex = x[b, 0] - x[a, 0]
-    ey = x[b, 1] - x[a, 1]
-    ez = x[b, 2] - x[a, 2]
+    ex = np.float64(x[b, 0]) - x[a, 0]  # float64 arithmetic for a float32 state
+    ey = np.float64(x[b, 1]) - x[a, 1]
+    ez = np.float64(x[b, 2]) - x[a, 2]
     length = np.sqrt(ex * ex + ey * ey + ez * ez)
     c = _provot_c(length, rest, tau)
     if c != 0.0:

@@ -26,8 +26,8 @@ import numpy as np
 
 __all__ = ["OBSTACLE_E", "OBSTACLE_MU_S", "OBSTACLE_MU_K", "SpringArrays", "PointArrays", "ProvotOptions", "GroundGuard", "Obstacles",
            "ExplicitScratch", "ImplicitOptions", "ImplicitScratch", "spring_arrays",
-           "point_arrays", "provot_options", "ground_guard", "obstacles", "explicit_scratch",
-           "implicit_options", "implicit_scratch"]
+           "point_arrays", "provot_options", "ground_guard", "obstacles",
+           "explicit_scratch", "implicit_options", "implicit_scratch"]
 
 SpringArrays = namedtuple("SpringArrays", "ij rest stiff first_ptr second_ptr second_slot "
                                           "second_other first_other")
@@ -62,8 +62,10 @@ Obstacles = namedtuple("Obstacles", "kind data rest_speed")
 ``data`` (m, 9), ``rest_speed`` [m/s] below which a contact rests."""
 
 ExplicitScratch = namedtuple("ExplicitScratch", "spring_scalar provot_scalar dx count max_corr "
-                                                "x_pre")
-"""Scratch of :func:`run_steps`: (k,), (k,), (n, 3), (n,) int64, (n,), (n, 3)."""
+                                                "x_pre v_alt force")
+"""Scratch of :func:`run_steps`: (k,), (k,), (n, 3), (n,) int64, (n,); ``x_pre``, ``v_alt``
+(n, 3) in the state's dtype (the fused step's second position/velocity buffers) and ``force``
+(n, 3) float64 (its partial force sums)."""
 
 ImplicitOptions = namedtuple("ImplicitOptions", "theta tolerance max_iterations bdf2")
 """The implicit step: ``theta`` in [1/2, 1], CG relative ``tolerance`` and ``max_iterations``,
@@ -111,9 +113,11 @@ def obstacles(kind=None, data=None, rest_speed=0.0) -> Obstacles:
     return Obstacles(kind, data, float(rest_speed))
 
 
-def explicit_scratch(n: int, k: int) -> ExplicitScratch:
+def explicit_scratch(n: int, k: int, dtype=np.float64) -> ExplicitScratch:
+    """``dtype``: the state's (float64, or float32 for ``precision = "float32"``)."""
     return ExplicitScratch(np.zeros(k), np.zeros(k), np.zeros((n, 3)),
-                           np.zeros(n, dtype=np.int64), np.zeros(n), np.zeros((n, 3)))
+                           np.zeros(n, dtype=np.int64), np.zeros(n), np.zeros((n, 3), dtype),
+                           np.zeros((n, 3), dtype), np.zeros((n, 3)))
 
 
 def implicit_options(theta=1.0, tolerance=1e-3, max_iterations=300, bdf2=False):

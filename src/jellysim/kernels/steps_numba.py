@@ -9,6 +9,7 @@ from . import STATUS_OK
 from .contact_numba import _ground_and_check, _status, contact, finish_step
 from .forces_numba import _accelerations_provot_fused, accelerations
 from .provot_numba import _serial_max, provot
+from .steps_fused_numba import paper_springs_steps
 
 
 @njit(**_opts)
@@ -67,6 +68,9 @@ def run_steps(nsteps, dt, integrator, x, v, a, springs, points, provot_opts, gro
     has_obstacles = obstacles.kind.shape[0] > 0
     save = loops > 0 and provot_opts.velocity_update
     g = ground
+    if fuse and loops == 1 and not has_obstacles:
+        # one parallel region per step, bitwise the same results (steps_fused_numba)
+        return paper_springs_steps(nsteps, dt, x, v, a, springs, points, tau, save, g, scratch)
     for step in range(nsteps):
         pending = False  # a Provot correction in dx still to be applied by the finishing pass
         if integrator == 0:
