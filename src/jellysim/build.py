@@ -38,6 +38,7 @@ from .body import Body
 from .errors import BuildError
 from .geometry.sampling import Sampling
 from .params import REPORT_DENSITY
+from .resources import check_body_memory
 
 __all__ = ["Connect", "build_body", "body_stats", "enclosed_volume", "shell_overlap"]
 
@@ -213,7 +214,6 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
         raise BuildError("surface_samples applies to connect='delaunay' or 'radius' only")
     if points < 4:
         raise BuildError(f"points must be >= 4, got {points}")
-    from .resources import check_body_memory
 
     check_body_memory(points, neighbours=neighbours, tets=connect is not Connect.RADIUS,
                       what=f"build_body(points={points})")

@@ -25,7 +25,6 @@ def _set_max_memory(value) -> None:
 
     if value is None:
         return
-    from .resources import parse_size
 
     try:
         os.environ["JELLYSIM_MAX_MEMORY"] = str(parse_size(value))
@@ -89,15 +88,11 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     SIGTERM finishes the current frame, saves a checkpoint and says how to --resume."""
     from pathlib import Path
 
-    from .distributed.simulator import launched_under_mpi
 
     if launched_under_mpi():
-        from .distributed.runner import cli_run
-
         return cli_run(scene_file, out_dir, steps=steps, no_vtu=no_vtu, quiet=quiet,
                        partition=partition, video=video, usd=usd, glb=glb)
 
-    from .runner import prepare_out_dir, run_scene
     from .scene import Scene
 
     _set_max_memory(max_memory)
@@ -268,6 +263,10 @@ def scene_help() -> None:
 
 
 from .cli_visual import register; register(cli)  # noqa: E402,E702 (demo render export view plot)
+from .resources import parse_size
+from .distributed.simulator import launched_under_mpi
+from .runner import prepare_out_dir, run_scene
+from .distributed.runner import cli_run
 
 
 def main() -> None:

@@ -11,6 +11,17 @@ from pathlib import Path
 import click
 
 from .errors import JellysimError
+from .render.offscreen import RenderOptions
+from .io.trajectory import load_trajectory
+from .demo import run_demo
+from .render.video import default_fps, render_trajectory
+from .viewer import view_trajectory
+from .plot import plot_trajectory
+from .io.usd import export_usd
+from .io.gltf import export_glb
+from .live import view_live
+from .io.meshseq import export_mesh_sequence
+from .io.vtk import export_pvd_file
 
 __all__ = ["register", "write_run_outputs"]
 
@@ -31,8 +42,6 @@ def _size(text: str) -> tuple[int, int]:
 
 
 def _options(size, color, opacity, show, no_floor):
-    from .render.offscreen import RenderOptions
-
     show = {s.lower() for s in show}
     if "all" in show:
         show |= {"skin", "points", "springs"}
@@ -42,8 +51,6 @@ def _options(size, color, opacity, show, no_floor):
 
 
 def _load(path):
-    from .io.trajectory import load_trajectory
-
     return load_trajectory(path)
 
 
@@ -55,16 +62,10 @@ def write_run_outputs(trajectory, *, video=None, usd=None, glb=None, progress=Tr
         return out
     traj = _load(trajectory)
     if video:
-        from .render.video import render_trajectory
-
         out.append(render_trajectory(traj, video, progress=progress))
     if usd:
-        from .io.usd import export_usd
-
         out.append(export_usd(traj, usd))
     if glb:
-        from .io.gltf import export_glb
-
         out.append(export_glb(traj, glb))
     return out
 
@@ -109,7 +110,6 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
 def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
          precision=None, threads=None, overwrite=False, points=None):
     """Real gelatin on a plate: writes OUT/demo.mp4 and OUT/demo.usdc."""
-    from .demo import run_demo
 
     try:
         r = run_demo(out_dir, frames=frames, size=_size(size), usd=not no_usd,
@@ -148,7 +148,6 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
     """Render TRAJECTORY (trajectory.npz) to a video or pictures, off screen."""
     import numpy as np
 
-    from .render.video import render_trajectory
 
     try:
         traj = _load(trajectory)
@@ -158,8 +157,6 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
                 raise JellysimError(f"--frame {frame} is outside [0, {traj.frame_count - 1}]")
             frames = np.array([frame % traj.frame_count])
         if fps is None and every > 1:
-            from .render.video import default_fps
-
             fps = default_fps(traj.times[frames])
         path = render_trajectory(traj, output, _options(size, color, opacity, show, no_floor),
                                  fps=fps, frames=frames, progress=not quiet)
@@ -197,8 +194,6 @@ def export(trajectory, target, output, sequence, fps, max_frames):
     try:
         traj = _load(trajectory)
         if sequence:
-            from .io.meshseq import export_mesh_sequence
-
             if out.suffix and not out.is_dir():
                 raise JellysimError(f"{out}: --sequence writes one file per frame into a "
                                     "folder; give a folder name (no suffix)")
@@ -207,16 +202,10 @@ def export(trajectory, target, output, sequence, fps, max_frames):
             return
         suffix = out.suffix.lower()
         if suffix in (".usdc", ".usda", ".usd"):
-            from .io.usd import export_usd
-
             written = [export_usd(traj, out, fps=fps)]
         elif suffix == ".glb":
-            from .io.gltf import export_glb
-
             written = [export_glb(traj, out, max_frames=max_frames)]
         elif suffix == ".pvd":
-            from .io.vtk import export_pvd_file
-
             written = export_pvd_file(traj, out)
         else:
             raise JellysimError(f"{out}: unknown export type '{suffix}'; use .usdc, .usda, "
@@ -242,10 +231,8 @@ def view(trajectory, show, size, color, opacity, no_floor, fps, screenshot):
     """Interactive window over TRAJECTORY: play/pause (check box or space), scrub (slider),
     orbit (mouse).  Given a scene file (.toml) instead, it simulates live and the right mouse
     button pulls the jello (a spring to the cursor)."""
-    from .viewer import view_trajectory
 
     if str(trajectory).endswith(".toml"):
-        from .live import view_live
         from .scene import Scene
 
         try:
@@ -272,7 +259,6 @@ def view(trajectory, show, size, color, opacity, no_floor, fps, screenshot):
               help="energy.png or .svg / .pdf")
 def plot(trajectory, output):
     """Plot energies, centre-of-mass height and largest spring strain of TRAJECTORY."""
-    from .plot import plot_trajectory
 
     try:
         path = plot_trajectory(_load(trajectory), output, title=Path(trajectory).parent.name)

@@ -14,6 +14,12 @@ import numpy as np
 
 from .params import REPORT_DENSITY
 from .errors import JellysimError
+from .skin import bind_body_skin
+from .io.trajectory import load_trajectory
+from .render.offscreen import RenderOptions
+from .render.video import render_trajectory
+from .runner import prepare_out_dir, run_scene
+from .io.usd import export_usd
 
 __all__ = ["DEMO_SCENE", "DEMO_SHAPE", "DEMO_SHAPES", "build_demo_body", "demo_mesh",
            "run_demo"]
@@ -88,7 +94,6 @@ def build_demo_body(name: str = "jelly", points: int | None = None):
 
     from .build import build_body
     from .geometry.mesh import Mesh
-    from .skin import bind_body_skin
 
     shape = DEMO_SHAPES[name]
     verts, faces = demo_mesh(name)
@@ -118,13 +123,8 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     Returns the paths written and timings [s]."""
     import time
 
-    from .io.trajectory import load_trajectory
-    from .render.offscreen import RenderOptions
-    from .render.video import render_trajectory
-    from .runner import run_scene
     from .scene import Scene
 
-    from .runner import prepare_out_dir
 
     t0 = time.perf_counter()
     out_dir = Path(out_dir)
@@ -156,8 +156,6 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     t_render = time.perf_counter()
     written = {"trajectory": result.trajectory, "video": video}
     if usd:
-        from .io.usd import export_usd
-
         written["usd"] = export_usd(traj, out_dir / f"{stem}.usdc")
     written["seconds"] = {"simulate": t_sim - t0, "render": t_render - t_sim,
                           "total": time.perf_counter() - t0}

@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import JellysimError
+from .viewer import has_display
+from .render.offscreen import JELLO_RED, _faces
 
 __all__ = ["DragController", "view_live"]
 
@@ -72,7 +74,6 @@ class DragController:
 def view_live(scene, *, size=(1024, 640), screenshot=None, frames: int = 0) -> None:
     """Open a window that simulates ``scene`` (a :class:`~jellysim.scene.Scene`) live.
     With ``screenshot`` (a ``.png`` path) it runs ``frames`` frames, saves and closes."""
-    from .viewer import has_display
 
     if not has_display():
         raise JellysimError("jellysim view needs a display (no DISPLAY or WAYLAND_DISPLAY is "
@@ -85,7 +86,6 @@ def view_live(scene, *, size=(1024, 640), screenshot=None, frames: int = 0) -> N
     import pyvista as pv
     import vtk
 
-    from .render.offscreen import JELLO_RED, _faces
 
     model = scene.build_model()
     sim = scene.simulator(model)

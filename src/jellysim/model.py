@@ -11,6 +11,7 @@ import numpy as np
 
 from .body import Body
 from .params import GRAVITY, REPORT_DENSITY
+from .state import State
 
 __all__ = ["Model", "finalize"]
 
@@ -83,7 +84,6 @@ class Model:
     def state(self):
         """A new :class:`~jellysim.state.State` at rest positions, zero velocity, with
         accelerations evaluated from the forces (so ``state.a`` is consistent at t = 0)."""
-        from .state import State
 
         return State.at_rest(self)
 

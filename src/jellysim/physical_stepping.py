@@ -10,6 +10,8 @@ import numpy as np
 
 from .errors import StabilityWarning
 from .kernels import STATUS_OK, Backend
+from .physics.stability_fem import fem_omega_max
+from .physics.fem import FemArrays
 
 __all__ = ["PhysicalStepping"]
 
@@ -39,14 +41,10 @@ class PhysicalStepping:
 
     @classmethod
     def _auto_substeps(cls, model, dt) -> int:
-        from .physics.stability_fem import fem_omega_max
-
         h = cls.SUBSTEP_SAFETY * 2.0 / fem_omega_max(model)
         return max(1, int(np.ceil(float(dt) / h)))
 
     def _setup_physical(self):
-        from .physics.fem import FemArrays
-
         m, fem = self.model, self.model.fem
         assert isinstance(fem, FemArrays)
         t = fem.tet_count

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import JellysimError
+from .io.atomic import atomic_path
 
 __all__ = ["diagnostics", "plot_trajectory"]
 
@@ -59,7 +60,6 @@ def plot_trajectory(traj, path, *, title: str | None = None) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .io.atomic import atomic_path
 
     d = diagnostics(traj)
     t = d["time"]

@@ -29,6 +29,7 @@ from .io.checkpoint import CHECKPOINT, read_checkpoint, write_checkpoint
 from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream
 from .io.trajectory import trajectory_meta
 from .io.vtk import PVDSeries
+from .skin import default_skin
 
 __all__ = ["RUN_FILES", "RunResult", "prepare_out_dir", "run_scene",
            "AUTO_CHECKPOINT_SECONDS"]
@@ -140,8 +141,6 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
         sim = scene.simulator(model)
     messages = [str(w.message) for w in caught]
     if isinstance(skin, str) and skin == "auto":
-        from .skin import default_skin
-
         try:
             skin = default_skin(scene, model.body)
         except BuildError as exc:

@@ -22,6 +22,14 @@ from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-
 from .scene_spec import REQUIRED, Spec, _nonneg, _pos, check_backend, check_value
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
+from .scene_doc import schema_markdown as make
+from .handles import apply_handle_tables, validate_handle_tables
+from .resources import check_body_memory
+from .body import Body
+from .model import finalize
+from .physics.policy import scene_fem_model, scene_material
+from .simulator import Simulator
+from .presets import PRESETS, apply_preset
 
 __all__ = ["Scene", "SCHEMA", "Spec", "schema_markdown"]
 
@@ -196,7 +204,6 @@ def _wants_fem(params: dict) -> bool:
 
 def schema_markdown() -> str:
     """The scene format as Markdown (docs/scene.md; :mod:`jellysim.scene_doc`)."""
-    from .scene_doc import schema_markdown as make
 
     return make()
 
@@ -253,8 +260,6 @@ class Scene:
         preset = raw.get("material", {}).get("preset") if isinstance(
             raw.get("material"), dict) else None
         if preset is not None:
-            from .presets import PRESETS, apply_preset
-
             if not isinstance(preset, str) or preset not in PRESETS:
                 raise SceneError(f"{name}: [material] preset = {preset!r}: unknown choice; "
                                  "expected one of " + ", ".join(repr(p) for p in PRESETS))
@@ -262,7 +267,6 @@ class Scene:
         out: dict[str, dict] = {}
         raw = dict(raw)
         obstacles = Scene._validate_obstacles(raw.pop("obstacle", []), name)
-        from .handles import validate_handle_tables
 
         handles = validate_handle_tables(raw.pop("handle", []), name)
         for section in raw:
@@ -357,7 +361,6 @@ class Scene:
     def _guard(self) -> None:
         """Refuse before building what cannot run: all-pairs Provot above its point limit,
         and bodies whose memory estimate exceeds the limit (:mod:`jellysim.resources`)."""
-        from .resources import check_body_memory
 
         b, s, p = self.params["body"], self.params["springs"], self.params["provot"]
         if b["type"] == "file":
@@ -377,7 +380,6 @@ class Scene:
                               tets=s["connect"] != "radius", what=f"{self.name}: [body] points")
 
     def build_body(self):
-        from .body import Body
         from .geometry.connect import radius_springs
         from .geometry.sampling import box_field
 
@@ -438,8 +440,6 @@ class Scene:
         return Body(points=points, springs=springs, tets=tets, volume=volume, meta=meta)
 
     def build_model(self, body=None):
-        from .model import finalize
-
         body = self.build_body() if body is None else body
         m, ph = self.params["mass"], self.params["physics"]
         mat = self.params["material"]
@@ -471,14 +471,12 @@ class Scene:
 
     def material(self):
         """The scene's :class:`~jellysim.params.Material` (``None`` without youngs_modulus)."""
-        from .physics.policy import scene_material
 
         return scene_material(self.params)
 
     def _material_model(self, body):
         """The fem model of the body (``[material] model`` 'fem', or 'auto' with tets), else
         ``None`` (the springs path)."""
-        from .physics.policy import scene_fem_model
 
         return scene_fem_model(self.params, body)
 
@@ -511,7 +509,6 @@ class Scene:
     def simulator(self, model=None, **overrides):
         """A :class:`~jellysim.simulator.Simulator` of the scene: its options, the initial
         velocity and the ``[[handle]]`` tables applied."""
-        from .simulator import Simulator
 
         model = self.build_model() if model is None else model
         sim = Simulator(model, **self.simulator_kwargs(model, **overrides))
@@ -522,8 +519,6 @@ class Scene:
         """Set the scene's initial velocity and handles on a new simulator."""
         sim.state.v[:] = np.asarray(self.params["body"]["velocity"], dtype=np.float64)
         if self.params.get("handle"):
-            from .handles import apply_handle_tables
-
             try:
                 apply_handle_tables(sim, self.params["handle"])
             except SceneError as exc:

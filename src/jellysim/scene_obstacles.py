@@ -5,6 +5,7 @@ from .errors import SceneError
 from .params import GroundParams
 from .scene_spec import REQUIRED, Spec
 from .scene_spec import check_table as _table
+from .physics.contact import Box, Plane, Sphere
 
 _G = GroundParams()
 
@@ -60,8 +61,6 @@ def validate_obstacles(entries, name: str) -> list[dict]:
     return out
 
 def make_obstacle(values: dict):
-    from .physics.contact import Box, Plane, Sphere
-
     material = {k: values[k] for k in ("restitution", "friction", "static_friction")}
     kind = values["kind"]
     if kind == "plane":

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from .errors import SceneError
+from .kernels import WARP_INTEGRATORS
 
 __all__ = ["REQUIRED", "Spec", "check_table", "check_value", "apply_override",
            "check_backend"]
@@ -124,7 +125,6 @@ def check_backend(backend: str, integrator: str, device: str = "auto",
     """Refuse combinations the backends do not implement (a :class:`SceneError` naming the
     ``[integrator]`` keys).  ``physical``: the scene asks for the FEM material (which every
     backend implements)."""
-    from .kernels import WARP_INTEGRATORS
 
     at = f"{where}: " if where else ""
     if backend == "warp" and integrator not in WARP_INTEGRATORS:

@@ -5,6 +5,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .kernels.records import point_arrays, spring_arrays
+
 __all__ = ["State"]
 
 
@@ -27,7 +29,6 @@ class State:
     def at_rest(cls, model) -> "State":
         """Rest positions, zero velocity, accelerations from the forces there."""
         from .kernels import numpy_backend as nb
-        from .kernels.records import point_arrays, spring_arrays
 
         x = np.array(model.point_x0, dtype=np.float64, copy=True)
         v = np.zeros_like(x)

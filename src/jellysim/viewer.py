@@ -10,6 +10,8 @@ import os
 import sys
 
 from .errors import JellysimError
+from .render.offscreen import RenderOptions, Renderer
+from .render.video import default_fps
 
 __all__ = ["has_display", "view_trajectory"]
 
@@ -32,8 +34,6 @@ def view_trajectory(traj, options=None, *, fps: float | None = None,
                             "video off screen, or run under xvfb-run.")
     if os.environ.get("VTK_DEFAULT_OPENGL_WINDOW") == "vtkEGLRenderWindow":
         del os.environ["VTK_DEFAULT_OPENGL_WINDOW"]   # EGL windows cannot be interactive
-    from .render.offscreen import RenderOptions, Renderer
-    from .render.video import default_fps
 
     options = options or RenderOptions(size=(1024, 640))
     r = Renderer(traj, options, offscreen=False)

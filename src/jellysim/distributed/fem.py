@@ -29,6 +29,10 @@ import numpy as np
 from ..errors import SceneError
 from ..kernels import STATUS_OK
 from ..params import Integrator
+from ..simulator import (COLLAPSE_MIN_POINTS, PHYSICAL_PARALLEL_MIN_TETS, Simulator,
+                         StabilityWarning)
+from ..handles import Handles, PinPath
+from .partition import partition_points, point_graph
 
 __all__ = ["coupling_pairs", "local_fem", "PhysicalMethods"]
 
@@ -82,10 +86,7 @@ class PhysicalMethods:
     # -- setup ------------------------------------------------------------------------------
     def _init_physical(self, model, state, owner, partition, integrator, provot, backend,
                        threads, substeps):
-        from ..handles import Handles
-        from ..simulator import PHYSICAL_PARALLEL_MIN_TETS, Simulator, StabilityWarning
         from .local import LocalPart
-        from .partition import partition_points, point_graph
         from .simulator import on_root
 
         if Integrator(integrator) is not Integrator.SYMPLECTIC:
@@ -176,7 +177,6 @@ class PhysicalMethods:
     def _advance_physical(self, steps):
         """The serial :meth:`Simulator._advance_physical`, substep by substep with the ghost
         exchange and the agreed status in between.  Returns ``(steps done, status)``."""
-        from ..simulator import Simulator, StabilityWarning
 
         from mpi4py import MPI
 
@@ -274,7 +274,6 @@ class PhysicalMethods:
     def _check_collapse(self, before, steps):
         """:meth:`Simulator._check_collapse` with the thinness reduced over the ranks (the
         same value everywhere) and the error built on rank 0."""
-        from ..simulator import Simulator
         from .simulator import raise_agreed
 
         if before is None or steps <= 0 or before < 0.25 * self._rest_thin:
@@ -303,7 +302,6 @@ class PhysicalMethods:
 
     def pin(self, indices, path=None) -> None:
         """:meth:`Simulator.pin` with global point indices (every rank makes the same call)."""
-        from ..handles import PinPath
 
         self._require_physical("pinning points")
         rows, _ = self._local_rows(indices)
@@ -363,7 +361,6 @@ class PhysicalMethods:
 
 def _rest_thinness(x0):
     """``(rest thinness [m], whether the collapse check applies)`` as the serial Simulator."""
-    from ..simulator import COLLAPSE_MIN_POINTS
 
     n = x0.shape[0]
     spread = np.sqrt(np.maximum(np.linalg.eigvalsh(np.cov(x0, rowvar=False)), 0.0)) if (

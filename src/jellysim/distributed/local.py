@@ -21,6 +21,8 @@ import numpy as np
 from ..kernels import STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY
 from ..params import Integrator, ProvotOrder, ProvotPairs
 from .partition import halo_layers, point_graph
+from ..body import Body
+from ..model import finalize
 
 __all__ = ["LocalPart", "halo_depth", "replicated_reason"]
 
@@ -62,9 +64,6 @@ class LocalPart:
 
     def __init__(self, model, owner: np.ndarray, rank: int, depth: int | None, *,
                  graph=None):
-        from ..body import Body
-        from ..model import finalize
-
         n = model.point_count
         self.rank = int(rank)
         self.owner = owner

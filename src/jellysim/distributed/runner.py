@@ -16,8 +16,13 @@ import traceback
 import warnings
 from pathlib import Path
 
-from ..errors import JellysimError, SimulationError
+from ..errors import BuildError, JellysimError, SceneError, SimulationError
 from ..runner import RunResult
+from ..io.trajectory import Recorder
+from ..io.vtk import PVDSeries
+from .simulator import DistributedSimulator, on_root, world
+from ..handles import apply_handle_tables
+from ..skin import default_skin
 
 __all__ = ["run_scene_distributed", "cli_run"]
 
@@ -27,9 +32,6 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
                           partition: str = "morton", skin="auto") -> RunResult | None:
     """:func:`jellysim.runner.run_scene` over the ranks of ``comm``; a collective call.
     Returns the :class:`~jellysim.runner.RunResult` on rank 0, ``None`` elsewhere."""
-    from ..io.trajectory import Recorder
-    from ..io.vtk import PVDSeries
-    from .simulator import DistributedSimulator, on_root, world
 
     comm = world() if comm is None else comm
     rank, size = comm.Get_rank(), comm.Get_size()
@@ -62,9 +64,6 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
     if rank == 0:
         out_dir.mkdir(parents=True, exist_ok=True)
         if isinstance(skin, str) and skin == "auto":
-            from ..errors import BuildError
-            from ..skin import default_skin
-
             try:
                 skin = default_skin(scene, model.body)
             except BuildError as exc:
@@ -139,9 +138,6 @@ def prepare(scene, sim) -> None:
 
     import numpy as np
 
-    from ..errors import SceneError
-    from ..handles import apply_handle_tables
-    from .simulator import on_root
 
     sim.state.v[:] = np.asarray(scene.params["body"]["velocity"], dtype=np.float64)
     if not scene.params.get("handle"):
@@ -174,7 +170,6 @@ def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
     import click
 
     from ..scene import Scene
-    from .simulator import world
 
     try:
         comm = world()

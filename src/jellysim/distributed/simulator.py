@@ -20,11 +20,13 @@ import numpy as np
 
 from ..errors import SceneError, SimulationError
 from ..kernels import STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY
-from ..params import GroundParams, ImplicitParams, Integrator, ProvotParams
+from ..params import GroundModel, GroundParams, ImplicitParams, Integrator, ProvotParams
 from ..state import State
-from .fem import PhysicalMethods
+from .fem import PhysicalMethods, _rest_thinness
 from .local import LocalPart, combine_status, halo_depth, replicated_reason
 from .partition import partition_points, point_graph
+from ..simulator import Simulator
+from ..physics.contact import Plane, pack_obstacles
 
 __all__ = ["DistributedSimulator", "on_root", "world", "launched_under_mpi"]
 
@@ -135,8 +137,6 @@ class DistributedSimulator(PhysicalMethods):
                  implicit: ImplicitParams = ImplicitParams(), obstacles=(),
                  rest_speed: float | None = None, device: str | None = None,
                  precision: str = "float64"):
-        from ..simulator import Simulator
-
         if str(backend) in ("warp", "Backend.WARP"):
             raise SceneError("backend = 'warp' is not distributed over MPI ranks: use "
                              "backend = 'numba' under mpiexec")
@@ -212,8 +212,6 @@ class DistributedSimulator(PhysicalMethods):
         self.split_implicit = not self.replicated and self.integrator is Integrator.IMPLICIT
         """The implicit integrator split among the ranks (:mod:`.implicit`)."""
         if self.split_implicit:
-            from .fem import _rest_thinness
-
             self._rest_thin, self._collapse_check = on_root(
                 self.comm, lambda: _rest_thinness(model.point_x0))
         self.state = self.local.state
@@ -300,8 +298,6 @@ class DistributedSimulator(PhysicalMethods):
 
     def _pack_obstacles(self, ground, obstacles, rest_speed):
         """Obstacles and the contact ground as the serial Simulator packs them."""
-        from ..params import GroundModel
-        from ..physics.contact import Plane, pack_obstacles
 
         obstacles = tuple(obstacles)
         if ground.enabled and GroundModel(ground.model) is GroundModel.CONTACT:
@@ -327,7 +323,6 @@ class DistributedSimulator(PhysicalMethods):
 
     def check_stability(self):
         """The serial Simulator's stability estimate and warning, on the global model."""
-        from ..simulator import Simulator
 
         view = types.SimpleNamespace(model=self.model, integrator=self.integrator,
                                      dt_step=self.dt_step, dt=self.dt, implicit=self.implicit,
@@ -448,7 +443,6 @@ class DistributedSimulator(PhysicalMethods):
     def _raise(self, status):
         """The serial run's :class:`SimulationError` (its message built on rank 0, which
         holds the global model), raised on every rank."""
-        from ..simulator import Simulator
 
         view = types.SimpleNamespace(
             model=self.model, state=types.SimpleNamespace(step=self.step, t=self.t),

@@ -32,6 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CheckpointError
+from .. import __version__
+from .stream import write_replace
 
 __all__ = ["CHECKPOINT", "Checkpoint", "model_hash", "scene_hash", "write_checkpoint",
            "read_checkpoint"]
@@ -40,8 +42,6 @@ CHECKPOINT = "checkpoint.npz"
 
 
 def _version() -> str:
-    from .. import __version__
-
     return __version__
 
 
@@ -74,8 +74,6 @@ class Checkpoint:
 
 
 def write_checkpoint(path, sim, *, frames: int, scene, model) -> Path:
-    from .stream import write_replace
-
     s = sim.state
     arrays = {"state.x": s.x, "state.v": s.v, "state.a": s.a,
               "state.t": np.array(float(s.t)), "state.step": np.array(int(s.step)),

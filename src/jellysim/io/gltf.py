@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import JellysimError
 from .atomic import atomic_path
+from .usd import surface_of
 
 __all__ = ["export_glb", "read_glb", "glb_frame_positions"]
 
@@ -27,7 +28,6 @@ def export_glb(traj, path, *, max_frames: int | None = None) -> Path:
 
     ``max_frames``: keep at most this many frames (evenly spaced) to bound the file size;
     default all."""
-    from .usd import surface_of
 
     path = Path(path)
     frames, faces = surface_of(traj)

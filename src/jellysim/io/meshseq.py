@@ -7,6 +7,7 @@ import numpy as np
 
 from ..errors import JellysimError
 from .atomic import atomic_path
+from .usd import surface_of
 
 __all__ = ["export_mesh_sequence"]
 
@@ -17,7 +18,6 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     Vertices [m] are the skin's (or the body surface's) positions of each frame."""
     import meshio
 
-    from .usd import surface_of
 
     fmt = fmt.lower().lstrip(".")
     if fmt not in ("obj", "ply"):

@@ -44,6 +44,9 @@ import numpy as np
 
 from .atomic import atomic_path
 from ..errors import JellysimError
+from .stream import STREAM_DIR, read_stream
+from ..skin import Skin
+from .npzcheck import check_npz
 
 __all__ = ["Recorder", "Trajectory", "load_trajectory", "resolve_trajectory", "trajectory_meta"]
 
@@ -148,7 +151,6 @@ def resolve_trajectory(path) -> Path:
     :mod:`jellysim.io.stream`); a run's output directory (its ``trajectory.npz``, else its
     stream); a missing ``.npz`` whose directory holds a stream (a run that was interrupted or
     killed before it could write the ``.npz``)."""
-    from .stream import STREAM_DIR
 
     path = Path(path)
     if path.is_dir():
@@ -175,12 +177,8 @@ def load_trajectory(path, *, mmap: bool = False) -> Trajectory:
     path = resolve_trajectory(path)
     try:
         if path.is_dir():
-            from .stream import read_stream
-
             d = read_stream(path, mmap=mmap)
         else:
-            from .npzcheck import check_npz
-
             check_npz(path)
             with np.load(path, allow_pickle=False) as z:
                 d = {k: z[k] for k in z.files}
@@ -205,6 +203,4 @@ def load_trajectory(path, *, mmap: bool = False) -> Trajectory:
 
 
 def _skin(d):
-    from ..skin import Skin
-
     return Skin.from_arrays(d)

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import STATUS_OK
+from . import STATUS_OK, numpy_backend as nb
 
 __all__ = ["tet_forces", "gather_tet_forces", "physical_steps"]
 
@@ -74,7 +74,6 @@ def gather_tet_forces(tet_force, ptr, slot, out):
 def physical_steps(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arrays, scratch):
     """``nsteps`` symplectic Euler steps of ``dt`` with tet (and spring) forces, handles and
     contact.  Same arguments and results as the numba driver; see :mod:`.fem_numba`."""
-    from . import numpy_backend as nb
 
     inv_mass, damping, gravity, springs = model_arrays
     g, decay, q = fem[8], fem[9], fem[10]

@@ -43,6 +43,7 @@ import numpy as np
 
 from ..body import Body
 from ..geometry.tetra import tet_signed_volumes
+from .._numba_cache import check
 
 __all__ = ["spring_weights", "virial_stiffness", "relaxation_stiffness", "kinematic_stiffness",
            "static_compliance",
@@ -292,7 +293,6 @@ def _gs_sweep():
     if not _GS:
         from numba import njit
 
-        from .._numba_cache import check
 
         check()
 

@@ -19,6 +19,8 @@ import warnings
 import numpy as np
 
 from ..params import GRAVITY, Material, MaterialModel
+from ..model import finalize
+from .fem import fem_arrays
 
 __all__ = ["physical_model", "scene_material", "scene_fem_model"]
 
@@ -36,9 +38,7 @@ def physical_model(body, material: Material = Material(), *, gravity=GRAVITY,
     point_volume: [m^3], shape (n,): volumes owned by the points (springs model only; default
         from the tets or the body volume).
     """
-    from ..model import finalize
     from ..geometry.tetra import lump_tet_masses
-    from .fem import fem_arrays
 
     if material.model is MaterialModel.FEM:
         if body.tets is None or len(body.tets) == 0:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import JellysimError
+from .camera import frame_motion
 
 __all__ = ["RenderOptions", "Renderer", "ground_height"]
 
@@ -98,8 +99,6 @@ class Renderer:
 
     def __init__(self, traj, options: RenderOptions = RenderOptions(), *, offscreen=True,
                  plotter=None):
-        from .camera import frame_motion
-
         pv = _import_pyvista(offscreen)
         self.pv = pv
         self.traj = traj
