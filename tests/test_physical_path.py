@@ -301,3 +301,21 @@ def test_physical_path_internal_state_resumes_bitwise():
     c.state.assign(state)
     c.advance(10)
     assert not np.array_equal(a.state.x, c.state.x)  # the branch strains matter
+
+
+def test_doubled_substeps_relax_after_two_calm_seconds():
+    """Substeps doubled by a blow-up are halved again after RELAX_AFTER_FRAMES calm frames,
+    never below the starting count, and the calm body keeps resting (a hard impact does not
+    slow the rest of the run)."""
+    body = _box((3, 3, 3), (0.03, 0.03, 0.03))
+    model = physical_model(body, gelatin(damping_ratio=0.2))
+    sim = Simulator(model, dt=1 / 60, ground=_ground())
+    start = sim.substeps
+    sim.substeps = 2 * start  # as a blow-up's retry leaves it
+    sim.advance(Simulator.RELAX_AFTER_FRAMES - 1)
+    assert sim.substeps == 2 * start and sim.substeps_taken >= 2 * start
+    sim.advance(1)
+    assert sim.substeps == start
+    sim.advance(Simulator.RELAX_AFTER_FRAMES + 10)
+    assert sim.substeps == start  # never below the start
+    assert sim.min_tet_volume_ratio > 0 and np.abs(sim.state.v).max() < 0.05

@@ -34,6 +34,11 @@ class PhysicalStepping:
     frames/s) run at half the substep from the start: a bouncing body's next impacts are not
     each taken twice."""
 
+    RELAX_AFTER_FRAMES = 120
+    """Substeps doubled after a blow-up are halved again (never below the starting count)
+    after this many frames (2 s at 60 frames/s) without another blow-up: one hard impact does
+    not slow the rest of the run."""
+
     RETAKE_BELOW_J = 0.8
     """A chunk whose smallest tet volume ratio ``J`` fell below this is retaken at half the
     substep: a tet squeezed to J along one axis stiffens its fastest mode by up to ~1 / J, and
@@ -58,6 +63,10 @@ class PhysicalStepping:
         """Frames left at half the substep: set to :attr:`SQUEEZED_FRAMES` whenever a frame
         squeezed a tet below ``RETAKE_BELOW_J + 0.05`` (a body resting compressed, or bouncing,
         is not taken twice per frame)."""
+        self._relax = np.array([0, self.substeps], dtype=np.int64)
+        """Frames since the last blow-up doubling, and the starting substep count."""
+        self.substeps_taken = self.substeps
+        """Substeps the last frame ran (twice :attr:`substeps` while a compression lasts)."""
         self.min_tet_volume_ratio = 1.0
         """Smallest ``J = det F`` (deformed / rest volume) of any tet at any substep so far
         [-]; <= 0 means a tet was inverted."""
@@ -115,14 +124,30 @@ class PhysicalStepping:
                     continue
                 self.substeps *= 2
                 self.dt_step = self.dt / self.substeps
+                self._relax[0] = -1
                 warnings.warn(f"an unstable impact at t = {t0:.4g} s: the physical path took "
                               f"those {n} frame(s) again with {self.substeps} substeps per frame "
-                              "(and keeps them)", StabilityWarning, stacklevel=3)
+                              f"(kept until {self.RELAX_AFTER_FRAMES} frames pass without "
+                              "another)", StabilityWarning, stacklevel=3)
             if self._min_j[0] < self.RETAKE_BELOW_J + 0.05:
                 self._squeezed[0] = self.SQUEEZED_FRAMES
             elif self._squeezed[0] > 0:
                 self._squeezed[0] -= 1
             self._min_j[0] = min(running_min_j, float(self._min_j[0]))
+            self.substeps_taken = sub
+            self._relax_substeps(status)
             done += n if status == STATUS_OK else (k + sub - 1) // sub
         self.min_tet_volume_ratio = float(self._min_j[0])
         return done, status
+
+    def _relax_substeps(self, status) -> None:
+        """After a frame: count it, and halve a blow-up's doubled substeps once
+        :attr:`RELAX_AFTER_FRAMES` frames passed without another (never below the start)."""
+        if status != STATUS_OK:
+            return
+        self._relax[0] += 1
+        if self.substeps > self._relax[1] and (
+                self._relax[0] >= PhysicalStepping.RELAX_AFTER_FRAMES):
+            self.substeps = max(int(self._relax[1]), self.substeps // 2)
+            self.dt_step = self.dt / self.substeps
+            self._relax[0] = 0

@@ -334,7 +334,8 @@ class Simulator(HandleMethods, PhysicalStepping):
         own = self.internal_state()
         # tolerated when absent (files of earlier versions): arrays added since, all of them
         # rebuilt every step (_squeezed: a frame count; _scratch fields appended at the end)
-        missing = sorted(k for k in set(own) - set(d) - {"_last.0", "_last.1", "_squeezed"}
+        missing = sorted(k for k in set(own) - set(d)
+                         - {"_last.0", "_last.1", "_squeezed", "_relax"}
                          if not k.startswith("_scratch."))
         extra = sorted(set(d) - set(own) - {"_last.0", "_last.1"})
         if missing or extra:

@@ -150,6 +150,8 @@ class PhysicalMethods:
         self._scalar = np.zeros(m.spring_count)
         self._min_j = np.ones(1)
         self._squeezed = np.zeros(1, dtype=np.int8)  # see Simulator._advance_physical
+        self._relax = np.array([0, self.substeps], dtype=np.int64)  # (the same)
+        self.substeps_taken = self.substeps
         self.min_tet_volume_ratio = 1.0
         """Smallest ``J`` of any tet at any substep so far (agreed by all ranks) [-]."""
         self.handles = Handles.empty(part.glob.size)
@@ -209,16 +211,20 @@ class PhysicalMethods:
                     continue
                 self.substeps *= 2
                 self.dt_step = self.dt / self.substeps
+                self._relax[0] = -1
                 if self.rank == 0:
                     warnings.warn(f"an unstable impact at t = {t0:.4g} s: the physical path "
                                   f"took those {n} frame(s) again with {self.substeps} "
-                                  "substeps per frame (and keeps them)", StabilityWarning,
-                                  stacklevel=4)
+                                  f"substeps per frame (kept until "
+                                  f"{Simulator.RELAX_AFTER_FRAMES} frames pass without "
+                                  "another)", StabilityWarning, stacklevel=4)
             if self._min_j[0] < Simulator.RETAKE_BELOW_J + 0.05:
                 self._squeezed[0] = Simulator.SQUEEZED_FRAMES
             elif self._squeezed[0] > 0:
                 self._squeezed[0] -= 1
             self._min_j[0] = min(running_min_j, float(self._min_j[0]))
+            self.substeps_taken = sub
+            Simulator._relax_substeps(self, status)
             done += n if status == STATUS_OK else (k + sub - 1) // sub
         mj = np.array([self._min_j[0]])
         self.comm.Allreduce(MPI.IN_PLACE, mj, op=MPI.MIN)
