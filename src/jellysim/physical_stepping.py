@@ -88,31 +88,27 @@ class PhysicalStepping:
     this many times (a hard impact compresses tets far beyond their rest stiffness)."""
 
     def _advance_physical(self, steps):
-        from .kernels import fem_numba, fem_numpy
-
-        kern = {Backend.NUMPY: fem_numpy, Backend.WARP: self._k}.get(self.backend, fem_numba)
+        """``steps`` frames, one kernel call each: a frame that squeezed a tet below
+        :attr:`RETAKE_BELOW_J` is retaken at half the substep (and the next
+        :attr:`SQUEEZED_FRAMES` run there), one that blew up with doubled substeps.  The
+        hooks :meth:`_physical_chunk`, :meth:`_agreed_min_j` and :meth:`_announce` are what
+        the MPI driver (:class:`jellysim.distributed.fem.PhysicalMethods`) replaces.
+        Returns ``(steps done, status)``."""
         s, hd = self.state, self.handles
-        # one kernel call per frame: pins that follow a path get their targets per frame, and
-        # a frame retaken (a blow-up, a strong compression) costs one frame, not the batch
-        chunk = 1
         done = 0
         status = STATUS_OK
         while done < steps and status == STATUS_OK:
-            n = min(chunk, steps - done)
             t0 = s.t + done * self.dt
             hd.targets(t0, hd.pin_from)
-            hd.targets(t0 + n * self.dt, hd.pin_to)
+            hd.targets(t0 + self.dt, hd.pin_to)
             saved = (s.x.copy(), s.v.copy(), s.a.copy(), self._q.copy())
             running_min_j = float(self._min_j[0])
-            # at half the substep: a chunk retaken for a strong compression, and the chunks
-            # after it while the compression lasts
             squeezed = bool(self._squeezed[0])
             for attempt in range(self.MAX_SUBSTEP_DOUBLINGS + 2):
                 sub = self.substeps * (2 if squeezed else 1)
-                self._min_j[0] = 1.0  # this chunk's smallest J
-                model_arrays, ft, contact, scratch = self._physical_tuples(self.dt / sub)
-                k, status = kern.physical_steps(n * sub, self.dt / sub, s.x, s.v, s.a,
-                                                model_arrays, ft, hd.tuple(), contact, scratch)
+                self._min_j[0] = 1.0  # this frame's smallest J
+                k, status = self._physical_chunk(sub, self.dt / sub)
+                self._min_j[0] = self._agreed_min_j(self._min_j[0])
                 compressed = status == STATUS_OK and self._min_j[0] < self.RETAKE_BELOW_J
                 if (status == STATUS_OK and (squeezed or not compressed)) or (
                         attempt == self.MAX_SUBSTEP_DOUBLINGS + 1):
@@ -125,10 +121,10 @@ class PhysicalStepping:
                 self.substeps *= 2
                 self.dt_step = self.dt / self.substeps
                 self._relax[0] = -1
-                warnings.warn(f"an unstable impact at t = {t0:.4g} s: the physical path took "
-                              f"those {n} frame(s) again with {self.substeps} substeps per frame "
-                              f"(kept until {self.RELAX_AFTER_FRAMES} frames pass without "
-                              "another)", StabilityWarning, stacklevel=3)
+                self._announce(f"an unstable impact at t = {t0:.4g} s: the physical path took "
+                               f"those 1 frame(s) again with {self.substeps} substeps per frame "
+                               f"(kept until {self.RELAX_AFTER_FRAMES} frames pass without "
+                               "another)")
             if self._min_j[0] < self.RETAKE_BELOW_J + 0.05:
                 self._squeezed[0] = self.SQUEEZED_FRAMES
             elif self._squeezed[0] > 0:
@@ -136,9 +132,26 @@ class PhysicalStepping:
             self._min_j[0] = min(running_min_j, float(self._min_j[0]))
             self.substeps_taken = sub
             self._relax_substeps(status)
-            done += n if status == STATUS_OK else (k + sub - 1) // sub
+            done += 1 if status == STATUS_OK else (k + sub - 1) // sub
         self.min_tet_volume_ratio = float(self._min_j[0])
         return done, status
+
+    def _physical_chunk(self, nsteps, dt):
+        """``nsteps`` substeps of ``dt`` [s] by the backend's kernel: ``(done, status)``."""
+        from .kernels import fem_numba, fem_numpy
+
+        kern = {Backend.NUMPY: fem_numpy, Backend.WARP: self._k}.get(self.backend, fem_numba)
+        model_arrays, ft, contact, scratch = self._physical_tuples(dt)
+        s = self.state
+        return kern.physical_steps(nsteps, dt, s.x, s.v, s.a, model_arrays, ft,
+                                   self.handles.tuple(), contact, scratch)
+
+    def _agreed_min_j(self, value) -> float:
+        """The frame's smallest J [-] (one process: its own)."""
+        return float(value)
+
+    def _announce(self, message) -> None:
+        warnings.warn(message, StabilityWarning, stacklevel=5)
 
     def _relax_substeps(self, status) -> None:
         """After a frame: count it, and halve a blow-up's doubled substeps once
@@ -146,8 +159,7 @@ class PhysicalStepping:
         if status != STATUS_OK:
             return
         self._relax[0] += 1
-        if self.substeps > self._relax[1] and (
-                self._relax[0] >= PhysicalStepping.RELAX_AFTER_FRAMES):
+        if self.substeps > self._relax[1] and self._relax[0] >= self.RELAX_AFTER_FRAMES:
             self.substeps = max(int(self._relax[1]), self.substeps // 2)
             self.dt_step = self.dt / self.substeps
             self._relax[0] = 0

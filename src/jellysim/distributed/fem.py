@@ -29,6 +29,7 @@ import numpy as np
 from ..errors import SceneError
 from ..kernels import STATUS_OK
 from ..params import Integrator
+from ..physical_stepping import PhysicalStepping
 from ..simulator import (COLLAPSE_MIN_POINTS, PHYSICAL_PARALLEL_MIN_TETS, Simulator,
                          StabilityWarning)
 from ..handles import Handles, PinPath
@@ -78,7 +79,7 @@ def local_fem(fem, glob: np.ndarray, owned_global: np.ndarray):
                                point_tet_slot=frozen(order, np.int64), **sliced), sel
 
 
-class PhysicalMethods:
+class PhysicalMethods(PhysicalStepping):
     """The physical path of :class:`~.simulator.DistributedSimulator` (mixed in)."""
 
     physical = False
@@ -175,61 +176,20 @@ class PhysicalMethods:
         scratch = (self._tet_force, self._tet_j, self._fsum, self._scalar, self._min_j)
         return model_arrays, ft, contact, scratch
 
-    # -- stepping ---------------------------------------------------------------------------
-    def _advance_physical(self, steps):
-        """The serial :meth:`Simulator._advance_physical`, substep by substep with the ghost
-        exchange and the agreed status in between.  Returns ``(steps done, status)``."""
+    # -- stepping (the serial frame loop, PhysicalStepping._advance_physical, with these hooks)
+    def _physical_chunk(self, nsteps, dt):
+        return self._substeps(nsteps, dt)
 
+    def _agreed_min_j(self, value) -> float:
         from mpi4py import MPI
 
-        s, hd = self.state, self.handles
-        chunk = 1  # one frame per call, as serially (a retake costs one frame)
-        done, status = 0, STATUS_OK
-        while done < steps and status == STATUS_OK:
-            n = min(chunk, steps - done)
-            t0 = self.t + done * self.dt
-            hd.targets(t0, hd.pin_from)
-            hd.targets(t0 + n * self.dt, hd.pin_to)
-            saved = (s.x.copy(), s.v.copy(), s.a.copy(), self._q.copy())
-            running_min_j = float(self._min_j[0])
-            squeezed = bool(self._squeezed[0])
-            for attempt in range(Simulator.MAX_SUBSTEP_DOUBLINGS + 2):
-                sub = self.substeps * (2 if squeezed else 1)
-                self._min_j[0] = 1.0
-                k, status = self._substeps(n * sub, self.dt / sub)
-                chunk_j = np.array([self._min_j[0]])
-                self.comm.Allreduce(MPI.IN_PLACE, chunk_j, op=MPI.MIN)
-                self._min_j[0] = chunk_j[0]
-                compressed = status == STATUS_OK and chunk_j[0] < Simulator.RETAKE_BELOW_J
-                if (status == STATUS_OK and (squeezed or not compressed)) or (
-                        attempt == Simulator.MAX_SUBSTEP_DOUBLINGS + 1):
-                    break
-                for dst, src in zip((s.x, s.v, s.a, self._q), saved):
-                    dst[:] = src
-                if status == STATUS_OK:
-                    squeezed = True
-                    continue
-                self.substeps *= 2
-                self.dt_step = self.dt / self.substeps
-                self._relax[0] = -1
-                if self.rank == 0:
-                    warnings.warn(f"an unstable impact at t = {t0:.4g} s: the physical path "
-                                  f"took those {n} frame(s) again with {self.substeps} "
-                                  f"substeps per frame (kept until "
-                                  f"{Simulator.RELAX_AFTER_FRAMES} frames pass without "
-                                  "another)", StabilityWarning, stacklevel=4)
-            if self._min_j[0] < Simulator.RETAKE_BELOW_J + 0.05:
-                self._squeezed[0] = Simulator.SQUEEZED_FRAMES
-            elif self._squeezed[0] > 0:
-                self._squeezed[0] -= 1
-            self._min_j[0] = min(running_min_j, float(self._min_j[0]))
-            self.substeps_taken = sub
-            Simulator._relax_substeps(self, status)
-            done += n if status == STATUS_OK else (k + sub - 1) // sub
-        mj = np.array([self._min_j[0]])
+        mj = np.array([float(value)])
         self.comm.Allreduce(MPI.IN_PLACE, mj, op=MPI.MIN)
-        self.min_tet_volume_ratio = float(mj[0])
-        return done, status
+        return float(mj[0])
+
+    def _announce(self, message) -> None:
+        if self.rank == 0:
+            warnings.warn(message, StabilityWarning, stacklevel=5)
 
     def _substeps(self, nsteps, dt):
         import numba
