@@ -102,3 +102,19 @@ def test_cli_build_size_and_inspect_units(tmp_path):
     assert np.ptp(read_body(out).points, axis=0).max() == pytest.approx(0.05, rel=1e-12)
     res = CliRunner().invoke(cli, ["inspect", str(mesh_path("sphere.obj"))])
     assert res.exit_code == 0 and "read as metres" in res.output and "[m^3]" in res.output
+
+
+def test_body_from_a_vertices_faces_pair_and_bad_mesh_argument():
+    """``Body.from_mesh(jelly_mould())``: the generated (vertices, faces) pair is a mesh; the
+    body's volume is the closed surface's (divergence theorem) and it sits on y = 0."""
+    from jellysim.errors import BuildError
+    from jellysim.geometry.shapes import jelly_mould
+
+    v, f = jelly_mould()
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    volume = float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+    body = jellysim.Body.from_mesh((v, f), size=None, points=300)
+    assert body.volume == pytest.approx(volume, rel=0.02)
+    assert body.points[:, 1].min() == pytest.approx(0.0, abs=1e-9)
+    with pytest.raises(BuildError, match=r"\(vertices, faces\) pair"):
+        jellysim.Body.from_mesh(42)

@@ -304,6 +304,33 @@ def test_surface_samples_option(tmp_path):
         assert Scene.load(p).build_body().meta["surface_samples"] is expected
 
 
+def test_relax_option(tmp_path):
+    """[body] relax: the Delaunay body's interior points are relaxed by default (its worst tet
+    is far better than the report's random points'), 0 keeps them; refused elsewhere."""
+    from conftest import mesh_path
+    from jellysim.geometry.tetra import tet_quality
+
+    (tmp_path / "cube.obj").write_bytes(mesh_path("cube.obj").read_bytes())
+    p = tmp_path / "cube.toml"
+    text = MESH_SCENE.format(path="cube.obj", connect="delaunay")
+    worst = {}
+    for flag in (None, 0):
+        p.write_text(text if flag is None else text.replace(
+            'type = "mesh"', f'type = "mesh"\nrelax = {flag}'))
+        body = Scene.load(p).build_body()
+        assert (body.meta["relax"] > 0) is (flag is None)
+        worst[flag] = float(np.quantile(tet_quality(body.points, body.tets), 0.01))
+    assert worst[None] > 1.5 * worst[0]
+    for connect in ("radius", "marching"):
+        p.write_text(MESH_SCENE.format(path="cube.obj", connect=connect).replace(
+            'type = "mesh"', 'type = "mesh"\nrelax = 3'))
+        with pytest.raises(SceneError, match="relax is used only by"):
+            Scene.load(p)
+    p.write_text(text.replace('type = "mesh"', 'type = "mesh"\nrelax = -1'))
+    with pytest.raises(SceneError, match="relax"):
+        Scene.load(p)
+
+
 def test_file_scene_and_missing_paths(tmp_path):
     from jellysim.body import Body
     from jellysim.geometry.jellyfile import write_body

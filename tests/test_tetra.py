@@ -360,3 +360,31 @@ def test_delaunay_carving_shortcut_equals_testing_every_centroid():
         expected = inside(p[tets].mean(axis=1))
         assert np.array_equal(_carve(p, tets, inside, v, f), expected)
         assert 0 < expected.sum() < len(tets)
+
+
+def test_relaxed_delaunay_body_has_far_fewer_flat_tets():
+    """Lloyd passes of the interior points (surface samples fixed) raise the low quantiles of
+    tet quality; every point stays inside the ball, the count is unchanged, and the same seed
+    gives the same body."""
+    from jellysim.build import build_body
+    from jellysim.geometry.tetra import tet_quality
+
+    path = Path(__file__).parent / "data" / "sphere.obj"
+    raw = build_body(path, points=300, connect="delaunay", relax=0)
+    relaxed = build_body(path, points=300, connect="delaunay")
+    again = build_body(path, points=300, connect="delaunay")
+    q0 = np.quantile(tet_quality(raw.points, raw.tets), [0.01, 0.1])
+    q1 = np.quantile(tet_quality(relaxed.points, relaxed.tets), [0.01, 0.1])
+    print("1 % / 10 % quality quantiles, raw", q0, "relaxed", q1)
+    assert relaxed.meta["relax"] > 0 and raw.meta["relax"] == 0
+    assert q1[0] > 2.0 * q0[0] and q1[1] > 1.5 * q0[1]
+    assert relaxed.meta["thin_removed"] < 0.01 * len(relaxed.tets)
+    from jellysim.geometry import load_mesh
+    from jellysim.geometry.inside import InsideQuery
+
+    moved = ~(np.abs(relaxed.points[:, None, :] - raw.points[None]).max(axis=2) == 0).any(1)
+    assert moved.sum() > 150  # the ~200 interior points moved ...
+    assert InsideQuery(load_mesh(path)).query(relaxed.points[moved]).all()  # ... inside
+    assert len(relaxed.points) == len(raw.points)
+    np.testing.assert_array_equal(relaxed.points, again.points)
+    np.testing.assert_array_equal(relaxed.tets, again.tets)

@@ -58,7 +58,8 @@ class Body:
                   connect: str = "delaunay", seed: int = 0, density: float | None = None,
                   base=None, **options) -> "Body":
         """A jello body filling a surface mesh (a path, in any format
-        :func:`~jellysim.geometry.load_mesh` reads, or a loaded mesh).
+        :func:`~jellysim.geometry.load_mesh` reads, a loaded mesh, or a ``(vertices,
+        faces)`` pair such as :func:`~jellysim.geometry.shapes.jelly_mould`'s).
 
         ``size``: the largest bounding-box extent [m] the mesh is scaled to (about the
         origin); ``None`` keeps the mesh's coordinates, which are then read as metres.

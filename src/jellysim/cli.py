@@ -163,6 +163,10 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 @click.option("--surface-samples/--no-surface-samples", default=None,
               help="delaunay: also sample the surface's sharp edges and faces at the point "
                    "spacing (default: on; off is the report's way, mesh vertices only).")
+@click.option("--relax", type=click.IntRange(min=0), default=None,
+              help="delaunay: Lloyd passes of the interior points before the "
+                   "tetrahedralization (default: 10 with surface samples; 0 is the report's "
+                   "random points).")
 @click.option("--density", type=click.FloatRange(min=0, min_open=True), default=REPORT_DENSITY,
               show_default=True, help="Density [kg/m^3].")
 @click.option("--size", type=click.FloatRange(min=0, min_open=True), default=None,
@@ -171,7 +175,8 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @_max_memory
 def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
-          surface_vertices, surface_samples, density, size, seed, max_memory=None) -> None:
+          surface_vertices, surface_samples, relax, density, size, seed,
+          max_memory=None) -> None:
     """Build a jello body from MESH_FILE and write it to a .jello or .npz file.
 
     The mesh's coordinates are read as metres unless --size scales it."""
@@ -188,8 +193,8 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
             body = build_body(mesh_file, points=points, connect=connect, sampling=sampling,
                               radius=radius, neighbours=neighbours, h=h,
                               surface_vertices=surface_vertices,
-                              surface_samples=surface_samples, density=density, seed=seed,
-                              size=size)
+                              surface_samples=surface_samples, relax=relax, density=density,
+                              seed=seed, size=size)
         write_body(out_file, body)
     except JellysimError as exc:
         _fail(str(exc))

@@ -14,7 +14,7 @@ def schema_markdown() -> str:
         lines += [f"### `[{section}]`", "", "| key | type | default | allowed | meaning |",
                   "|---|---|---|---|---|"]
         for key, spec in keys.items():
-            default = "**required**" if spec.default is REQUIRED else f"`{spec.default!r}`"
+            default = "**required**" if spec.default is REQUIRED else f"`{_shown(spec.default)!r}`"
             allowed = spec.allowed or (", ".join(f"`{c}`" for c in spec.choices))
             lines.append(f"| `{key}` | {spec.kind} | {default} | {allowed} | {spec.doc} |")
         lines.append("")
@@ -23,7 +23,7 @@ def schema_markdown() -> str:
               "and `normal`, a sphere `center` and `radius`, a box `lower` and `upper`.", "",
               "| key | type | default | allowed | meaning |", "|---|---|---|---|---|"]
     for key, spec in OBSTACLE_SCHEMA.items():
-        default = "**required**" if spec.default is REQUIRED else f"`{spec.default!r}`"
+        default = "**required**" if spec.default is REQUIRED else f"`{_shown(spec.default)!r}`"
         allowed = spec.allowed or (", ".join(f"`{c}`" for c in spec.choices))
         lines.append(f"| `{key}` | {spec.kind} | {default} | {allowed} | {spec.doc} |")
     lines += ["", "### `[[handle]]` (any number; physical path)", "",
@@ -41,3 +41,10 @@ def schema_markdown() -> str:
               "| `force` | [fx, fy, fz] | Force: total force [N], split evenly. |",
               "| `scale` | float | Gravity: factor on gravity [-]. |"]
     return "\n".join(lines)
+
+
+def _shown(value):
+    """A default as a scene file writes it (an Enum member as its value)."""
+    from enum import Enum
+
+    return value.value if isinstance(value, Enum) else value

@@ -68,6 +68,10 @@ DEFAULT_DENSITY = REPORT_DENSITY
 #: Default sliver threshold of :func:`delaunay_body` on :func:`tet_quality` (1 = regular tet).
 DEFAULT_MIN_QUALITY = 0.05
 
+SLIVER_VOLUME_BUDGET = 0.002
+""":func:`delaunay_body` step 6: the thin tets dropped hold at most this fraction of the tet
+volume."""
+
 #: Default near-duplicate distance of :func:`delaunay_body`, as a fraction of the median
 #: nearest-neighbour distance of the input points.
 DEFAULT_EPSILON_FRACTION = 1e-2
@@ -354,7 +358,8 @@ def _carve(p: np.ndarray, tets: np.ndarray, inside_fn: InsideFn, vertices, faces
 
 def delaunay_body(points, vertices, faces, inside_fn: InsideFn, *, epsilon: float | None = None,
                   min_quality: float = DEFAULT_MIN_QUALITY, seed: int = 0,
-                  density: float = DEFAULT_DENSITY) -> Body:
+                  density: float = DEFAULT_DENSITY, target_quality: float | None = None,
+                  target_volume: float = SLIVER_VOLUME_BUDGET) -> Body:
     """Delaunay body of a point cloud inside a surface (report section 4.3).
 
     Steps, in order:
@@ -374,7 +379,12 @@ def delaunay_body(points, vertices, faces, inside_fn: InsideFn, *, epsilon: floa
     5. **Carving.**  Tets whose centroid is outside (``inside_fn``) are dropped.  (A tet with
        its centroid inside may still poke out of a concave surface; use a finer point set near
        the surface or :func:`tetgen_body` for a boundary-conforming mesh.)
-    6. Points in no kept tet are dropped and the rest renumbered; springs = unique edges of the
+    6. **More slivers** (with ``target_quality``): the carved tets below ``target_quality``
+       are dropped, worst first, as long as together they hold at most ``target_volume`` of
+       the body's tet volume (a relaxed point set has a handful of thin interior tets, which
+       go; a mesh whose dense surface makes many flat tets keeps them: dropping them would
+       hollow the body).
+    7. Points in no kept tet are dropped and the rest renumbered; springs = unique edges of the
        kept tets.  ``meta["dropped_points"]`` counts every input point not in the body
        (near duplicates included).
 
@@ -388,6 +398,8 @@ def delaunay_body(points, vertices, faces, inside_fn: InsideFn, *, epsilon: floa
     min_quality: sliver threshold on :func:`tet_quality`, in [0, 1).
     seed: seed of the co-sphericity jitter.
     density: mass density [kg/m^3].
+    target_quality, target_volume: step 6 (``None``: no step 6); ``target_volume`` is a
+        fraction of the tet volume.
     """
     from scipy.spatial import Delaunay, QhullError, cKDTree
 
@@ -434,6 +446,17 @@ def delaunay_body(points, vertices, faces, inside_fn: InsideFn, *, epsilon: floa
     n_slivers = n_delaunay - simplices.shape[0]
     carve = _carve(p, simplices, inside_fn, vertices, faces)
     simplices, sv = simplices[carve], sv[carve]
+    n_thin = 0
+    if target_quality is not None:
+        q = q[good][carve]
+        order = np.argsort(q, kind="stable")
+        order = order[q[order] < float(target_quality)]
+        within = np.cumsum(np.abs(sv[order])) <= float(target_volume) * np.abs(sv).sum()
+        thin = order[:int(np.argmin(within)) if not within.all() else len(order)]
+        n_thin = int(thin.size)
+        kept = np.ones(len(simplices), dtype=bool)
+        kept[thin] = False
+        simplices, sv = simplices[kept], sv[kept]
 
     f = np.asarray(faces) if faces is not None else np.empty((0, 3))
     meta = {
@@ -447,6 +470,8 @@ def delaunay_body(points, vertices, faces, inside_fn: InsideFn, *, epsilon: floa
         "near_duplicates_removed": int(n_in - p.shape[0]),
         "delaunay_tets": int(n_delaunay),
         "slivers_removed": int(n_slivers),
+        "target_quality": None if target_quality is None else float(target_quality),
+        "thin_removed": n_thin,
         "outside_removed": int(n_delaunay - n_slivers - simplices.shape[0]),
         "surface_vertices": int(np.asarray(vertices).shape[0]) if vertices is not None else 0,
         "surface_faces": int(f.shape[0]),
