@@ -8,6 +8,7 @@ Run from the repository root:
 
     PYTHONPATH=src python benchmarks/bench_physical.py [--cells 10 21] [--seconds 1]
         [--repeats 3] [--threads 1] [--no-drops] [--implicit]
+        [--drop-builders marching delaunay]
 
 ``--implicit`` adds the previous path (springs calibrated to E, implicit backward Euler at
 dt = 1/60 s, one solve per frame) on the same grid for comparison.  One thread is the default:
@@ -94,12 +95,18 @@ def wobble_energy_kept():
                                                   ** (1 / periods)), 5)}
 
 
-def drops():
+def drops(builders=("marching", "delaunay")):
     sys.path.insert(0, str(ROOT / "tests"))
     import test_physical_path as T
     from jellysim.presets import gelatin
 
-    body = T._ball(points=400)
+    rows = []
+    for connect in builders:
+        rows += _drops(T, gelatin, T._ball(points=400, connect=connect), connect)
+    return rows
+
+
+def _drops(T, gelatin, body, connect):
     rows = []
     for E in (5e3, 1e4):
         mat = gelatin(youngs_modulus=E, damping_ratio=0.1, damping_frequency=8.0)
@@ -107,7 +114,9 @@ def drops():
         rest = float(rest_top[-10:].mean())
         for drop in (0.1, 0.5):
             sim, _, top = T._run_drop(body, mat, drop, 2.5)
-            rows.append({"E_pa": E, "drop_m": drop, "rest_top_m": round(rest, 5),
+            rows.append({"connect": connect, "points": sim.model.point_count,
+                         "substeps": sim.substeps, "E_pa": E, "drop_m": drop,
+                         "rest_top_m": round(rest, 5),
                          "final_top_m": round(float(top[-10:].mean()), 5),
                          "final_over_rest": round(float(top[-10:].mean()) / rest, 4),
                          "frame_min_J": round(sim.frame_min_j, 3),
@@ -122,6 +131,8 @@ def main():
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--no-drops", action="store_true")
+    ap.add_argument("--drop-builders", nargs="+", default=["marching", "delaunay"],
+                    choices=["marching", "delaunay", "tetgen"])
     ap.add_argument("--implicit", action="store_true")
     args = ap.parse_args()
     sizes = []
@@ -143,7 +154,7 @@ def main():
            "threads": args.threads, "simulated_s": args.seconds, "sizes": sizes,
            "wobble": wobble_energy_kept()}
     if not args.no_drops:
-        out["drops"] = drops()
+        out["drops"] = drops(args.drop_builders)
     out.update(cpu=platform.processor() or platform.machine(), cores=os.cpu_count(),
                loadavg_1min=round(os.getloadavg()[0], 2))
     print(json.dumps(out, indent=2))

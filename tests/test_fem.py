@@ -140,3 +140,25 @@ def test_fem_needs_tets():
     body = Body(points=np.random.default_rng(0).random((10, 3)), springs=np.zeros((0, 2)))
     with pytest.raises(ValueError, match="tets"):
         physical_model(body, Material())
+
+
+def test_an_inverted_tet_is_reported_once():
+    """A corner point pushed through the body inverts its tets: the run says so (once), the
+    Stable Neo-Hookean forces push them back, and min_tet_volume_ratio keeps the record."""
+    import warnings
+
+    from jellysim.errors import StabilityWarning
+
+    model = _cube_model(damping_ratio=0.05)
+    sim = Simulator(model, dt=1 / 60)
+    corner = int(np.argmin(model.point_x0.sum(axis=1)))
+    sim.state.x[corner] = [0.012, 0.012, 0.012]  # through the cube's corner tets
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sim.advance(30)
+    said = [w for w in caught if "inside out" in str(w.message)]
+    assert len(said) == 1 and issubclass(said[0].category, StabilityWarning)
+    assert sim.min_tet_volume_ratio <= 0.0
+    from jellysim.geometry.tetra import tet_signed_volumes
+
+    assert np.all(tet_signed_volumes(sim.state.x, model.fem.tets) > 0)  # pushed back out

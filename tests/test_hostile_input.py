@@ -384,3 +384,45 @@ def test_overlapping_shells_are_reported_and_mass_follows_the_inside_rule(tmp_pa
 def test_surface_samples_on_a_box_scene_is_refused_not_ignored():
     with pytest.raises(SceneError, match=r"\[body\] surface_samples is used only by"):
         Scene.from_text(BOX.replace("[body]", "[body]\nsurface_samples = false"))
+
+
+def test_a_body_below_the_ground_is_refused_with_the_fix():
+    """A body starting 4 cm inside the ground would be shot out of it (the contact puts every
+    point below the plane onto it at once): refused, naming the depth and the fix; a body
+    resting on the plane (its lowest point at y = 0) is fine."""
+    import jellysim as js
+    from jellysim.errors import SceneError
+
+    sphere = Path(__file__).parent / "data" / "sphere.obj"
+    body = js.Body.from_mesh(sphere, size=0.08, points=200, connect="marching")  # centred
+    model = js.physical_model(body, js.material("gelatin"))
+    depth = -float(model.point_x0[:, 1].min())
+    with pytest.raises(SceneError, match=r"starts 0\.0\d+ m below the ground.*base"):
+        js.Simulator(model, dt=1 / 60, ground=js.GroundParams(model="contact"))
+    js.Simulator(model, dt=1 / 60)  # no ground: nothing to refuse
+    placed = js.Body.from_mesh(sphere, size=0.08, points=200, connect="marching",
+                               base=(0, 0, 0))
+    js.Simulator(js.physical_model(placed, js.material("gelatin")), dt=1 / 60,
+                 ground=js.GroundParams(model="contact"))
+    assert depth > 0.03
+
+
+def test_python_api_mistakes_name_the_parameter_and_the_choices():
+    import jellysim as js
+    from jellysim.errors import BuildError, SceneError
+
+    sphere = Path(__file__).parent / "data" / "sphere.obj"
+    with pytest.raises(BuildError, match=r"connect must be one of .*did you mean 'delaunay'"):
+        js.Body.from_mesh(sphere, connect="delauney")
+    with pytest.raises(ValueError, match=r"'poisson' \(did you mean 'poisson_ratio'\?\)"):
+        js.material("gelatin", poisson=0.3)
+    body = js.Body.from_mesh(sphere, size=0.05, points=100, connect="marching", base=(0, 0, 0))
+    assert "\n" not in repr(body) and f"{body.point_count} points" in repr(body)
+    sim = js.Simulator(js.physical_model(body, js.material("gelatin")), dt=1 / 60)
+    n = body.point_count
+    with pytest.raises(SceneError, match=rf"pin: point index {10**6} is out of range.*{n} points"):
+        sim.pin([10**6])
+    with pytest.raises(SceneError, match=r"apply_force: force \[N\] must be 3 numbers"):
+        sim.apply_force([0], [1.0, 2.0])
+    with pytest.raises(SceneError, match=r"drag: target \[m\] must be 3 numbers"):
+        sim.drag(0, [0.0, 1.0])

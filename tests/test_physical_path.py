@@ -69,7 +69,7 @@ def _run_drop(body, material, drop, seconds, e=0.3):
 @pytest.mark.parametrize("E", [5e3, 1e4])
 def test_gelatin_ball_survives_drops(E):
     """A 6 cm gelatin ball dropped from 10 cm and 50 cm lands, bounces, and settles within
-    3 % of the height of the same ball placed on the ground; no tet inverts at any step."""
+    3 % of the height of the same ball placed on the ground; no tet is inverted at any frame."""
     body = _ball(points=400)
     mat = gelatin(youngs_modulus=E, damping_ratio=0.1, damping_frequency=8.0)
     rest_sim, _, rest_top = _run_drop(body, mat, 0.0, 1.5)

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jellysim.errors import CheckpointError, RunInterrupted
+from jellysim.errors import CheckpointError, RunInterrupted, SceneError
 from jellysim.io.checkpoint import CHECKPOINT
 from jellysim.io.stream import STREAM_DIR, GrowingNpy, stream_frames
 from jellysim.io.trajectory import load_trajectory
@@ -95,6 +95,31 @@ def test_stop_and_resume_is_bitwise_equal_to_an_uninterrupted_run(tmp_path, text
     assert not (cut / STREAM_DIR).exists() and not (cut / CHECKPOINT).exists()
     with pytest.raises(CheckpointError, match="nothing to resume"):
         run_scene(scene, cut, progress=False, resume=True)
+
+
+def test_resume_command_repeats_the_set_overrides(tmp_path):
+    """The command printed after an interruption resumes the run: it carries the run's
+    ``--set`` items (without them the checkpoint is "written for another scene"); a bad
+    ``--set`` key is blamed on the command line, not the file."""
+    path = tmp_path / "s.toml"
+    path.write_text(EXPLICIT)
+    sets = ("integrator.steps=80",)
+    scene = Scene.load(path, overrides=sets)
+    with pytest.raises(RunInterrupted) as info:
+        run_scene(scene, tmp_path / "cut", progress=False, stop_after=2 * scene.frame_every)
+    msg = str(info.value)
+    command = msg[msg.index("continue with: ") + len("continue with: "):]
+    import shlex
+
+    argv = shlex.split(command)
+    assert argv[:4] == ["jellysim", "run", str(path), "--resume"]
+    again = tuple(argv[k + 1] for k, a in enumerate(argv) if a == "--set")
+    assert again == sets
+    res = run_scene(Scene.load(path, overrides=again), tmp_path / "cut", progress=False,
+                    resume=True)
+    assert load_trajectory(res.trajectory).steps[-1] == 80
+    with pytest.raises(SceneError, match=r"given on the command line: --set body\.pionts=5"):
+        Scene.load(path, overrides=("body.pionts=5",))
 
 
 def test_internal_state_round_trip_continues_bitwise():

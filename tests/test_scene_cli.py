@@ -347,6 +347,13 @@ def test_file_scene_and_missing_paths(tmp_path):
     p.write_text(text.replace("base = [5, 2, 5]", "size = 2.0"))
     with pytest.raises(SceneError, match="size is not used for type = 'file'"):
         Scene.load(p)
+    # the .jello file holds the springs: no [springs] section needed (k from [material])
+    no_springs = text.replace('[springs]\nconnect = "radius"\nstiffness = 50.0\n',
+                              "[material]\nyoungs_modulus = 1e4\n")
+    assert "[springs]" not in no_springs
+    p.write_text(no_springs)
+    model = Scene.load(p).build_model()
+    assert model.spring_count == 6 and np.all(model.spring_stiffness > 0)
     p.write_text(text.replace('path = "tet.jello"\n', ""))
     with pytest.raises(SceneError, match=r"\[body\] missing value 'path'"):
         Scene.load(p)

@@ -388,3 +388,21 @@ def test_relaxed_delaunay_body_has_far_fewer_flat_tets():
     assert len(relaxed.points) == len(raw.points)
     np.testing.assert_array_equal(relaxed.points, again.points)
     np.testing.assert_array_equal(relaxed.tets, again.tets)
+
+
+def test_tetgen_on_a_fine_surface_says_it_kept_the_surface_vertices():
+    """TetGen's body contains every surface vertex: on the jelly mould (2,306 vertices) 200
+    asked points become thousands; the builder warns with the count and the way out."""
+    pytest.importorskip("tetgen")
+    import warnings
+
+    from jellysim.build import build_body
+    from jellysim.geometry.shapes import jelly_mould
+
+    v, f = jelly_mould()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        body = build_body((v, f), points=200, connect="tetgen")
+    assert body.point_count >= len(np.unique(v, axis=0))  # every surface vertex is a point
+    said = [str(w.message) for w in caught if "keeps every vertex" in str(w.message)]
+    assert len(said) == 1 and f"{body.point_count} points for points=200" in said[0]

@@ -64,7 +64,9 @@ class Body:
         ``size``: the largest bounding-box extent [m] the mesh is scaled to (about the
         origin); ``None`` keeps the mesh's coordinates, which are then read as metres.
         ``points``: points sampled inside (``delaunay`` also adds points on the surface).
-        ``connect``: ``"radius"``, ``"marching"``, ``"delaunay"`` or ``"tetgen"``.
+        ``connect``: ``"radius"``, ``"marching"``, ``"delaunay"`` or ``"tetgen"``.  For the
+        physical path (``physical_model``) ``"marching"`` gives the best-shaped tets and so
+        the fewest substeps (a 6 cm ball: 56 per frame at 5 kPa, Delaunay 95, TetGen 176).
         ``density``: [kg/m^3] (default :data:`~jellysim.params.REPORT_DENSITY`): the masses
         are density x the scaled body's enclosed volume (tet bodies: lumped on the corners).
         ``base``: if given, move the body so the bottom centre of its bounding box is here [m]
@@ -85,6 +87,15 @@ class Body:
         if size is not None:
             body.meta["size"] = float(size)
         return body
+
+    def __repr__(self) -> str:
+        """One line: counts and size, not the arrays (``body.points`` etc. hold them)."""
+        tets = 0 if self.tets is None else len(self.tets)
+        lo, hi = self.points.min(axis=0), self.points.max(axis=0)
+        size = " x ".join(f"{e:.4g}" for e in hi - lo)
+        how = self.meta.get("connect") or self.meta.get("builder") or ""
+        return (f"Body({self.point_count} points, {len(self.springs)} springs, {tets} tets, "
+                f"{size} m, volume {self.volume:.4g} m^3" + (f", {how}" if how else "") + ")")
 
     @property
     def point_count(self) -> int:

@@ -231,8 +231,8 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
     from .geometry.inside import InsideQuery
     from .geometry.sampling import morton_order, relax_interior, sample_inside
 
-    connect = Connect(connect)
-    sampling = Sampling(sampling)
+    connect = _choice(Connect, connect, "connect")
+    sampling = _choice(Sampling, sampling, "sampling")
     if surface_samples and connect not in (Connect.DELAUNAY, Connect.RADIUS):
         raise BuildError("surface_samples applies to connect='delaunay' or 'radius' only")
     if relax is not None:
@@ -260,6 +260,13 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
                            max_volume=max_volume if max_volume else vol / points,
                            inside_fn=None if query is None else query.query, density=density)
         body.meta.update(source=name, connect="tetgen")
+        if body.point_count > 2 * points:
+            warnings.warn(
+                f"{name}: connect='tetgen' keeps every vertex of the surface ({len(m.vertices)}), "
+                f"so the body has {body.point_count} points for points={points}; its small "
+                "surface tets also shorten the physical path's substep.  Use connect="
+                "'marching' or 'delaunay' (they sample the surface at the point spacing), or "
+                "a coarser surface mesh", UserWarning, stacklevel=3)
         return body
     query = InsideQuery(m, rule=rule)
     lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)
@@ -344,6 +351,20 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
             "mean_neighbours": float(2 * len(springs) / len(pts)),
             "tet_volume": tet_info["tet_volume"], "cloud_tets": tet_info}
     return Body(points=pts, springs=springs, tets=tets, volume=volume, meta=meta)
+
+
+def _choice(enum, value, what: str):
+    """``enum(value)``, or a :class:`BuildError` naming the parameter and its choices."""
+    try:
+        return enum(value)
+    except ValueError:
+        import difflib
+
+        names = [e.value for e in enum]
+        near = difflib.get_close_matches(str(value), names, n=1)
+        hint = f" (did you mean {near[0]!r}?)" if near else ""
+        raise BuildError(f"{what} must be one of {', '.join(repr(n) for n in names)}, got "
+                         f"{value!r}{hint}") from None
 
 
 def _radius_tets(pts, inside_fn, vertices=None, faces=None, *, seed: int = 0,

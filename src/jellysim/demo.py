@@ -42,6 +42,9 @@ DEMO_SHAPES = {
         "points": 3000,
         "connect": "marching",
         "seed": 7,
+        # firm gelatin (examples/spot_drop.toml): at the dessert preset's 10 kPa a 10 cm cow's
+        # 1 cm legs carry ~6 kPa and it slumps to half its height (README, tests/test_bunny.py)
+        "material": {"youngs_modulus": 1.0e5},
     },
 }
 """Geometry of the demo bodies (built by :func:`jellysim.build.build_body`)."""
@@ -140,8 +143,12 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     prepare_out_dir(out_dir / stem, overwrite=overwrite)
     for p in old:
         p.unlink(missing_ok=True)
-    raw = dict(DEMO_SCENE, body=dict(DEMO_SCENE["body"], velocity=DEMO_SHAPES[scene]["velocity"]))
+    shape = DEMO_SHAPES[scene]
+    raw = dict(DEMO_SCENE, body=dict(DEMO_SCENE["body"], velocity=shape["velocity"]),
+               material=dict(DEMO_SCENE["material"], **shape.get("material", {})))
     sc = Scene.from_dict(raw, name="demo").with_backend(backend, device, precision)
+    sc.text = (f"# jellysim demo --scene {scene}: the body is the demo's own "
+               f"(jellysim.demo.build_demo_body('{scene}')), not [body] below\n" + sc.text)
     if threads is not None:
         sc.params["integrator"]["threads"] = int(threads)
     body, skin = build_demo_body(scene, points)

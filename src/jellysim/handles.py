@@ -220,12 +220,28 @@ class HandleMethods:
             raise SceneError(f"{what} needs the physical path (a body with a FEM material: "
                              "jellysim.physics.policy.physical_model)")
 
+    def _point_indices(self, indices, what: str) -> np.ndarray:
+        """Unique point indices, or a :class:`SceneError` naming ``what`` and the range."""
+        n = self.model.point_count
+        try:
+            idx = np.unique(np.asarray(indices, dtype=np.int64).reshape(-1))
+        except (TypeError, ValueError):
+            raise SceneError(f"{what}: point indices must be integers, got {indices!r}") \
+                from None
+        if idx.size == 0:
+            raise SceneError(f"{what}: no points given (select them with "
+                             "jellysim.handles.select_points)")
+        if idx[0] < 0 or idx[-1] >= n:
+            raise SceneError(f"{what}: point index {idx[0] if idx[0] < 0 else idx[-1]} is out "
+                             f"of range: the body has {n} points (0 to {n - 1})")
+        return idx
+
     def pin(self, indices, path=None) -> None:
         """Pin points (indices into the body) where they are now; with ``path`` (rows
         ``[t, dx, dy, dz]``, s and m, or a :class:`~jellysim.handles.PinPath`) they follow
         the offsets from there, linearly between keyframes (absolute simulation times)."""
         self._require_physical("pinning points")
-        idx = np.unique(np.asarray(indices, dtype=np.int64))
+        idx = self._point_indices(indices, "pin")
         hd = self.handles
         hd.pinned[idx] = 1
         hd.pin_anchor[idx] = self.state.x[idx]
@@ -237,7 +253,8 @@ class HandleMethods:
     def unpin(self, indices=None) -> None:
         """Release pinned points (all when ``indices`` is None)."""
         hd = self.handles
-        idx = np.flatnonzero(hd.pinned) if indices is None else np.asarray(indices)
+        idx = np.flatnonzero(hd.pinned) if indices is None else self._point_indices(
+            indices, "unpin")
         hd.pinned[idx] = 0
         hd.paths = [(i, p) for i, p in hd.paths if not np.isin(i, idx).any()]
 
@@ -245,14 +262,15 @@ class HandleMethods:
         """Constant force [N], shape (3,), on the points (replacing an earlier one there):
         split evenly with ``total`` (default), else on each point."""
         self._require_physical("point forces")
-        idx = np.unique(np.asarray(indices, dtype=np.int64))
-        f = np.asarray(force, dtype=np.float64).reshape(3)
+        idx = self._point_indices(indices, "apply_force")
+        f = _vec3(force, "apply_force: force [N]")
         self.handles.point_force[idx] = f / len(idx) if total else f
 
     def set_gravity_scale(self, indices, scale: float) -> None:
         """Gravity on the points is multiplied by ``scale`` [-]."""
         self._require_physical("a gravity scale")
-        self.handles.gravity_scale[np.asarray(indices, dtype=np.int64)] = float(scale)
+        self.handles.gravity_scale[self._point_indices(indices, "set_gravity_scale")] = float(
+            scale)
 
     def drag(self, point: int | None, target=None, stiffness: float | None = None) -> None:
         """Pull ``point`` towards ``target`` [m] with a spring of ``stiffness`` [N/m]
@@ -264,6 +282,17 @@ class HandleMethods:
             return
         if stiffness is None:
             stiffness = self.model.total_mass * float(np.linalg.norm(self.model.gravity)) / 0.01
-        d[0] = float(int(point))
-        d[1:4] = np.asarray(target, dtype=np.float64).reshape(3)
+        d[0] = float(self._point_indices([point], "drag")[0])
+        d[1:4] = _vec3(target, "drag: target [m]")
         d[4] = float(stiffness)
+
+
+def _vec3(value, what: str) -> np.ndarray:
+    """A 3-vector, or a :class:`SceneError` naming ``what``."""
+    try:
+        v = np.asarray(value, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise SceneError(f"{what} must be 3 numbers (x, y, z), got {value!r}") from None
+    if not np.all(np.isfinite(v)):
+        raise SceneError(f"{what} must be finite, got {value!r}")
+    return v

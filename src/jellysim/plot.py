@@ -3,7 +3,9 @@
 Quantities per frame (SI units):
 
 * kinetic energy ``sum 1/2 m |v|^2`` [J]
-* spring energy ``sum 1/2 k (|x_j - x_i| - L0)^2`` [J]
+* elastic energy: the springs' ``sum 1/2 k (|x_j - x_i| - L0)^2`` [J], plus, for a physical
+  (FEM) run, the tets' Stable Neo-Hookean energy (:func:`jellysim.physics.fem.elastic_energy`,
+  rebuilt from the trajectory's tets and the E and nu it records)
 * gravitational energy ``-sum m g . x`` [J], zero on the ground plane (``y = height``)
 * centre-of-mass height [m] (its coordinate along ``-g``)
 * largest spring strain ``max |(|x_j - x_i| - L0) / L0|`` [-]
@@ -21,8 +23,9 @@ __all__ = ["diagnostics", "plot_trajectory"]
 
 
 def diagnostics(traj) -> dict[str, np.ndarray]:
-    """Per-frame diagnostics, each shape (F,): ``time`` [s], ``kinetic`` [J], ``spring`` [J],
-    ``gravity`` [J], ``total`` [J], ``com_height`` [m], ``max_strain`` [-]."""
+    """Per-frame diagnostics, each shape (F,): ``time`` [s], ``kinetic`` [J], ``spring`` [J]
+    (the springs' energy), ``tets`` [J] (the FEM tets' energy; zeros without), ``gravity``
+    [J], ``total`` [J], ``com_height`` [m], ``max_strain`` [-] (of the springs)."""
     x = np.asarray(traj.positions, dtype=np.float64)
     v = np.asarray(traj.velocities, dtype=np.float64)
     m = np.asarray(traj.masses, dtype=np.float64)
@@ -41,10 +44,25 @@ def diagnostics(traj) -> dict[str, np.ndarray]:
         strain = np.abs(stretch / traj.rest_length).max(axis=1)
     else:
         spring = strain = np.zeros(len(x))
+    tets = _tet_energy(traj, x)
     com = (height @ m) / m.sum() + float(ground)
     return {"time": np.asarray(traj.times, dtype=np.float64), "kinetic": kinetic,
-            "spring": spring, "gravity": grav, "total": kinetic + spring + grav,
-            "com_height": com, "max_strain": strain}
+            "spring": spring, "tets": tets, "gravity": grav,
+            "total": kinetic + spring + tets + grav, "com_height": com, "max_strain": strain}
+
+
+def _tet_energy(traj, x) -> np.ndarray:
+    """The FEM tets' stored energy per frame [J] (zeros for a springs run)."""
+    fem = (traj.params or {}).get("fem")
+    if not fem or len(traj.tets) == 0:
+        return np.zeros(len(x))
+    from .geometry.tetra import orient_tets
+    from .physics.fem import elastic_energy, fem_arrays
+
+    rest = np.asarray(traj.rest_positions, dtype=np.float64)
+    arrays = fem_arrays(rest, orient_tets(rest, traj.tets),
+                        youngs_modulus=fem["youngs_modulus"], poisson_ratio=fem["poisson_ratio"])
+    return np.array([elastic_energy(arrays, xf) for xf in x])
 
 
 def plot_trajectory(traj, path, *, title: str | None = None) -> Path:
@@ -66,7 +84,10 @@ def plot_trajectory(traj, path, *, title: str | None = None) -> Path:
     fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True, constrained_layout=True)
     ax = axes[0]
     ax.plot(t, d["kinetic"], label="kinetic")
-    ax.plot(t, d["spring"], label="spring")
+    if np.any(d["tets"]):
+        ax.plot(t, d["tets"] + d["spring"], label="elastic (tets + springs)")
+    else:
+        ax.plot(t, d["spring"], label="spring")
     ax.plot(t, d["gravity"], label="gravitational")
     ax.plot(t, d["total"], "k--", lw=1, label="total")
     ax.set_ylabel("energy [J]")

@@ -84,9 +84,20 @@ def apply_preset(raw: dict, name: str) -> dict:
 def gelatin(**changes):
     """The gelatin preset as a :class:`~jellysim.params.Material` (keyword changes win)."""
 
+    import dataclasses
+
     values = dict(density=GELATIN_DENSITY, youngs_modulus=GELATIN_YOUNGS_MODULUS,
                   poisson_ratio=GELATIN_POISSON_RATIO, damping_ratio=GELATIN_DAMPING_RATIO,
                   damping_frequency=5.0)
+    known = {f.name for f in dataclasses.fields(Material)}
+    unknown = sorted(set(changes) - known)
+    if unknown:
+        import difflib
+
+        hints = [f"{k!r}" + (f" (did you mean {near[0]!r}?)" if (near := difflib.get_close_matches(
+            k, known, n=1)) else "") for k in unknown]
+        raise ValueError(f"unknown material parameter {', '.join(hints)}; the parameters are "
+                         + ", ".join(sorted(known)))
     values.update(changes)
     return Material(**values)
 

@@ -16,6 +16,7 @@ last checkpoint bit-identically.
 from __future__ import annotations
 
 import fnmatch
+import shlex
 import signal
 import threading
 import time
@@ -248,7 +249,9 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
                         f"{how} at step {done} of {total} (t = {sim.state.t:.6g} s); "
                         f"{stream.frames} frames saved in {stream_dir} (jellysim render, "
                         f"plot and export read it: pass {out_dir}); continue with: jellysim "
-                        f"run {scene.name} --resume {out_dir}",
+                        f"run {scene.name} --resume {out_dir}" + "".join(
+                            f" --set {shlex.quote(item)}"
+                            for item in getattr(scene, "overrides", ())),
                         step=done, signal=stop[0], out_dir=out_dir)
                 if checkpoint_every is None:
                     due = time.monotonic() - last_wall >= AUTO_CHECKPOINT_SECONDS

@@ -19,7 +19,7 @@ from .params import (GRAVITY, MAX_ALL_PAIRS_POINTS, REPORT_DENSITY, GroundParams
 # Spec (one row of the schema) and the checks live in scene_spec; SCHEMA stays here
 from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-exported)
                               make_obstacle, validate_obstacles)
-from .scene_spec import REQUIRED, Spec, _nonneg, _pos, check_backend, check_value
+from .scene_spec import REQUIRED, Spec, _nonneg, _pos, as_toml, check_backend, check_value
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
 from .scene_doc import schema_markdown as make
@@ -90,7 +90,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
     },
     "material": {
         "preset": Spec("str", None, "Preset filling every key not given: 'gelatin' (real "
-                       "gelatin, physical ground, implicit) or 'paper-2010' (the report's "
+                       "gelatin: Stable Neo-Hookean tets, physical ground, symplectic substeps) "
+                       "or 'paper-2010' (the report's "
                        "constants and hacks).", choices=("gelatin", "paper-2010")),
         "density": _pos("Density [kg/m^3]; point masses = density x the volume each point "
                         "owns (overrides [mass] density).", None, " (kg/m^3)"),
@@ -200,7 +201,7 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                                  lambda v: v >= 0, "an integer >= 0"),
     },
 }
-REQUIRED_SECTIONS = ("body", "springs", "integrator")
+REQUIRED_SECTIONS = ("body", "integrator")
 
 
 def _wants_fem(params: dict) -> bool:
@@ -221,6 +222,8 @@ class Scene:
         self.params = params
         self.text = text
         self.name = name
+        self.overrides: tuple[str, ...] = ()
+        """The ``--set`` items this scene was loaded with (a resume needs them again)."""
 
     @classmethod
     def load(cls, path, *, overrides=()) -> "Scene":
@@ -246,7 +249,19 @@ class Scene:
         if overrides:   # the recorded text says what ran
             text += "\n# overridden on the command line:\n" + "".join(
                 f"#   --set {item}\n" for item in overrides)
-        return cls(cls._validate(raw, name), text=text, name=name)
+        try:
+            params = cls._validate(raw, name)
+        except SceneError as exc:  # say when the bad value came from the command line
+            msg = str(exc)
+            given = [item for item in overrides
+                     if item.partition("=")[0].strip().rpartition(".")[2] in msg]
+            if given:
+                msg += " (given on the command line: " + ", ".join(
+                    f"--set {item}" for item in given) + ")"
+            raise SceneError(msg) from None
+        scene = cls(params, text=text, name=name)
+        scene.overrides = tuple(overrides)
+        return scene
 
     @classmethod
     def from_file(cls, path, *, overrides=()) -> "Scene":
@@ -258,8 +273,9 @@ class Scene:
         """A scene from a dictionary shaped like the TOML file: ``{"body": {...},
         "springs": {...}, "integrator": {...}, "obstacle": [{...}, ...]}`` (keys and defaults:
         ``jellysim scene-help``).  Relative paths are relative to the current directory;
-        errors name ``name``."""
-        return cls(cls._validate(raw, name), name=name)
+        errors name ``name``.  The scene's text (recorded in a run's trajectory) is the
+        dictionary written as TOML."""
+        return cls(cls._validate(raw, name), text=as_toml(raw), name=name)
 
     @staticmethod
     def _validate(raw: dict, name: str) -> dict:
@@ -353,6 +369,13 @@ class Scene:
             p = Path(self.name).resolve().parent / p
         return p
 
+    def _missing(self, given: str, path: Path) -> str:
+        where = ("relative paths are read from the scene file's folder, "
+                 f"{Path(self.name).resolve().parent}" if not Path(given).is_absolute()
+                 and self.name not in ("<scene>", "demo") else "")
+        return (f"{self.name}: [body] path = {given!r}: file not found ({path})"
+                + (f"; {where}" if where else ""))
+
     @property
     def surface(self):
         """The placed surface mesh of a type 'mesh' scene (vertices [m] (m, 3), faces
@@ -399,13 +422,18 @@ class Scene:
 
             from .geometry.jellyfile import read_body
 
-            body = read_body(self.resolve(b["path"]))
+            path = self.resolve(b["path"])
+            if not path.exists():
+                raise SceneError(self._missing(b["path"], path))
+            body = read_body(path)
             return replace(body, points=self._place(body.points))
         if b["type"] == "mesh":
             from .build import build_body
             from .geometry.mesh import Mesh, load_mesh
 
             path = self.resolve(b["path"])
+            if not path.exists():
+                raise SceneError(self._missing(b["path"], path))
             try:
                 mesh = load_mesh(path)
             except JellysimError as exc:
@@ -513,7 +541,9 @@ class Scene:
                                       value)
         check_backend(it["backend"], it["name"], it["device"], it["precision"], where=self.name,
                       physical=_wants_fem(self.params))
-        return Scene({**self.params, "integrator": it}, text=self.text, name=self.name)
+        scene = Scene({**self.params, "integrator": it}, text=self.text, name=self.name)
+        scene.overrides = self.overrides
+        return scene
 
     def simulator(self, model=None, **overrides):
         """A :class:`~jellysim.simulator.Simulator` of the scene: its options, the initial

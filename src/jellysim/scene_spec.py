@@ -15,7 +15,7 @@ from typing import Any, Callable
 from .errors import SceneError
 from .kernels import WARP_INTEGRATORS
 
-__all__ = ["REQUIRED", "Spec", "check_table", "check_value", "apply_override",
+__all__ = ["REQUIRED", "Spec", "as_toml", "check_table", "check_value", "apply_override",
            "check_backend"]
 
 REQUIRED = object()
@@ -145,3 +145,18 @@ def check_backend(backend: str, integrator: str, device: str = "auto",
             f"backend = 'numba' with an explicit integrator (paper, symplectic); backend = "
             f"{backend!r} with name = {integrator!r} computes in float64: use precision = "
             "'float64'")
+
+
+def as_toml(raw: dict) -> str:
+    """A scene dictionary (tables of numbers, strings, booleans and lists; arrays of tables)
+    as TOML text.  JSON's literals are TOML's for these values."""
+    import json
+
+    lines = []
+    for section, table in raw.items():
+        tables = table if isinstance(table, list) else [table]
+        for t in tables:
+            lines.append(f"[[{section}]]" if isinstance(table, list) else f"[{section}]")
+            lines += [f"{k} = {json.dumps(v)}" for k, v in t.items() if v is not None]
+            lines.append("")
+    return "\n".join(lines)

@@ -78,6 +78,24 @@ def auto_threads(point_count: int) -> int:
     return 1 if load > 2.0 * (os.cpu_count() or 1) else most
 
 
+def _check_above_ground(x0, height: float) -> None:
+    """A body that starts below the ground would be shot out of it by the contact rule (a
+    point below the plane is put on it at once): refuse it, saying by how much and the fix."""
+    x0 = np.asarray(x0, dtype=np.float64)
+    if x0.size == 0:
+        return
+    low = float(x0[:, 1].min())
+    extent = float(np.ptp(x0, axis=0).max())
+    if low < height - max(1e-9, 1e-6 * extent):
+        below = int(np.sum(x0[:, 1] < height))
+        raise SceneError(
+            f"the body starts {height - low:.4g} m below the ground (its lowest point at "
+            f"y = {low:.4g} m, the ground at y = {height:g} m; {below} of {len(x0)} points "
+            f"below): the ground would throw it out.  Lift it: Body.from_mesh(..., base=(0, "
+            f"{height:g}, 0)) / [body] base = [0, {height:g}, 0] puts its bottom on the ground; "
+            f"or disable the ground")
+
+
 class Simulator(HandleMethods, PhysicalStepping):
     """Time-steps one :class:`~jellysim.model.Model`.
 
@@ -132,6 +150,8 @@ class Simulator(HandleMethods, PhysicalStepping):
         ground = GroundParams(enabled=False) if ground is None else ground
         self.provot = provot
         self.ground = ground
+        if ground.enabled and state is None:
+            _check_above_ground(model.point_x0, float(ground.height))
         self.physical = getattr(model, "fem", None) is not None
         if self.physical and self.integrator is not Integrator.SYMPLECTIC:
             raise SceneError(

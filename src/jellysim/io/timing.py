@@ -15,4 +15,7 @@ def default_fps(times: np.ndarray) -> float:
     dt = float(np.median(np.diff(times)))
     if not dt > 0:
         return 30.0
-    return float(min(60.0, max(5.0, 1.0 / dt)))
+    fps = min(60.0, max(5.0, 1.0 / dt))
+    # frame times are sums of steps: 1 / dt is 30.000000000000007 for dt = 1/30; a rate
+    # within 1e-9 of a whole number is that number (video and USD headers show it)
+    return float(round(fps)) if abs(fps - round(fps)) < 1e-9 * fps else float(fps)

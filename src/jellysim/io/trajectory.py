@@ -96,6 +96,10 @@ def trajectory_meta(model, *, scene_text: str = "", params: dict | None = None,
     empty3 = np.zeros((0, 3), dtype=np.int64)
     empty4 = np.zeros((0, 4), dtype=np.int64)
     extra = skin.arrays() if skin is not None else {}
+    fem = getattr(m, "fem", None)
+    if fem is not None:  # what `jellysim plot` needs for the tets' elastic energy
+        params = dict(params or {}, fem={"youngs_modulus": float(fem.youngs_modulus),
+                                         "poisson_ratio": float(fem.poisson_ratio)})
     return dict(rest_positions=m.point_x0, masses=m.point_mass,
                 springs=m.spring_ij, rest_length=m.spring_rest_length,
                 stiffness=m.spring_stiffness, gravity=m.gravity,

@@ -128,7 +128,7 @@ class Renderer:
             floor_y = gh if gh is not None else float(lo[1])
             ext = float(np.max(hi - lo))
             c = 0.5 * (lo + hi)
-            size = 20.0 * max(ext, 1e-3)
+            size = 100.0 * max(ext, 1e-3)  # its far edge out of the frame
             floor = pv.Plane(center=(c[0], floor_y, c[2]), direction=(0, 1, 0),
                              i_size=size, j_size=size, i_resolution=1, j_resolution=1)
             p.add_mesh(floor, color="#cfc8bd", ambient=0.35, diffuse=0.7, specular=0.0,
