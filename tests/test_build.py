@@ -104,12 +104,13 @@ def test_surface_samples_cover_faces_and_sharp_edges():
 
 def test_delaunay_body_fills_the_surface():
     """With surface samples the Delaunay body's tets fill the cube (its surface lies on the
-    mesh); from the 8 corners alone (the report's way) slivers along the faces are dropped
-    and a few percent of the volume is missing."""
+    mesh; the relaxed body's thin tets, at most 0.2 % of the volume, are dropped); from the 8
+    corners alone (the report's way) slivers along the faces are dropped and a few percent of
+    the volume is missing."""
     from jellysim.geometry.tetra import tet_signed_volumes as tet_volumes
 
     cube = load_mesh(mesh_path("cube.obj"))
-    for samples, lo, hi in ((True, 0.999, 1.0 + 1e-9), (False, 0.9, 0.99)):
+    for samples, lo, hi in ((True, 0.998 - 1e-9, 1.0 + 1e-9), (False, 0.9, 0.99)):
         body = build_body(cube, points=1000, connect="delaunay", seed=1, surface_samples=samples)
         filled = np.abs(tet_volumes(body.points, body.tets)).sum() / 8.0
         assert lo < filled < hi

@@ -407,6 +407,20 @@ def test_a_body_below_the_ground_is_refused_with_the_fix():
     assert depth > 0.03
 
 
+def test_a_box_scene_below_the_ground_is_refused_by_the_cli(tmp_path):
+    """The paper preset starts from a given state (zero acceleration): still checked."""
+    from jellysim.cli import cli
+
+    scene = tmp_path / "s.toml"
+    scene.write_text('[material]\npreset = "paper-2010"\n[body]\ntype = "box"\npoints = 100\n'
+                     "lower = [0.0, -0.05, 0.0]\nupper = [0.1, 0.05, 0.1]\n[springs]\n"
+                     "radius = 0.05\n[integrator]\nsteps = 2\n")
+    r = CliRunner().invoke(cli, ["run", str(scene), "-o", str(tmp_path / "out"), "--quiet"])
+    assert r.exit_code == 2, r.output
+    assert "0.05 m below the ground" in r.output and "[body] lower" in r.output
+    assert "Traceback" not in r.output
+
+
 def test_python_api_mistakes_name_the_parameter_and_the_choices():
     import jellysim as js
     from jellysim.errors import BuildError, SceneError

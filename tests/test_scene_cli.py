@@ -291,7 +291,7 @@ def test_surface_samples_option(tmp_path):
         body = Scene.load(p).build_body()
         assert body.meta["surface_samples"] is (flag is None)
         filled[flag] = np.abs(tet_volumes(body.points, body.tets)).sum() / body.volume
-    assert filled[None] > 0.999 > filled["false"]
+    assert filled[None] > 0.998 - 1e-9 > 0.99 > filled["false"]  # thin tets: <= 0.2 %
     p.write_text(MESH_SCENE.format(path="cube.obj", connect="marching").replace(
         'type = "mesh"', 'type = "mesh"\nsurface_samples = true'))
     with pytest.raises(SceneError, match="surface_samples is used only by"):

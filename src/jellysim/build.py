@@ -44,17 +44,17 @@ __all__ = ["Connect", "build_body", "body_stats", "enclosed_volume", "shell_over
 
 VOLUME_SAMPLES = 400_000
 SURFACE_GAP = 0.5
+"""Delaunay with surface samples: sampled points closer to the surface than this many spacings
+are dropped (they would make flat tets with the surface points)."""
 
 RELAX_PASSES = 10
 """Default Lloyd passes of a ``delaunay`` body's interior points (with surface samples)."""
 
-RELAXED_MIN_QUALITY = 0.15
+RELAXED_MIN_QUALITY = 0.25
 """A relaxed ``delaunay`` body also drops its tets below this quality
 (:func:`~jellysim.geometry.tetra.tet_quality`) as long as they hold at most 0.2 % of its
-volume (:func:`~jellysim.geometry.tetra.delaunay_body` step 6): relaxed points leave only
-~0.1 % of the tets below it."""
-"""Delaunay with surface samples: sampled points closer to the surface than this many spacings
-are dropped (they would make flat tets with the surface points)."""
+volume (:func:`~jellysim.geometry.tetra.delaunay_body` step 6): about 0.5 % of a relaxed
+body's tets; 0.15 left far more substep-level inversions on hard drops (docs/physics.md)."""
 
 
 class Connect(str, Enum):
@@ -209,9 +209,11 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
         the tetrahedralization (:func:`~jellysim.geometry.sampling.relax_interior`; default
         :data:`RELAX_PASSES` with surface samples, 0 without: the report's random points).
         Relaxed points make far fewer flat tets, and the few left below
-        :data:`RELAXED_MIN_QUALITY` are dropped too (within 0.2 % of the volume).  Measured (docs/physics.md
-        section 0): a 6 cm ball at 5 kPa dropped 50 cm inverts tets unrelaxed (J -0.93) and
-        none relaxed (smallest J 0.07), and needs 95 instead of 153 substeps per frame.
+        :data:`RELAXED_MIN_QUALITY` are dropped too (within 0.2 % of the volume).  Measured
+        (docs/physics.md section 0): a 600-point, 6 cm ball at 5 kPa dropped 50 cm ends frames
+        with inverted tets unrelaxed (J -0.46) and none relaxed (frame ends >= 0.44; within
+        a substep some relaxed balls still dip below 0 for an instant), and needs 93 instead
+        of 153 substeps per frame.
     """
     body = _build_body(mesh, points=points, connect=connect, sampling=sampling, radius=radius,
                        neighbours=neighbours, h=h, surface_vertices=surface_vertices,
@@ -302,7 +304,7 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
     add_surface = (connect is Connect.DELAUNAY) if surface_vertices is None else surface_vertices
     on_surface = (connect is Connect.DELAUNAY) if surface_samples is None else surface_samples
     if on_surface:
-        from .geometry.sampling import relax_interior, sample_surface, surface_distance_fn
+        from .geometry.sampling import sample_surface, surface_distance_fn
 
         spacing = (volume / points) ** (1.0 / 3.0)
         skin = sample_surface(m.vertices, m.faces, spacing, seed=seed)

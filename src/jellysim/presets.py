@@ -94,8 +94,10 @@ def gelatin(**changes):
     if unknown:
         import difflib
 
-        hints = [f"{k!r}" + (f" (did you mean {near[0]!r}?)" if (near := difflib.get_close_matches(
-            k, known, n=1)) else "") for k in unknown]
+        hints = []
+        for k in unknown:
+            near = difflib.get_close_matches(k, known, n=1)
+            hints.append(f"{k!r}" + (f" (did you mean {near[0]!r}?)" if near else ""))
         raise ValueError(f"unknown material parameter {', '.join(hints)}; the parameters are "
                          + ", ".join(sorted(known)))
     values.update(changes)

@@ -91,9 +91,10 @@ def _check_above_ground(x0, height: float) -> None:
         raise SceneError(
             f"the body starts {height - low:.4g} m below the ground (its lowest point at "
             f"y = {low:.4g} m, the ground at y = {height:g} m; {below} of {len(x0)} points "
-            f"below): the ground would throw it out.  Lift it: Body.from_mesh(..., base=(0, "
-            f"{height:g}, 0)) / [body] base = [0, {height:g}, 0] puts its bottom on the ground; "
-            f"or disable the ground")
+            f"below): the ground would throw it out.  Lift it: [body] base = [0, {height:g}, "
+            f"0] (mesh and file bodies) or [body] lower with y >= {height:g} (box fields) in a "
+            f"scene; Body.from_mesh(..., base=(0, {height:g}, 0)) in Python; or disable the "
+            f"ground")
 
 
 class Simulator(HandleMethods, PhysicalStepping):
@@ -150,8 +151,10 @@ class Simulator(HandleMethods, PhysicalStepping):
         ground = GroundParams(enabled=False) if ground is None else ground
         self.provot = provot
         self.ground = ground
-        if ground.enabled and state is None:
-            _check_above_ground(model.point_x0, float(ground.height))
+        if ground.enabled and (state is None or getattr(state, "step", 0) == 0):
+            # a fresh start (a resumed run may rest on the ground with round-off below it)
+            _check_above_ground(model.point_x0 if state is None else state.x,
+                                float(ground.height))
         self.physical = getattr(model, "fem", None) is not None
         if self.physical and self.integrator is not Integrator.SYMPLECTIC:
             raise SceneError(
