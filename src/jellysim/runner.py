@@ -215,10 +215,11 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
             previous_handlers[sig] = signal.signal(sig, on_signal)
     if progress:
         from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
-                                   TimeRemainingColumn)
+                                   TimeElapsedColumn, TimeRemainingColumn)
 
         bar = Progress(TextColumn("[bold]simulating"), BarColumn(), MofNCompleteColumn(),
-                       TextColumn("steps"), TimeRemainingColumn(), transient=False)
+                       TextColumn("steps"), TimeElapsedColumn(), TextColumn("elapsed,"),
+                       TimeRemainingColumn(), TextColumn("left"), transient=False)
         bar.start()
         task = bar.add_task("run", total=total, completed=min(done, total))
     last_wall, last_step = time.monotonic(), done

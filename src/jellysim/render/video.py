@@ -33,10 +33,11 @@ def _frames_with_progress(renderer, frames, progress: bool, label: str):
     bar = None
     if progress:
         from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
-                                   TimeRemainingColumn)
+                                   TimeElapsedColumn, TimeRemainingColumn)
 
         bar = Progress(TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(),
-                       TextColumn("frames"), TimeRemainingColumn())
+                       TextColumn("frames"), TimeElapsedColumn(), TextColumn("elapsed,"),
+                       TimeRemainingColumn(), TextColumn("left"))
         bar.start()
         task = bar.add_task(label, total=len(frames))
     try:
