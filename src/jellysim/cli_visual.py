@@ -93,7 +93,7 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
 @click.option("--quiet", is_flag=True, help="No progress bars.")
 @click.option("--scene", type=click.Choice(["jelly", "cow"]), default="jelly",
               show_default=True,
-              help="jelly: a fluted gelatin mould tossed onto a plate; cow: Spot dropped on it "
+              help="jelly: a fluted gelatin mould tossed onto a plate; cow: Spot (firm gelatin) set down on it "
                    "(writes demo_cow.*).")
 @click.option("--backend", type=click.Choice(["numba", "numpy", "warp"]), default=None,
               help="Kernels (default: the demo scene's, numba).")

@@ -37,7 +37,9 @@ DEMO_SHAPES = {
     "cow": {
         "mesh": "spot",         # Spot the cow (public domain, Keenan Crane), data/spot.obj
         "length": 0.10,
-        "drop_height": 0.02,
+        # set down on the plate (1 mm gap): dropped even 5 mm, its legs buckle (Euler load,
+        # README "Physical jello from Python") and it lands on its belly
+        "drop_height": 0.001,
         "velocity": [0.0, 0.0, 0.0],
         "points": 3000,
         "connect": "marching",
@@ -116,7 +118,7 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
              precision: str | None = None, threads: int | None = None,
              overwrite: bool = False, points: int | None = None) -> dict:
     """Simulate a demo scene (``"jelly"``: a fluted gelatin mould tossed onto a plate;
-    ``"cow"``: Spot dropped on it) and write ``<out_dir>/demo.mp4`` (+ ``demo.usdc``; the cow:
+    ``"cow"``: Spot, in firm gelatin, set down on it) and write ``<out_dir>/demo.mp4`` (+ ``demo.usdc``; the cow:
     ``demo_cow.*``); the run itself goes to ``<out_dir>/demo/`` (``demo_cow/``).  ``frames``
     limits the number of saved frames (CI).  ``backend``/``device``/``precision`` override
     the scene's (refused with a :class:`~jellysim.errors.SceneError` where the backend lacks
