@@ -436,6 +436,14 @@ def test_python_api_mistakes_name_the_parameter_and_the_choices():
     n = body.point_count
     with pytest.raises(SceneError, match=rf"pin: point index {10**6} is out of range.*{n} points"):
         sim.pin([10**6])
+    low = sim.state.x[:, 1] < sim.state.x[:, 1].min() + 0.01  # a boolean mask: the bottom
+    sim.pin(low)
+    assert np.array_equal(np.flatnonzero(sim.handles.pinned), np.flatnonzero(low))
+    assert low.sum() > 2
+    with pytest.raises(SceneError, match="one entry per point"):
+        sim.pin(low[:-1])
+    with pytest.raises(SceneError, match="must be integers"):
+        sim.pin([2.7])
     with pytest.raises(SceneError, match=r"apply_force: force \[N\] must be 3 numbers"):
         sim.apply_force([0], [1.0, 2.0])
     with pytest.raises(SceneError, match=r"drag: target \[m\] must be 3 numbers"):

@@ -212,8 +212,9 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
         :data:`RELAXED_MIN_QUALITY` are dropped too (within 0.2 % of the volume).  Measured
         (docs/physics.md section 0): a 600-point, 6 cm ball at 5 kPa dropped 50 cm ends frames
         with inverted tets unrelaxed (J -0.46) and none relaxed (frame ends >= 0.44; within
-        a substep some relaxed balls still dip below 0 for an instant), and needs 93 instead
-        of 153 substeps per frame.
+        a substep some relaxed balls still dip below 0 for an instant, and a relaxed cube or
+        mould can still end a frame inverted: use ``marching`` for hard drops), and needs 93
+        instead of 153 substeps per frame.
     """
     body = _build_body(mesh, points=points, connect=connect, sampling=sampling, radius=radius,
                        neighbours=neighbours, h=h, surface_vertices=surface_vertices,

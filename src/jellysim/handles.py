@@ -223,8 +223,19 @@ class HandleMethods:
     def _point_indices(self, indices, what: str) -> np.ndarray:
         """Unique point indices, or a :class:`SceneError` naming ``what`` and the range."""
         n = self.model.point_count
+        raw = np.asarray(indices)
+        if raw.dtype == bool:  # a mask over the points, e.g. sim.state.x[:, 1] < 0.01
+            if raw.shape != (n,):
+                raise SceneError(f"{what}: a boolean mask must have one entry per point "
+                                 f"({n}), got shape {raw.shape}")
+            raw = np.flatnonzero(raw)
+        elif raw.size and not np.issubdtype(raw.dtype, np.integer):
+            whole = raw.dtype.kind == "f" and np.all(raw == np.round(raw))
+            if not whole:
+                raise SceneError(f"{what}: point indices must be integers (or a boolean mask "
+                                 f"over the points), got {indices!r}")
         try:
-            idx = np.unique(np.asarray(indices, dtype=np.int64).reshape(-1))
+            idx = np.unique(raw.astype(np.int64).reshape(-1))
         except (TypeError, ValueError):
             raise SceneError(f"{what}: point indices must be integers, got {indices!r}") \
                 from None

@@ -57,8 +57,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "relax": Spec("int", None, "Type 'mesh', connect 'delaunay': Lloyd passes of the "
                       "sampled interior points before the tetrahedralization (default 10 with "
                       "surface samples, 0 without; 0 is the report's random points).  Relaxed "
-                      "points make far fewer flat tets: fewer substeps, and no tet inverted at "
-                      "a frame end on hard drops (docs/physics.md section 0).", lambda v: v >= 0,
+                      "points make far fewer flat tets: fewer substeps and far fewer inverted "
+                      "tets on hard drops (docs/physics.md section 0).", lambda v: v >= 0,
                       "an integer >= 0"),
         "size": Spec("float", None, "Type 'mesh': scale the mesh so its largest extent is this "
                      "[m].", lambda v: v > 0, "a number > 0 (m)"),
