@@ -96,6 +96,7 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     from .scene import Scene
 
     _set_max_memory(max_memory)
+    out, fresh = None, False
     try:
         scene = Scene.load(scene_file, overrides=settings).with_backend(backend, device,
                                                                         precision)
@@ -106,6 +107,7 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
                                 "resumes in its own directory (give only --resume)")
         out = (Path(resume_dir) if resume_dir else Path(out_dir) if out_dir
                else Path("out") / Path(scene_file).stem)
+        fresh = not out.exists()
         if not resume_dir:
             prepare_out_dir(out, overwrite=overwrite)
         elif ((out / "trajectory.npz").exists() and not (out / "checkpoint.npz").exists()
@@ -117,9 +119,12 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
                            steps=steps, resume=resume_dir is not None,
                            checkpoint_every=checkpoint_every)
     except RunInterrupted as exc:
-        click.secho(str(exc), fg="yellow", err=True)
+        # the printed resume command ends the message: it keeps this run's --no-vtu
+        click.secho(str(exc) + (" --no-vtu" if no_vtu else ""), fg="yellow", err=True)
         sys.exit(128 + exc.signal if exc.signal else 3)
     except JellysimError as exc:
+        if fresh and out.is_dir() and not any(out.iterdir()):
+            out.rmdir()  # refused before anything was written: leave no empty folder
         _fail(str(exc))
     if result.resumed_from is not None:
         click.echo(f"resumed from the checkpoint at step {result.resumed_from}")

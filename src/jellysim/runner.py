@@ -134,12 +134,18 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     many steps are done, e.g. to split a long run into jobs.
     ``handle_signals``: catch SIGINT/SIGTERM (main thread only) to stop cleanly."""
     out_dir = Path(out_dir)
+    created = not out_dir.exists()
     out_dir.mkdir(parents=True, exist_ok=True)
     _clean(out_dir)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        model = scene.build_model(body)
-        sim = scene.simulator(model)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            model = scene.build_model(body)
+            sim = scene.simulator(model)
+    except JellysimError:
+        if created and not any(out_dir.iterdir()):  # refused before anything was written
+            out_dir.rmdir()
+        raise
     messages = [str(w.message) for w in caught]
     if isinstance(skin, str) and skin == "auto":
         try:

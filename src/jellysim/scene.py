@@ -19,7 +19,8 @@ from .params import (GRAVITY, MAX_ALL_PAIRS_POINTS, REPORT_DENSITY, GroundParams
 # Spec (one row of the schema) and the checks live in scene_spec; SCHEMA stays here
 from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-exported)
                               make_obstacle, validate_obstacles)
-from .scene_spec import REQUIRED, Spec, _nonneg, _pos, as_toml, check_backend, check_value
+from .scene_spec import (REQUIRED, Spec, _nonneg, _pos, as_toml, check_backend, check_value,
+                         missing_path)
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
 from .scene_doc import schema_markdown as make
@@ -369,13 +370,6 @@ class Scene:
             p = Path(self.name).resolve().parent / p
         return p
 
-    def _missing(self, given: str, path: Path) -> str:
-        where = ("relative paths are read from the scene file's folder, "
-                 f"{Path(self.name).resolve().parent}" if not Path(given).is_absolute()
-                 and self.name not in ("<scene>", "demo") else "")
-        return (f"{self.name}: [body] path = {given!r}: file not found ({path})"
-                + (f"; {where}" if where else ""))
-
     @property
     def surface(self):
         """The placed surface mesh of a type 'mesh' scene (vertices [m] (m, 3), faces
@@ -424,7 +418,7 @@ class Scene:
 
             path = self.resolve(b["path"])
             if not path.exists():
-                raise SceneError(self._missing(b["path"], path))
+                raise SceneError(missing_path(self.name, b["path"], path))
             body = read_body(path)
             return replace(body, points=self._place(body.points))
         if b["type"] == "mesh":
@@ -433,7 +427,7 @@ class Scene:
 
             path = self.resolve(b["path"])
             if not path.exists():
-                raise SceneError(self._missing(b["path"], path))
+                raise SceneError(missing_path(self.name, b["path"], path))
             try:
                 mesh = load_mesh(path)
             except JellysimError as exc:
@@ -550,7 +544,12 @@ class Scene:
         velocity and the ``[[handle]]`` tables applied."""
 
         model = self.build_model() if model is None else model
-        sim = Simulator(model, **self.simulator_kwargs(model, **overrides))
+        try:
+            sim = Simulator(model, **self.simulator_kwargs(model, **overrides))
+        except SceneError as exc:  # name the scene file, as the other scene errors do
+            msg = str(exc)
+            raise SceneError(msg if msg.startswith(f"{self.name}:") else
+                             f"{self.name}: {msg}") from None
         self.prepare(sim)
         return sim
 

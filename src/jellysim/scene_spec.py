@@ -15,7 +15,7 @@ from typing import Any, Callable
 from .errors import SceneError
 from .kernels import WARP_INTEGRATORS
 
-__all__ = ["REQUIRED", "Spec", "as_toml", "check_table", "check_value", "apply_override",
+__all__ = ["REQUIRED", "Spec", "as_toml", "missing_path", "check_table", "check_value", "apply_override",
            "check_backend"]
 
 REQUIRED = object()
@@ -160,3 +160,15 @@ def as_toml(raw: dict) -> str:
             lines += [f"{k} = {json.dumps(v)}" for k, v in t.items() if v is not None]
             lines.append("")
     return "\n".join(lines)
+
+
+def missing_path(name: str, given: str, path) -> str:
+    """The message for a scene's ``[body] path`` that does not exist (where relative paths
+    are read from)."""
+    from pathlib import Path
+
+    where = ("relative paths are read from the scene file's folder, "
+             f"{Path(name).resolve().parent}" if not Path(given).is_absolute()
+             and name not in ("<scene>", "demo") else "")
+    return (f"{name}: [body] path = {given!r}: file not found ({path})"
+            + (f"; {where}" if where else ""))

@@ -40,6 +40,10 @@ def physical_model(body, material: Material = Material(), *, gravity=GRAVITY,
     """
     from ..geometry.tetra import lump_tet_masses
 
+    g = np.asarray(gravity, dtype=np.float64)
+    if g.shape != (3,) or not np.all(np.isfinite(g)):
+        raise ValueError(f"gravity must be 3 finite numbers (x, y, z) in m/s^2, e.g. (0, -9.8, "
+                         f"0) or (0, 0, 0) for none; got {gravity!r}")
     if material.model is MaterialModel.FEM:
         if body.tets is None or len(body.tets) == 0:
             raise ValueError(
