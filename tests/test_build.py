@@ -188,3 +188,19 @@ def test_cli_build_and_inspect(tmp_path):
     res = runner.invoke(cli, ["build", str(tmp_path / "missing.obj"), "-o", str(out)])
     assert res.exit_code == 2 and "missing.obj" in res.output and "Traceback" not in res.output
     assert read_body(out).point_count == body.point_count  # the old file is intact
+
+
+def test_marching_box_fills_its_mesh_and_sits_on_its_base():
+    """A 5 cm cube built by the marching grid is the whole cube (a grid centred on the box has
+    its outer nodes on the faces, where they count as outside: the body came out a cell
+    smaller, 4 cm tall and 5 mm above where it was placed)."""
+    import jellysim as js
+    from jellysim.geometry.tetra import tet_signed_volumes
+
+    for points in (200, 1000):
+        body = js.Body.from_mesh(mesh_path("cube.obj"), size=0.05, points=points,
+                                 connect="marching", base=(0, 0, 0))
+        vol = np.abs(tet_signed_volumes(body.points, body.tets)).sum()
+        assert vol == pytest.approx(0.05**3, rel=1e-3)
+        assert body.points[:, 1].min() == pytest.approx(0.0, abs=1e-6)
+        assert np.ptp(body.points, axis=0) == pytest.approx([0.05] * 3, rel=1e-4)

@@ -28,6 +28,7 @@ a warning says so).
 """
 from __future__ import annotations
 
+import math
 import warnings
 from enum import Enum
 from pathlib import Path
@@ -46,6 +47,10 @@ VOLUME_SAMPLES = 400_000
 SURFACE_GAP = 0.5
 """Delaunay with surface samples: sampled points closer to the surface than this many spacings
 are dropped (they would make flat tets with the surface points)."""
+
+FITTED_GRID_GAIN = 1.25
+"""``marching`` (``h`` not given): the grid fitted to the mesh's height replaces the centred
+one when its tets hold this many times the volume (a box: 1.95x; a sphere: 1.10x, kept)."""
 
 RELAX_PASSES = 10
 """Default Lloyd passes of a ``delaunay`` body's interior points (with surface samples)."""
@@ -281,21 +286,21 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
     if volume <= 0:
         raise BuildError(f"{name}: the surface encloses no volume (no inside points found)")
     if connect is Connect.MARCHING:
-        from .geometry.tetra import marching_grid
-
-        if h is None:
+        chosen = h is None
+        if chosen:
             h = (volume / points) ** (1.0 / 3.0)
-        body = marching_grid(m.vertices, m.faces, query.query, h=h, density=density)
-        body.meta.update(source=name, connect="marching", h=float(h), snapped=bool(snap))
-        if snap:
-            from .geometry.snap import snap_to_surface
-            from .geometry.tetra import lump_tet_masses
-
-            body.points = snap_to_surface(body.points, body.tets, m.vertices, m.faces, h,
-                                          seed=seed)
-            body.masses = lump_tet_masses(body.points, body.tets, density)
-            body.volume = float(body.masses.sum() / density)
-            body.rest_length = None
+        body = _marching(m, query, h, density, snap, seed, name)
+        if chosen and snap:
+            # the grid is centred on the bounding box; one fitted to its height (cubic cells a
+            # hair smaller, the bottom and top node layers just inside the mesh) can fill a
+            # box-like shape that the centred grid misses by a cell per face (a 5 cm cube came
+            # out 4 cm tall, its base 5 mm up): keep it where it fills far more of the mesh
+            # and is no shorter (on Spot it is 5 % shorter: its hooves' tips are lost)
+            fitted = _marching(m, query, _fit_height(h, float(hi[1] - lo[1])), density, snap,
+                               seed, name)
+            if (fitted.volume > FITTED_GRID_GAIN * body.volume
+                    and np.ptp(fitted.points[:, 1]) >= np.ptp(body.points[:, 1])):
+                body = fitted
         return _rescale_masses(body, density, volume)
     try:
         pts = sample_inside(query.query, lo, hi, points, method=sampling, seed=seed,
@@ -354,6 +359,33 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
             "mean_neighbours": float(2 * len(springs) / len(pts)),
             "tet_volume": tet_info["tet_volume"], "cloud_tets": tet_info}
     return Body(points=pts, springs=springs, tets=tets, volume=volume, meta=meta)
+
+
+def _marching(m, query, h, density, snap, seed, name) -> Body:
+    """The marching grid body of edge ``h`` [m], snapped to the surface with ``snap``
+    (``volume``: its tets' volume then)."""
+    from .geometry.tetra import lump_tet_masses, marching_grid
+
+    body = marching_grid(m.vertices, m.faces, query.query, h=h, density=density)
+    body.meta.update(source=name, connect="marching", h=float(h), snapped=bool(snap))
+    if snap:
+        from .geometry.snap import snap_to_surface
+
+        body.points = snap_to_surface(body.points, body.tets, m.vertices, m.faces, h, seed=seed)
+        body.masses = lump_tet_masses(body.points, body.tets, density)
+        body.volume = float(body.masses.sum() / density)
+        body.rest_length = None
+    return body
+
+
+def _fit_height(h: float, height: float) -> float:
+    """The cube edge [m] near ``h`` (never larger) whose grid of cubic cells spans ``height``
+    [m] but for a hair, so that the bottom and top node layers of the grid (centred on the
+    bounding box) lie just inside the mesh's lowest and highest points."""
+    if not height > 0:
+        return h
+    cells = max(1, math.ceil(height / h - 1e-9))
+    return height * (1.0 - 2e-6) / cells
 
 
 def _choice(enum, value, what: str):

@@ -67,7 +67,9 @@ def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
         raise BuildError(f"h must be a positive finite length [m], got {h!r}")
     lo, hi = v.min(axis=0), v.max(axis=0)
     ext = hi - lo
-    ncell = np.maximum(1, np.ceil(ext / h - 1e-9).astype(np.int64))
+    # (an extent within 1e-5 of a whole number of cells is that many: build_body may fit
+    # the grid to the box so that its outer nodes lie a hair inside it)
+    ncell = np.maximum(1, np.ceil(ext / h * (1.0 - 1e-5)).astype(np.int64))
     if int(np.prod(ncell + 1)) > 50_000_000:
         raise BuildError(f"h={h} gives a {tuple(int(c) for c in ncell)} grid; too many nodes")
     origin = lo - (ncell * h - ext) / 2.0
