@@ -15,8 +15,8 @@ from typing import Any, Callable
 from .errors import SceneError
 from .kernels import WARP_INTEGRATORS
 
-__all__ = ["REQUIRED", "Spec", "as_toml", "missing_path", "check_table", "check_value", "apply_override",
-           "check_backend"]
+__all__ = ["REQUIRED", "Spec", "as_toml", "missing_path", "check_table", "check_value",
+           "apply_override", "check_backend"]
 
 REQUIRED = object()
 
