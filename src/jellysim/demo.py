@@ -117,15 +117,16 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
              backend: str | None = None, device: str | None = None,
              precision: str | None = None, threads: int | None = None,
              overwrite: bool = False, points: int | None = None) -> dict:
-    """Simulate a demo scene (``"jelly"``: a fluted gelatin mould tossed onto a plate;
-    ``"cow"``: Spot, in firm gelatin, set down on it) and write ``<out_dir>/demo.mp4``
-    (+ ``demo.usdc``; the cow: ``demo_cow.*``); the run itself goes to ``<out_dir>/demo/``
-    (``demo_cow/``).  ``frames`` limits the number of saved frames (CI).  ``backend``/``device``/``precision`` override
-    the scene's (refused with a :class:`~jellysim.errors.SceneError` where the backend lacks
-    the demo's physical path); ``threads``: numba threads (default: by problem size).  An
-    earlier demo's outputs there are refused (:class:`~jellysim.errors.JellysimError`) unless
-    ``overwrite``, which deletes them first.  ``points``: see :func:`build_demo_body`.
-    Returns the paths written and timings [s]."""
+    """Simulate a demo scene (``"jelly"``: a fluted gelatin mould tossed onto a plate; ``"cow"``:
+    Spot, in firm gelatin, set down on it) and write ``<out_dir>/demo.mp4`` (+
+    ``demo.usdc``; the cow: ``demo_cow.*``); the run itself goes to ``<out_dir>/demo/``
+    (``demo_cow/``).  ``frames`` limits the number of saved frames (CI).
+    ``backend``/``device``/``precision`` override the scene's (refused with a
+    :class:`~jellysim.errors.SceneError` where the backend lacks the demo's physical path);
+    ``threads``: numba threads (default: by problem size).  An earlier demo's outputs there
+    are refused (:class:`~jellysim.errors.JellysimError`) unless ``overwrite``, which
+    deletes them first.  ``points``: see :func:`build_demo_body`. Returns the paths written
+    and timings [s]."""
     import time
 
     from .scene import Scene
