@@ -448,3 +448,21 @@ def test_bad_obstacles_give_one_clear_line(edit, words):
     assert "\n" not in msg and "obstacles.toml" in msg
     for w in words:
         assert w in msg, (w, msg)
+
+
+def test_grid_box_radius_defaults_to_1_8_spacings():
+    """A grid box needs no [springs] radius: 1.8 spacings joins each point to its 26
+    lattice neighbours (axes, face and body diagonals, up to sqrt(3) spacings); a random
+    field still must give one."""
+    text = ('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 125\n'
+            'distribution = "grid"\nlower = [0.0, 0.0, 0.0]\nupper = [0.04, 0.04, 0.04]\n'
+            "[integrator]\nsteps = 2\n")
+    scene = Scene.from_text(text, name="grid.toml")
+    assert scene.params["springs"]["radius"] == pytest.approx(1.8 * 0.008)
+    model = scene.build_model()
+    inner = np.all((model.point_x0 > 1e-9) & (model.point_x0 < 0.04 - 1e-9), axis=1)
+    degree = np.bincount(model.spring_ij.ravel(), minlength=model.point_count)
+    assert np.all(degree[inner] == 26)
+    with pytest.raises(SceneError, match=r"\[springs\] missing value 'radius'"):
+        Scene.from_text(text.replace('distribution = "grid"', 'distribution = "uniform"'),
+                        name="field.toml")

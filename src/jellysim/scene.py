@@ -20,7 +20,7 @@ from .params import (GRAVITY, MAX_ALL_PAIRS_POINTS, REPORT_DENSITY, GroundParams
 from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-exported)
                               make_obstacle, validate_obstacles)
 from .scene_spec import (REQUIRED, Spec, _nonneg, _pos, as_toml, check_backend, check_value,
-                         missing_path)
+                         grid_radius, missing_path)
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
 from .scene_doc import schema_markdown as make
@@ -80,7 +80,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         "type 'mesh' also 'marching', 'delaunay', 'tetgen'.",
                         choices=("radius", "marching", "delaunay", "tetgen")),
         "radius": _pos("Connection radius r [m]: every pair closer than r gets a spring "
-                       "(required for type 'box'; type 'mesh': default from neighbours).", None,
+                       "(type 'box': required, but 1.8 spacings for a grid; type 'mesh': "
+                       "default from neighbours).", None,
                        unit=" (m)"),
         "neighbours": _pos("Type 'mesh', radius not given: target mean springs per point.",
                            24.0),
@@ -223,8 +224,7 @@ class Scene:
         self.params = params
         self.text = text
         self.name = name
-        self.overrides: tuple[str, ...] = ()
-        """The ``--set`` items this scene was loaded with (a resume needs them again)."""
+        self.overrides: tuple[str, ...] = ()  # the --set items this scene was loaded with
 
     @classmethod
     def load(cls, path, *, overrides=()) -> "Scene":
@@ -261,7 +261,7 @@ class Scene:
                     f"--set {item}" for item in given) + ")"
             raise SceneError(msg) from None
         scene = cls(params, text=text, name=name)
-        scene.overrides = tuple(overrides)
+        scene.overrides = tuple(overrides)  # (a resume needs them again)
         return scene
 
     @classmethod
@@ -330,6 +330,8 @@ class Scene:
         if raw.get("body", {}).get("relax") and (kind != "mesh" or sp["connect"] != "delaunay"):
             raise SceneError(f"{name}: [body] relax is used only by type = 'mesh' with "
                              "[springs] connect = 'delaunay'; remove it")
+        if kind == "box" and sp["radius"] is None and b["distribution"] == "grid":
+            sp["radius"] = grid_radius(b["points"], b["lower"], b["upper"])  # 1.8 spacings
         if kind == "box":
             for key, sec in (("points", b), ("radius", sp)):
                 if sec[key] is None:

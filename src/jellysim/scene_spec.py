@@ -12,11 +12,13 @@ import tomllib
 from dataclasses import dataclass
 from typing import Any, Callable
 
+import numpy as np
+
 from .errors import SceneError
 from .kernels import WARP_INTEGRATORS
 
 __all__ = ["REQUIRED", "Spec", "as_toml", "missing_path", "check_table", "check_value",
-           "apply_override", "check_backend"]
+           "apply_override", "check_backend", "grid_radius"]
 
 REQUIRED = object()
 
@@ -172,3 +174,15 @@ def missing_path(name: str, given: str, path) -> str:
              and name not in ("<scene>", "demo") else "")
     return (f"{name}: [body] path = {given!r}: file not found ({path})"
             + (f"; {where}" if where else ""))
+
+
+def grid_radius(points, lower, upper) -> float | None:
+    """1.8 spacings [m] of the grid :func:`jellysim.geometry.lattice.grid_points` lays in the
+    box (its nearest, face-diagonal and body-diagonal neighbours), or ``None`` when the box or
+    the count is not valid (its own checks say why)."""
+    lo, hi = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
+    if points is None or points < 8 or lo.shape != (3,) or not np.all(hi > lo):
+        return None
+    size = hi - lo
+    h = (np.prod(size) / points) ** (1.0 / 3.0)
+    return float(1.8 * np.max(size / np.maximum(1, np.round(size / h))))
