@@ -68,22 +68,42 @@ def test_forces_conserve_momentum_and_resist_inversion():
     assert j[0] < 0 and out[3, 2] > 0  # pushed back up
 
 
-def test_numba_agrees_with_numpy_spec():
-    body = kuhn_box((3, 3, 3), upper=(0.03, 0.03, 0.03))
+@pytest.mark.parametrize("cells", [(3, 3, 3), (13, 13, 12)])
+@pytest.mark.parametrize("g", [0.2, 0.0])
+def test_numba_agrees_with_numpy_spec(cells, g):
+    """The numba tets (computed in vectorised blocks of LANES tets, the last one partial:
+    162 tets, and 12,168 in 381 blocks dealt to 256 chunks; with and without the damping branch) give the spec's forces and
+    branch strains, bitwise the same on 1 and 2 threads."""
+    import numba
+
+    from jellysim.kernels.fem_lanes_numba import LANES
+
+    body = kuhn_box(cells, upper=(0.03, 0.03, 0.03))
     fem = fem_arrays(body.points, body.tets, youngs_modulus=1e4, poisson_ratio=0.4,
                      damping_ratio=0.05, damping_frequency=4.0)
+    assert fem.tet_count % LANES != 0
     rng = np.random.default_rng(0)
-    x = body.points + rng.standard_normal(body.points.shape) * 1e-3
+    x = body.points + rng.standard_normal(body.points.shape) * 1e-3 * 3 / cells[0]
     res = []
-    for mod in (fem_numpy, fem_numba):
-        q = np.full((fem.tet_count, 6), 0.01)
-        tf = np.zeros((4 * fem.tet_count, 3))
-        out = np.zeros((len(x), 3))
-        mod.tet_forces(x, _tuple(fem, 0.2, 0.7, q), 0.2, 0.7, q, tf, np.zeros(fem.tet_count))
-        mod.gather_tet_forces(tf, fem.point_tet_ptr, fem.point_tet_slot, out)
-        res.append((out, q))
+    before = numba.get_num_threads()
+    try:
+        for mod, threads in ((fem_numpy, 1), (fem_numba, 1), (fem_numba, 2)):
+            numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+            q = np.full((fem.tet_count, 6), 0.01)
+            tf = np.zeros((4 * fem.tet_count, 3))
+            j = np.zeros(fem.tet_count)
+            out = np.zeros((len(x), 3))
+            mod.tet_forces(x, _tuple(fem, g, 0.7, q), g, 0.7, q, tf, j)
+            mod.gather_tet_forces(tf, fem.point_tet_ptr, fem.point_tet_slot, out)
+            res.append((out, q, j))
+    finally:
+        numba.set_num_threads(before)
     assert np.allclose(res[0][0], res[1][0], rtol=1e-12, atol=1e-12 * np.abs(res[0][0]).max())
     assert np.allclose(res[0][1], res[1][1], rtol=1e-12, atol=1e-15)
+    assert np.allclose(res[0][2], res[1][2], rtol=1e-13, atol=0)
+    assert (g > 0) == (not np.all(res[1][1] == 0.01))  # the branch advanced only when on
+    for a, b in zip(res[1], res[2]):
+        assert np.array_equal(a, b)
 
 
 def _cube_model(cells=4, size=0.04, lift=0.0, **material):
