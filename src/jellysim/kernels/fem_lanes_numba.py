@@ -10,10 +10,10 @@ code), and the results are scattered back.  Same formulas in the same order as t
 scalar version it replaced, no fused multiply-add: the forces are bitwise those of the
 per-tet loop (``tests/test_fem.py``), for any thread count (every tet is computed alone).
 
-Measured (``benchmarks/bench_physical.py``, BENCHMARKS.md): 12,167-point gelatin cube, one
-thread, medians of 9: 28.1 -> 17.8 ns per tet without the damping branch, 39.3 -> 27.3 with
-it; what is left is mostly memory traffic (the inverse rest shapes, the branch state, the
-corner forces: ~430 bytes per tet per substep).  Buffer rows::
+Measured (``benchmarks/bench_tet_kernel.py``, BENCHMARKS.md "Session 6"): 63,888 tets, one
+thread, 28.0 -> 17.4 ns per tet without the damping branch, 39.1 -> 28.3 with it; what is left
+is mostly memory traffic (the inverse rest shapes, the branch strain, the corner forces: ~430
+bytes per tet per substep).  Buffer rows::
 
     0-8    Ds (row-major: d_ab = x_{b+1}[a] - x_0[a])
     9-17   Dm^-1 (row-major)
