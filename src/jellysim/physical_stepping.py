@@ -80,7 +80,10 @@ class PhysicalStepping:
         model_arrays = (m.point_inv_mass, float(m.damping), m.gravity, springs)
         contact = (self._obstacle_kind, self._obstacle_data, float(self.rest_speed),
                    self.center, float(self.runaway_distance**2))
-        scratch = (self._tet_force, self._tet_j, self._fsum, self._scalar, self._min_j)
+        tet_force = self._tet_force
+        if self.backend is Backend.NUMBA and self.threads == 1:
+            tet_force = tet_force[:0]  # one thread: the tet pass sums into fsum itself
+        scratch = (tet_force, self._tet_j, self._fsum, self._scalar, self._min_j)
         return model_arrays, ft, contact, scratch
 
     MAX_SUBSTEP_DOUBLINGS = 3
