@@ -158,9 +158,10 @@ _lanes_damped = _make_lanes(True)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _gather_block(s, t0, m, x, tets, dm, vol, mu, lam, alpha, mu_l, q, damped):
+def _gather_block(s, t0, m, x, fem, q, damped):
     """Block ``[t0, t0 + m)`` into the buffer; lanes past ``m`` repeat tet ``t0``."""
     B = LANES
+    tets, dm, vol, mu, lam, alpha, mu_l = fem[0], fem[1], fem[2], fem[3], fem[4], fem[5], fem[6]
     for l in range(B):
         t = t0 + l if l < m else t0
         i0, i1, i2, i3 = tets[t, 0], tets[t, 1], tets[t, 2], tets[t, 3]
@@ -224,8 +225,7 @@ def _scatter_block(s, t0, m, q, tet_force, tet_j, damped):
 @njit(**_opts)
 def tet_forces(x, fem, g, decay, q, tet_force, tet_j):
     """See :func:`.fem_numpy.tet_forces` (same arguments and results)."""
-    # the arrays are taken out of the tuple once, outside the parallel loop
-    tets, dm, vol, mu, lam, alpha, mu_l = fem[0], fem[1], fem[2], fem[3], fem[4], fem[5], fem[6]
+    tets = fem[0]
     n = tets.shape[0]
     nb = (n + LANES - 1) // LANES
     damped = g > 0.0
@@ -235,7 +235,7 @@ def tet_forces(x, fem, g, decay, q, tet_force, tet_j):
         for blk in range(ch * nb // nch, (ch + 1) * nb // nch):
             t0 = blk * LANES
             m = min(LANES, n - t0)
-            _gather_block(s, t0, m, x, tets, dm, vol, mu, lam, alpha, mu_l, q, damped)
+            _gather_block(s, t0, m, x, fem, q, damped)
             if damped:
                 _lanes_damped(s, g, decay)
             else:
@@ -250,7 +250,7 @@ def tet_forces_summed(x, fem, g, decay, q, fsum, tet_j, min_j):
     corner force is added to its point at once, so every point sums its tets' forces in tet
     order starting from 0.0, exactly as the gather does (bitwise the same ``fsum`` [N], shape
     (n, 3)); ``min_j[0]`` is lowered to the smallest J, NaNs skipped as in the gather path."""
-    tets, dm, vol, mu, lam, alpha, mu_l = fem[0], fem[1], fem[2], fem[3], fem[4], fem[5], fem[6]
+    tets = fem[0]
     n = tets.shape[0]
     damped = g > 0.0
     B = LANES
@@ -259,7 +259,7 @@ def tet_forces_summed(x, fem, g, decay, q, fsum, tet_j, min_j):
     m_j = min_j[0]
     for t0 in range(0, n, B):
         m = min(B, n - t0)
-        _gather_block(s, t0, m, x, tets, dm, vol, mu, lam, alpha, mu_l, q, damped)
+        _gather_block(s, t0, m, x, fem, q, damped)
         if damped:
             _lanes_damped(s, g, decay)
         else:
