@@ -92,6 +92,11 @@ def test_stop_and_resume_is_bitwise_equal_to_an_uninterrupted_run(tmp_path, text
     res = run_scene(scene, cut, progress=False, resume=True)
     assert res.resumed_from == 4 * every
     _same(load_trajectory(res.trajectory), ref)
+    # the simulated time each call reports (what `jellysim run` divides by its wall time for
+    # the real-time factor): its own steps x dt, the trajectory's time span for the full run
+    assert full.simulated == pytest.approx(ref.times[-1] - ref.times[0], rel=1e-12)
+    assert res.simulated == pytest.approx((full.steps - res.resumed_from) / full.steps
+                                          * full.simulated, rel=1e-12)
     assert not (cut / STREAM_DIR).exists() and not (cut / CHECKPOINT).exists()
     with pytest.raises(CheckpointError, match="nothing to resume"):
         run_scene(scene, cut, progress=False, resume=True)

@@ -132,8 +132,10 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         click.secho(f"warning: {w}", fg="yellow", err=True)
     taken = result.steps - (result.resumed_from or 0)
     rate = taken / result.seconds if result.seconds > 0 else float("inf")
+    realtime = (f", {result.simulated / result.seconds:.2g}x real time"
+                if result.seconds > 0 and result.simulated > 0 else "")
     click.echo(f"{taken} steps, {result.frames} frames in {result.seconds:.3g} s "
-               f"({rate:,.0f} steps/s)")
+               f"({rate:,.0f} steps/s{realtime})")
     click.echo(f"wrote {result.trajectory}")
     if result.pvd:
         click.echo(f"wrote {result.pvd} (+ {result.frames} .vtu frames)")

@@ -84,6 +84,8 @@ class RunResult:
     warnings: list[str] = field(default_factory=list)
     resumed_from: int | None = None
     """Step of the checkpoint the run continued from (``resume=True``), else ``None``."""
+    simulated: float = 0.0
+    """Simulated time this call stepped [s] (its steps x the frame step ``dt``)."""
 
 
 def _clean(out_dir: Path) -> None:
@@ -287,4 +289,5 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     if ckpt_path.exists():
         ckpt_path.unlink()
     return RunResult(out_dir, path, series.pvd_path if series else None,
-                     frames, total, stepped, messages, resumed_from)
+                     frames, total, stepped, messages, resumed_from,
+                     simulated=(total - (resumed_from or 0)) * float(sim.dt))
