@@ -127,7 +127,8 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
     messages += [str(w.message) for w in caught]
     path = recorder.save(out_dir / "trajectory.npz")
     return RunResult(out_dir, path, series.pvd_path if series else None,
-                     len(recorder.times), total, stepped, messages)
+                     len(recorder.times), total, stepped, messages,
+                     simulated=total * float(sim.dt))
 
 
 def prepare(scene, sim) -> None:
@@ -202,7 +203,8 @@ def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
         click.secho(f"warning: {w}", fg="yellow", err=True)
     rate = result.steps / result.seconds if result.seconds > 0 else float("inf")
     click.echo(f"{result.steps} steps, {result.frames} frames in {result.seconds:.3g} s "
-               f"({rate:,.0f} steps/s) on {comm.Get_size()} ranks")
+               f"({rate:,.0f} steps/s, {result.simulated / max(result.seconds, 1e-300):.2g}x "
+               f"real time) on {comm.Get_size()} ranks")
     click.echo(f"wrote {result.trajectory}")
     if result.pvd:
         click.echo(f"wrote {result.pvd} (+ {result.frames} .vtu frames)")
