@@ -249,6 +249,29 @@ def test_pinned_points_moved_along_a_path_drag_the_body():
     assert c[2] - c0[2] == pytest.approx(0.0, abs=0.002)
 
 
+def test_a_path_starting_later_ramps_from_rest_and_a_jump_is_refused():
+    """Offsets are from where the points are when pinned: a path whose first keyframe comes
+    later ramps from a zero offset at the pinning time (no teleport: the pins move 0.02 m over
+    0.5 s, so at 0.25 s they are half way and no point moves faster than the ramp allows much);
+    a path asking for a non-zero offset at the pinning time is refused, naming the fix."""
+    from jellysim.errors import SceneError
+
+    body = _box((3, 3, 3), (0.03, 0.03, 0.03))
+    model = physical_model(body, gelatin(damping_ratio=0.3, damping_frequency=4.0))
+    sim = Simulator(model, dt=1 / 60)
+    top = np.flatnonzero(model.point_x0[:, 1] > 0.03 - 1e-9)
+    sim.pin(top, path=[[0.5, 0.0, 0.02, 0.0], [1.0, 0.0, 0.03, 0.0]])
+    sim.advance(15)  # t = 0.25 s
+    assert np.allclose(sim.state.x[top], model.point_x0[top] + [0.0, 0.01, 0.0], atol=1e-12)
+    assert np.abs(sim.state.v).max() < 0.5  # was ~100 m/s with a jump at the first substep
+    sim.advance(45)  # t = 1 s
+    assert np.allclose(sim.state.x[top], model.point_x0[top] + [0.0, 0.03, 0.0], atol=1e-12)
+    late = Simulator(model, dt=1 / 60)
+    late.advance(6)  # pinned at t = 0.1 s: a path already at 0.02 m then would jump
+    with pytest.raises(SceneError, match=r"start the path with \[0.1, 0, 0, 0\]"):
+        late.pin(top, path=[[0.0, 0.0, 0.02, 0.0], [1.0, 0.0, 0.03, 0.0]])
+
+
 def test_mouse_drag_pulls_the_jello():
     """The viewer's mouse spring (DragController, no window): pressing on the ray through a
     corner grabs the nearest point; moving the cursor 3 cm sideways pulls the body after it;

@@ -128,6 +128,31 @@ def test_cli_bad_scene_exits_with_one_line_no_traceback(tmp_path):
     assert "[integrator] dt" in res.output and "> 0" in res.output
 
 
+def test_cli_failed_run_shows_the_warning_that_explains_it(tmp_path):
+    """A run that blows up prints the stability warning it was given before the error (it
+    used to be swallowed with the run's other messages), with the scene key that fixes it."""
+    p = tmp_path / "stiff.toml"
+    p.write_text("""
+[body]
+type = "box"
+points = 200
+[springs]
+radius = 0.3
+stiffness = 5.0e7
+[integrator]
+name = "symplectic"
+dt = 0.01
+steps = 50
+substeps = 1
+[provot]
+enabled = false
+""")
+    res = CliRunner().invoke(cli, ["run", str(p), "--out", str(tmp_path / "o"), "--quiet"])
+    assert res.exit_code == 2 and "Traceback" not in res.output
+    warn, err = res.output.index("warning: dt = 0.01 s exceeds"), res.output.index("error:")
+    assert warn < err and "substeps >=" in res.output[warn:err] and "unstable" in res.output
+
+
 def test_cli_run_free_fall_outputs(tmp_path):
     """End to end: a spring-free cloud in free fall; outputs agree with the exact answer."""
     import meshio

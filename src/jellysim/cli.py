@@ -125,6 +125,8 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     except JellysimError as exc:
         if fresh and out.is_dir() and not any(out.iterdir()):
             out.rmdir()  # refused before anything was written: leave no empty folder
+        for w in dict.fromkeys(getattr(exc, "run_warnings", ())):
+            click.secho(f"warning: {w}", fg="yellow", err=True)
         _fail(str(exc))
     if result.resumed_from is not None:
         click.echo(f"resumed from the checkpoint at step {result.resumed_from}")

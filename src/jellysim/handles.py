@@ -64,8 +64,9 @@ def select_points(points: np.ndarray, *, box=None, sphere=None, indices=None,
 @dataclass
 class PinPath:
     """Keyframes of a kinematic pin: times [s], shape (k,), increasing, and offsets [m],
-    shape (k, 3), from the pinned points' positions at pinning time.  Before the first time
-    the first offset holds, after the last the last one."""
+    shape (k, 3), from the pinned points' positions at pinning time.  After the last time the
+    last offset holds; before the first, the pin ramps from a zero offset at the pinning time
+    (:meth:`starting_at`)."""
 
     times: np.ndarray
     offsets: np.ndarray
@@ -84,6 +85,23 @@ class PinPath:
         if np.any(np.diff(arr[:, 0]) <= 0):
             raise SceneError(f"{what}: times must increase strictly")
         return cls(arr[:, 0].copy(), arr[:, 1:].copy())
+
+    def starting_at(self, t0: float, what: str = "pin path") -> "PinPath":
+        """This path for points pinned at time ``t0`` [s], where their offset is zero: a path
+        whose first keyframe is later is ramped from a zero offset at ``t0`` (the points move
+        there smoothly instead of jumping at once); one that asks for a non-zero offset at
+        ``t0`` itself is refused (the points would be teleported)."""
+        if self.times[0] > t0:
+            return PinPath(np.concatenate([[float(t0)], self.times]),
+                           np.concatenate([np.zeros((1, 3)), self.offsets]))
+        off = self.offset(t0)
+        if np.any(np.abs(off) > 1e-12):
+            raise SceneError(
+                f"{what}: at t = {t0:g} s, when the points are pinned, it asks for an offset of "
+                f"{off.round(6).tolist()} m; the points would jump there in one substep.  "
+                f"Offsets are from where the points are when pinned: start the path with "
+                f"[{t0:g}, 0, 0, 0] (or with a later time, then it ramps from zero)")
+        return self
 
     def offset(self, t: float) -> np.ndarray:
         """Offset [m], shape (3,), at time t [s] (linear between keyframes)."""
@@ -177,8 +195,8 @@ def validate_handle_tables(entries, name: str) -> list[dict]:
         stray = [key for key in ("path", "force", "scale") if key in entry and key not in allowed]
         if stray:
             raise SceneError(f"{where}: '{stray[0]}' is not used by kind = '{kind}'")
-        if "path" in entry:
-            PinPath.of(entry["path"], what=f"{where} path")
+        if "path" in entry:  # a scene pins at t = 0
+            PinPath.of(entry["path"], what=f"{where} path").starting_at(0.0, f"{where} path")
         if "force" in entry:
             try:
                 f = np.asarray(entry["force"], dtype=np.float64).reshape(3)
@@ -259,7 +277,8 @@ class HandleMethods:
         self.state.v[idx] = 0.0
         hd.paths = [(i, p) for i, p in hd.paths if not np.isin(i, idx).any()]
         if path is not None:
-            hd.paths.append((idx, path if isinstance(path, PinPath) else PinPath.of(path)))
+            path = path if isinstance(path, PinPath) else PinPath.of(path)
+            hd.paths.append((idx, path.starting_at(float(self.state.t))))
 
     def unpin(self, indices=None) -> None:
         """Release pinned points (all when ``indices`` is None)."""

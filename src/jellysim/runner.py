@@ -275,6 +275,8 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
             finalize_stream(stream_dir, npz_path, status=f"failed: {exc}")
             if ckpt_path.exists():
                 ckpt_path.unlink()
+            # what was said before it failed (a stability warning often explains the failure)
+            exc.run_warnings = messages + [str(w.message) for w in caught]
             raise
     finally:
         during.__exit__(None, None, None)

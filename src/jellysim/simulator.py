@@ -164,7 +164,11 @@ class Simulator(HandleMethods, PhysicalStepping):
             raise SceneError("Provot strain limiting is not used by the physical (FEM) path: "
                              "its tets keep their shape; disable it")
         self.needed_substeps = self._auto_substeps(model, dt) if self.physical else 1
-        """Substeps the stability estimate asks for (physical path)."""
+        """Substeps the stability estimate asks for (physical path; and the springs' symplectic
+        path when ``substeps = "auto"``)."""
+        if substeps == "auto" and not self.physical and check_stability and (
+                self.integrator is Integrator.SYMPLECTIC):
+            self.needed_substeps = self._springs_auto_substeps(model, dt)
         if substeps == "auto":
             substeps = self.needed_substeps
         try:
@@ -301,6 +305,27 @@ class Simulator(HandleMethods, PhysicalStepping):
         if check_stability and not self.physical:
             self.check_stability()
 
+    MAX_AUTO_SUBSTEPS = 10_000
+    """``substeps = "auto"`` on the springs' symplectic path refuses to go beyond this."""
+
+    @classmethod
+    def _springs_auto_substeps(cls, model, dt) -> int:
+        """Substeps for the springs' symplectic integrator: ``dt`` over 0.9 of the estimated
+        stable step (as the physical path counts its own; the report's ``paper`` integrator
+        keeps its one step per ``dt``)."""
+        est = estimate_stability(model, Integrator.SYMPLECTIC, float(dt))
+        if not (est.dt_max > 0 and np.isfinite(est.dt_max)):
+            return 1
+        need = max(1, int(np.ceil(float(dt) / (0.9 * est.dt_max))))
+        if need > cls.MAX_AUTO_SUBSTEPS:
+            raise SceneError(
+                f"the springs are too stiff for dt = {float(dt):g} s: the symplectic integrator "
+                f"would need {need} substeps per step (stable limit {est.dt_max:.3g} s, "
+                f"{est.reason}); soften them, use integrator = 'implicit', or for a tet body "
+                "(connect = 'marching' or 'delaunay') the physical material "
+                "([material] model = 'fem')")
+        return need
+
     def check_stability(self) -> StabilityEstimate:
         """Estimate the largest stable dt; warn when ``dt`` exceeds it."""
         est = estimate_stability(self.model, self.integrator, self.dt_step,
@@ -314,9 +339,10 @@ class Simulator(HandleMethods, PhysicalStepping):
             if self.provot.enabled:
                 held = (f"; Provot strain limiting (tau = {self.provot.tau:g}) bounds the "
                         "springs' stretch and may keep the run bounded anyway")
-            if self.substeps > 1:
-                hint = (f"use substeps >= {int(np.ceil(self.dt / (0.9 * est.dt_max)))}"
-                        if est.dt_max > 0 else hint)
+            if est.dt_max > 0 and self.integrator is Integrator.SYMPLECTIC:
+                need = int(np.ceil(self.dt / (0.9 * est.dt_max)))
+                hint = (f"use substeps >= {need} (or 'auto')" if self.substeps > 1 else
+                        f"{hint}, or substeps >= {need} (or 'auto': [integrator] substeps)")
             warnings.warn(
                 f"dt = {self.dt_step:g} s exceeds the estimated stable limit {est.dt_max:.3g} s "
                 f"for the {self.integrator.value} integrator ({est.reason}; omega_max = "

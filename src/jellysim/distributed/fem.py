@@ -278,7 +278,8 @@ class PhysicalMethods(PhysicalStepping):
         self.state.v[rows] = 0.0
         paths = [(i, p) for i, p in self._global_paths if not np.isin(i, gidx).any()]
         if path is not None:
-            paths.append((gidx, path if isinstance(path, PinPath) else PinPath.of(path)))
+            path = path if isinstance(path, PinPath) else PinPath.of(path)
+            paths.append((gidx, path.starting_at(float(self.state.t))))
         self._set_paths(paths)
 
     def _set_paths(self, paths):
