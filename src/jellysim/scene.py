@@ -143,8 +143,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                           choices=("float64", "float32")),
         "threads": Spec("int", None, "Numba threads (default: by problem size).",
                         lambda v: v >= 1, "an integer >= 1"),
-        "substeps": Spec("int", None, "Steps of dt / substeps per step (default: 1, or for "
-                         "a fem material as many as its stability estimate needs).",
+        "substeps": Spec("int", None, "Steps of dt / substeps per step (default: what the "
+                         "stability estimate needs for 'symplectic'; 1 otherwise).",
                          lambda v: v >= 1, "an integer >= 1"),
         "start_acceleration": Spec("str", "forces", "Accelerations at t = 0: 'forces' (from "
                                    "the forces at rest: gravity) or 'zero' (the report's "

@@ -37,7 +37,8 @@ def schema_markdown() -> str:
               "sphere [m]. |",
               "| `indices` | [i, ...] | Select these points. |",
               "| `path` | [[t, dx, dy, dz], ...] | Pin: offsets [m] from the start positions "
-              "at times [s], linear between rows. |",
+              "at times [s], linear between rows; from a zero offset at t = 0 to the first "
+              "row (a non-zero offset at t = 0 is refused: the points would jump). |",
               "| `force` | [fx, fy, fz] | Force: total force [N], split evenly. |",
               "| `scale` | float | Gravity: factor on gravity [-]. |"]
     return "\n".join(lines)

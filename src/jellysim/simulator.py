@@ -123,8 +123,10 @@ class Simulator(HandleMethods, PhysicalStepping):
     check_stability: estimate the stable dt now and warn (:class:`StabilityWarning`) if
         ``dt`` exceeds it.
     substeps: take this many steps of ``dt / substeps`` per step (``advance(n)`` still
-        advances ``n dt``); the guard checks ``dt / substeps``.  The explicit integrators need
-        it for stiff materials; the implicit one is stable without it but damps less with it.
+        advances ``n dt``); the guard checks ``dt / substeps``.  ``"auto"`` (the default):
+        what the stability estimate needs for the symplectic integrator (FEM or springs; with
+        ``check_stability``), 1 for ``paper`` (the report's step) and ``implicit`` (stable
+        without, but damps less with them).
     implicit: :class:`~jellysim.params.ImplicitParams` for ``integrator = "implicit"``.
     obstacles: static :class:`~jellysim.physics.contact.Plane` / ``Sphere`` / ``Box``
         obstacles with restitution and Coulomb friction (a ``GroundModel.CONTACT`` ground adds
