@@ -213,7 +213,9 @@ def test_stability_estimate_matches_two_mass_analytic():
 
 
 def test_guard_warns_and_runaway_stops_with_step_and_keeps_frames(tmp_path):
-    text = BASE.replace("stiffness = 1e-6", "stiffness = 400.0").replace("steps = 20", "steps = 400")
+    # one step per dt asked for (substeps = 'auto' would count enough of them to be stable)
+    text = BASE.replace("stiffness = 1e-6", "stiffness = 400.0").replace(
+        "steps = 20", "steps = 400").replace("dt = 0.01", "dt = 0.01\nsubsteps = 1")
     scene = Scene.from_text(text, name="unstable.toml")
     model = scene.build_model()
     with pytest.warns(UserWarning, match="exceeds the estimated stable limit"):

@@ -32,7 +32,21 @@ def _set_max_memory(value) -> None:
         _fail(f"--max-memory: {exc}")
 
 
-@click.group()
+class _Group(click.Group):
+    """Any jellysim error or file-system error that a command did not report itself becomes
+    one ``error:`` line (exit code 2), never a traceback."""
+
+    def invoke(self, ctx):
+        try:
+            return super().invoke(ctx)
+        except JellysimError as exc:
+            _fail(str(exc))
+        except OSError as exc:
+            where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+            _fail(f"{where}{exc.strerror or exc}")
+
+
+@click.group(cls=_Group)
 @click.version_option(package_name="jellysim")
 def cli() -> None:
     """jellysim: soft, wobbly bodies as 3D mass-spring networks."""
@@ -88,7 +102,12 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     SIGTERM finishes the current frame, saves a checkpoint and says how to --resume."""
     from pathlib import Path
 
+    from .cli_visual import check_run_outputs
 
+    try:
+        check_run_outputs(video=video, usd=usd, glb=glb)
+    except JellysimError as exc:
+        _fail(str(exc))
     if launched_under_mpi():
         return cli_run(scene_file, out_dir, steps=steps, no_vtu=no_vtu, quiet=quiet,
                        partition=partition, video=video, usd=usd, glb=glb)

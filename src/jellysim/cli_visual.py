@@ -38,20 +38,63 @@ def _size(text: str) -> tuple[int, int]:
         raise click.BadParameter(f"'{text}' is not WIDTHxHEIGHT, e.g. 960x540") from None
     if w < 16 or h < 16:
         raise click.BadParameter("width and height must be at least 16 pixels")
+    if w > MAX_SIDE or h > MAX_SIDE:
+        raise click.BadParameter(f"width and height must be at most {MAX_SIDE} pixels "
+                                 f"(the renderer's buffers), got {w}x{h}")
     return w, h
+
+
+MAX_SIDE = 16384
+"""Largest --size width or height [pixels] (100000x100000 aborted the renderer)."""
+
+
+def _check_color(color: str) -> str:
+    import pyvista
+
+    try:
+        pyvista.Color(color)
+    except (ValueError, TypeError):
+        raise click.BadParameter(f"'{color}' is not a colour: give a name (red, gold) or "
+                                 "#rrggbb", param_hint="--color") from None
+    return color
 
 
 def _options(size, color, opacity, show, no_floor):
     show = {s.lower() for s in show}
     if "all" in show:
         show |= {"skin", "points", "springs"}
-    return RenderOptions(size=_size(size), color=color, opacity=opacity,
+    return RenderOptions(size=_size(size), color=_check_color(color), opacity=opacity,
                          show_points="points" in show, show_springs="springs" in show,
                          show_skin="skin" in show or not show, floor=not no_floor)
 
 
 def _load(path):
     return load_trajectory(path)
+
+
+def check_run_outputs(*, video=None, usd=None, glb=None) -> None:
+    """Before ``jellysim run`` simulates: the --video / --usd / --glb names have a known
+    suffix and a folder that can be written (so a long run does not fail at its end)."""
+    import os
+    from pathlib import Path
+
+    from .render.video import output_kind
+
+    if video:
+        output_kind(video)
+    for path, suffixes, what in ((usd, (".usdc", ".usda", ".usd"), "--usd"),
+                                 (glb, (".glb",), "--glb")):
+        if path and Path(path).suffix.lower() not in suffixes:
+            raise JellysimError(f"{what} {path}: the name must end in {' or '.join(suffixes)}")
+    for path in (video, usd, glb):
+        if not path:
+            continue
+        folder = Path(path).absolute().parent
+        while not folder.exists() and folder != folder.parent:
+            folder = folder.parent
+        if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
+            raise JellysimError(f"cannot write {path}: {folder} is not a folder you can "
+                                "write to")
 
 
 def write_run_outputs(trajectory, *, video=None, usd=None, glb=None, progress=True):

@@ -50,6 +50,11 @@ class CheckpointError(JellysimError, ValueError):
     """A checkpoint is missing, damaged or belongs to another scene or version."""
 
 
+class OutputError(JellysimError, OSError):
+    """An output file or folder cannot be written (missing, read-only, or a file in the way);
+    nothing was written."""
+
+
 class ResourceError(JellysimError, ValueError):
     """A request would need more memory (or work) than allowed; nothing was built."""
 

@@ -12,6 +12,8 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
+from ..errors import OutputError
+
 __all__ = ["atomic_path", "atomic_write"]
 
 
@@ -30,9 +32,20 @@ def atomic_path(path, suffix: str | None = None, *, fsync: bool = False):
     by name work); on success it replaces ``path`` at once, on an exception it is deleted.
     ``fsync``: flush the data to disk before the replace (durable across a power cut)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix,
-                               dir=path.parent)
+    if path.is_dir():
+        raise OutputError(f"cannot write {path}: it is a folder; give a file name")
+    for up in path.parents:
+        if up.exists():
+            if not up.is_dir():
+                raise OutputError(f"cannot write {path}: {up} is a file, not a folder")
+            break
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix,
+                                   dir=path.parent)
+    except OSError as exc:
+        raise OutputError(f"cannot write {path}: {exc.strerror or exc} (its folder "
+                          f"{path.parent} must be a folder you can write to)") from None
     os.close(fd)
     os.chmod(tmp, _final_mode(path))   # mkstemp makes 0600
     try:

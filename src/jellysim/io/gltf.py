@@ -30,6 +30,8 @@ def export_glb(traj, path, *, max_frames: int | None = None) -> Path:
     default all."""
 
     path = Path(path)
+    if path.suffix.lower() != ".glb":
+        raise JellysimError(f"{path}: a binary glTF file name must end in .glb")
     frames, faces = surface_of(traj)
     times = np.asarray(traj.times, dtype=np.float64)
     idx = np.arange(len(frames))
