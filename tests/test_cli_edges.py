@@ -136,6 +136,42 @@ def test_export_sequence_takes_the_folder_as_an_argument(traj_path, tmp_path):
     assert res.exit_code == 2 and "no output" in res.output
 
 
+def test_outputs_never_replace_or_mix_with_earlier_files_unasked(traj_path, tmp_path):
+    """export / render / build refuse to replace an existing file (its bytes are kept) or to
+    write frames into a folder holding an earlier output's frames (they would mix); with
+    --overwrite the file is replaced and the stale frames are deleted first, so the folder
+    holds exactly the new ones."""
+    run = CliRunner().invoke
+    traj = load_trajectory(traj_path)
+    keep = tmp_path / "keep.glb"
+    keep.write_bytes(b"precious")
+    res = run(cli, ["export", str(traj_path), "-o", str(keep)])
+    assert res.exit_code == 2 and "--overwrite" in res.output and keep.read_bytes() == b"precious"
+    assert run(cli, ["export", str(traj_path), "-o", str(keep), "--overwrite"]).exit_code == 0
+    assert keep.read_bytes()[:4] == b"glTF"
+    seq = tmp_path / "seq"
+    assert run(cli, ["export", str(traj_path), "--sequence", "obj", str(seq)]).exit_code == 0
+    (seq / "skin_00099.obj").write_text("stale frame of another run")
+    res = run(cli, ["export", str(traj_path), "--sequence", "obj", str(seq)])
+    assert res.exit_code == 2 and "would mix" in res.output
+    res = run(cli, ["export", str(traj_path), "--sequence", "obj", str(seq), "--overwrite"])
+    assert res.exit_code == 0 and len(list(seq.glob("*.obj"))) == traj.frame_count
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for k in range(7):
+        (frames / f"frame_{k:05d}.png").write_bytes(b"old")
+    args = ["render", str(traj_path), "-o", str(frames), "--every", "2", "--quiet",
+            "--size", "64x48"]
+    res = run(cli, args)
+    assert res.exit_code == 2 and "7 file(s)" in res.output
+    assert run(cli, args + ["--overwrite"]).exit_code == 0
+    assert len(list(frames.glob("frame_*.png"))) == len(range(0, traj.frame_count, 2))
+    # a file standing where a folder is needed, and an unwritable place: one line, no traceback
+    res = run(cli, ["export", str(traj_path), "-o", str(keep / "x.usdc")])
+    assert res.exit_code == 2 and "is a file, not a folder" in res.output
+    assert "Traceback" not in res.output
+
+
 def test_run_set_overrides_a_scene_value_and_records_it(tmp_path):
     out = tmp_path / "o"
     res = _run(tmp_path, out, 10, "--set", "body.points=12", "--set", "physics.damping=0.5")

@@ -105,7 +105,7 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     from .cli_visual import check_run_outputs
 
     try:
-        check_run_outputs(video=video, usd=usd, glb=glb)
+        check_run_outputs(video=video, usd=usd, glb=glb, overwrite=overwrite)
     except JellysimError as exc:
         _fail(str(exc))
     if launched_under_mpi():
@@ -202,9 +202,10 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
                    "coordinates are read as metres).")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @_max_memory
+@click.option("--overwrite", is_flag=True, help="Replace OUT_FILE if it exists.")
 def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
           surface_vertices, surface_samples, relax, density, size, seed,
-          max_memory=None) -> None:
+          max_memory=None, overwrite=False) -> None:
     """Build a jello body from MESH_FILE and write it to a .jello or .npz file.
 
     The mesh's coordinates are read as metres unless --size scales it."""
@@ -215,7 +216,13 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
     from .build import body_stats, build_body
     from .geometry.jellyfile import write_body
 
+    from pathlib import Path
+
+    from .io.atomic import guard_file
+
     try:
+        if Path(mesh_file).exists():  # else build_body names the missing mesh first
+            guard_file(out_file, overwrite)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             body = build_body(mesh_file, points=points, connect=connect, sampling=sampling,

@@ -72,7 +72,7 @@ def _load(path):
     return load_trajectory(path)
 
 
-def check_run_outputs(*, video=None, usd=None, glb=None) -> None:
+def check_run_outputs(*, video=None, usd=None, glb=None, overwrite=False) -> None:
     """Before ``jellysim run`` simulates: the --video / --usd / --glb names have a known
     suffix and a folder that can be written (so a long run does not fail at its end)."""
     import os
@@ -95,6 +95,7 @@ def check_run_outputs(*, video=None, usd=None, glb=None) -> None:
         if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
             raise JellysimError(f"cannot write {path}: {folder} is not a folder you can "
                                 "write to")
+        guard_output(path, overwrite)
 
 
 def write_run_outputs(trajectory, *, video=None, usd=None, glb=None, progress=True):
@@ -111,6 +112,31 @@ def write_run_outputs(trajectory, *, video=None, usd=None, glb=None, progress=Tr
     if glb:
         out.append(export_glb(traj, glb))
     return out
+
+
+_overwrite = click.option("--overwrite", is_flag=True,
+                          help="Replace existing output files (and, for a folder of frames, "
+                               "delete its old frames first); without it they are kept and "
+                               "the command refuses.")
+
+
+def guard_output(path, overwrite: bool) -> None:
+    """Refuse (or with ``overwrite`` clear) what a render/export to ``path`` would replace."""
+    from pathlib import Path
+
+    from .io.atomic import guard_file, guard_folder
+    from .render.video import output_kind
+
+    path = Path(path)
+    if path.suffix.lower() == ".pvd":  # its frames go into the sibling folder <stem>/
+        guard_file(path, overwrite)
+        guard_folder(path.parent / path.stem, [f"{path.stem}_*.vtu"], overwrite)
+    elif path.suffix.lower() in (".usdc", ".usda", ".usd", ".glb"):
+        guard_file(path, overwrite)
+    elif output_kind(path) == "pngdir":
+        guard_folder(path, ["frame_*.png"], overwrite)
+    else:
+        guard_file(path, overwrite)
 
 
 _show = click.option("--show", multiple=True,
@@ -186,14 +212,15 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
 @click.option("--every", type=click.IntRange(min=1), default=1, show_default=True,
               help="Use every N-th saved frame.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@_overwrite
 def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame, every,
-           quiet):
+           quiet, overwrite=False):
     """Render TRAJECTORY (trajectory.npz) to a video or pictures, off screen."""
     import numpy as np
 
-
     try:
         traj = _load(trajectory)
+        guard_output(output, overwrite)
         frames = np.arange(0, traj.frame_count, every)
         if frame is not None:
             if not -traj.frame_count <= frame < traj.frame_count:
@@ -222,7 +249,8 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
 @click.option("--max-frames", type=click.IntRange(min=2), default=None,
               help="glb: keep at most this many frames (evenly spaced), one morph target "
                    "each.")
-def export(trajectory, target, output, sequence, fps, max_frames):
+@_overwrite
+def export(trajectory, target, output, sequence, fps, max_frames, overwrite=False):
     """Export TRAJECTORY for other tools: USD, glTF (.glb), ParaView (.pvd), OBJ/PLY.
 
     \b
@@ -240,10 +268,15 @@ def export(trajectory, target, output, sequence, fps, max_frames):
             if out.suffix and not out.is_dir():
                 raise JellysimError(f"{out}: --sequence writes one file per frame into a "
                                     "folder; give a folder name (no suffix)")
+            from .io.atomic import guard_folder
+
+            guard_folder(out, [f"skin_*.{sequence}"], overwrite)
             paths = export_mesh_sequence(traj, out, fmt=sequence)
             click.echo(f"wrote {len(paths)} {sequence.upper()} files in {out}")
             return
         suffix = out.suffix.lower()
+        if suffix in (".usdc", ".usda", ".usd", ".glb", ".pvd"):
+            guard_output(out, overwrite)
         if suffix in (".usdc", ".usda", ".usd"):
             written = [export_usd(traj, out, fps=fps)]
         elif suffix == ".glb":

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..errors import OutputError
 
-__all__ = ["atomic_path", "atomic_write"]
+__all__ = ["atomic_path", "atomic_write", "guard_file", "guard_folder"]
 
 
 def _final_mode(path: Path) -> int:
@@ -70,3 +70,29 @@ def atomic_write(path, write, *, fsync: bool = True) -> Path:
         with open(tmp, "wb") as fh:
             write(fh)
     return path
+
+
+def guard_file(path, overwrite: bool, flag: str = "--overwrite") -> None:
+    """Refuse to replace an existing file ``path`` unless ``overwrite`` (nothing already
+    written is lost by accident)."""
+    path = Path(path)
+    if path.exists() and not overwrite:
+        raise OutputError(f"{path} exists; pass {flag} to replace it (or choose another name)")
+
+
+def guard_folder(folder, patterns, overwrite: bool, flag: str = "--overwrite") -> None:
+    """Before writing numbered files into ``folder``: refuse when it already holds files
+    matching ``patterns`` (globs; new frames would mix with stale ones), or with
+    ``overwrite`` delete those files first (only those)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return
+    stale = sorted({p for pat in patterns for p in folder.glob(pat) if p.is_file()})
+    if not stale:
+        return
+    if not overwrite:
+        raise OutputError(f"{folder} already holds {len(stale)} file(s) like {stale[0].name} "
+                          f"from an earlier output: the new frames would mix with them; "
+                          f"choose another folder, or pass {flag} to delete them first")
+    for p in stale:
+        p.unlink()
