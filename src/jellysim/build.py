@@ -151,6 +151,11 @@ def _warn_defects(m, name: str) -> None:
         warnings.warn(f"{name}: removed on load: {', '.join(fixed)}", UserWarning, stacklevel=4)
 
 
+MARCHING_FILL_WARNING = 0.8
+"""A marching body whose tets hold less than this fraction of its mesh's volume warns (Spot
+at 800 points: 74 %, 1,500: 79 %, 3,000: 84 %; spheres and boxes: 95-100 %)."""
+
+
 def _rescale_masses(body: Body, density: float, volume: float) -> Body:
     """Scale tet-lumped masses so they total density x ``volume``."""
     tet_volume = float(body.volume)
@@ -301,6 +306,13 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
             if (fitted.volume > FITTED_GRID_GAIN * body.volume
                     and np.ptp(fitted.points[:, 1]) >= np.ptp(body.points[:, 1])):
                 body = fitted
+        if body.volume < MARCHING_FILL_WARNING * volume:
+            warnings.warn(
+                f"{name}: the marching grid (h = {h:.3g} m) fills only "
+                f"{100 * body.volume / volume:.0f} % of the mesh's volume: parts thinner than "
+                "about h are lost, and the physical path's mass (from the tets) is that much "
+                "below density x volume; more points (a smaller h) or connect = 'delaunay' "
+                "follow thin parts", UserWarning, stacklevel=3)
         return _rescale_masses(body, density, volume)
     try:
         pts = sample_inside(query.query, lo, hi, points, method=sampling, seed=seed,
@@ -430,7 +442,9 @@ def _add_surface_vertices(pts: np.ndarray, vertices: np.ndarray) -> np.ndarray:
 
 
 def body_stats(body: Body, *, density: float = REPORT_DENSITY) -> dict:
-    """Counts, degree and rest-length statistics, volume and mass of a body."""
+    """Counts, degree and rest-length statistics, volume and mass of a body; for a body
+    with tets also the volume they hold [m^3] and ``density`` x that [kg] (the mass the
+    physical path lumps on the corners)."""
     n = body.point_count
     springs = np.asarray(body.springs)
     deg = np.bincount(springs.ravel(), minlength=n) if len(springs) else np.zeros(n, int)
@@ -443,7 +457,15 @@ def body_stats(body: Body, *, density: float = REPORT_DENSITY) -> dict:
     else:
         mass = None
     q = (lambda a, f: float(f(a)) if len(a) else float("nan"))
+    tet_volume = None
+    if body.tets is not None and len(body.tets):
+        t = np.asarray(body.tets)
+        p0 = body.points[t[:, 0]]
+        d = np.stack([body.points[t[:, c]] - p0 for c in (1, 2, 3)], axis=1)
+        tet_volume = float(np.abs(np.linalg.det(d)).sum() / 6.0)
     return {
+        "tet_volume": tet_volume,
+        "tet_mass": None if tet_volume is None else density * tet_volume,
         "points": n, "springs": int(len(springs)),
         "tets": 0 if body.tets is None else int(len(body.tets)),
         "triangles": 0 if body.triangles is None else int(len(body.triangles)),

@@ -240,8 +240,13 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
     if body.meta.get("radius_chosen_for_neighbours"):
         extra = (f"; radius r = {body.meta['radius']:.4g} m chosen for "
                  f"{body.meta['radius_chosen_for_neighbours']:g} neighbours")
+    held = ""
+    if st["tet_volume"] is not None and st["volume"]:
+        held = (f" (its tets hold {st['tet_volume']:.6g} m^3, "
+                f"{100 * st['tet_volume'] / st['volume']:.0f} %: the physical path's mass is "
+                f"{st['tet_mass']:.6g} kg)")
     click.echo(f"{st['points']} points, {st['springs']} springs, {st['tets']} tets, "
-               f"volume {st['volume']:.6g} m^3, mass {st['mass']:.6g} kg{extra}")
+               f"volume {st['volume']:.6g} m^3, mass {st['mass']:.6g} kg{held}{extra}")
     click.echo(f"wrote {out_file}")
 
 
@@ -268,6 +273,9 @@ def inspect(path) -> None:
                                     f"{st['rest_length_mean']:.4g}, max {st['rest_length_max']:.4g}"),
                 ("volume [m^3]", "unknown" if st["volume"] is None else f"{st['volume']:.6g}"),
                 ("mass [kg]", "unknown" if st["mass"] is None else f"{st['mass']:.6g}"),
+                ("tets hold [m^3]", "-" if st["tet_volume"] is None else
+                 f"{st['tet_volume']:.6g} (x {REPORT_DENSITY:g} kg/m^3 = {st['tet_mass']:.6g} "
+                 "kg: the physical path's mass at that density)"),
                 ("bounds [m]", f"{st['bounds'][0]} .. {st['bounds'][1]}"),
             ]
             for k, v in rows:
