@@ -451,3 +451,20 @@ def test_python_api_mistakes_name_the_parameter_and_the_choices():
         sim.apply_force([0], [1.0, 2.0])
     with pytest.raises(SceneError, match=r"drag: target \[m\] must be 3 numbers"):
         sim.drag(0, [0.0, 1.0])
+
+
+def test_point_selections_refuse_empty_inverted_and_negative_shapes():
+    """A selection that cannot mean what was typed is an error naming the fix, not a silent
+    reinterpretation (a negative radius used to select like a positive one)."""
+    import jellysim as js
+    from jellysim.errors import SceneError
+
+    x = np.random.default_rng(0).uniform(0, 0.1, (200, 3))
+    with pytest.raises(SceneError, match="indices is empty"):
+        js.select_points(x, indices=[])
+    with pytest.raises(SceneError, match="must not exceed upper.*swap them"):
+        js.select_points(x, box=[[0.1, 0.1, 0.1], [0.0, 0.0, 0.0]])
+    with pytest.raises(SceneError, match="radius must be a number > 0"):
+        js.select_points(x, sphere=([0.05, 0.05, 0.05], -0.02))
+    inside = js.select_points(x, sphere=([0.05, 0.05, 0.05], 0.02))
+    assert np.array_equal(inside, np.flatnonzero(np.linalg.norm(x - 0.05, axis=1) <= 0.02))

@@ -368,14 +368,20 @@ def test_file_scene_and_missing_paths(tmp_path):
     text = MESH_SCENE.format(path="tet.jello", connect="radius").replace('"mesh"', '"file"')
     text = text.replace("size = 0.1\n", "").replace("base = [0.0, 0.05, 0.0]", "base = [5, 2, 5]")
     p = tmp_path / "tet.toml"
+    # keys a body file does not read are refused, not ignored (it has its own points, springs)
+    text = text.replace("points = 300\n", "").replace('connect = "radius"\n', "")
+    for key, where, line in (("points", "seed = 1\n", "points = 300\n"),
+                             ("connect", "[springs]\n", 'connect = "radius"\n'),
+                             ("size", "seed = 1\n", "size = 2.0\n"),
+                             ("lower", "seed = 1\n", "lower = [0.0, 0.0, 0.0]\n")):
+        p.write_text(text.replace(where, where + line))
+        with pytest.raises(SceneError, match=rf"{key} is not used for \[body\] type = 'file'"):
+            Scene.load(p)
     p.write_text(text)
     body = Scene.load(p).build_body()
     assert np.allclose(body.points - pts, [5 - 1 / 2, 2, 5 - 1 / 2])
-    p.write_text(text.replace("base = [5, 2, 5]", "size = 2.0"))
-    with pytest.raises(SceneError, match="size is not used for type = 'file'"):
-        Scene.load(p)
     # the .jello file holds the springs: no [springs] section needed (k from [material])
-    no_springs = text.replace('[springs]\nconnect = "radius"\nstiffness = 50.0\n',
+    no_springs = text.replace('[springs]\nstiffness = 50.0\n',
                               "[material]\nyoungs_modulus = 1e4\n")
     assert "[springs]" not in no_springs
     p.write_text(no_springs)

@@ -35,6 +35,8 @@ def select_points(points: np.ndarray, *, box=None, sphere=None, indices=None,
     n = p.shape[0]
     if indices is not None:
         idx = np.asarray(indices)
+        if idx.size == 0:
+            raise SceneError(f"{what}: indices is empty; list the points to select")
         if idx.ndim != 1 or not np.issubdtype(idx.dtype, np.integer):
             raise SceneError(f"{what}: indices must be a list of integers")
         if idx.size and (idx.min() < 0 or idx.max() >= n):
@@ -46,6 +48,9 @@ def select_points(points: np.ndarray, *, box=None, sphere=None, indices=None,
         except (TypeError, ValueError):
             raise SceneError(f"{what}: box must be [[x0, y0, z0], [x1, y1, z1]] in metres") \
                 from None
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))) or np.any(lo > hi):
+            raise SceneError(f"{what}: box lower {lo.tolist()} must not exceed upper "
+                             f"{hi.tolist()} in any axis (m); swap them")
         out = np.flatnonzero(np.all((p >= lo) & (p <= hi), axis=1))
     else:
         try:
@@ -53,6 +58,8 @@ def select_points(points: np.ndarray, *, box=None, sphere=None, indices=None,
             radius = float(sphere[1])
         except (TypeError, ValueError, IndexError):
             raise SceneError(f"{what}: sphere must be ([x, y, z], radius) in metres") from None
+        if not (np.isfinite(radius) and radius > 0 and np.all(np.isfinite(center))):
+            raise SceneError(f"{what}: sphere radius must be a number > 0 (m), got {radius:g}")
         out = np.flatnonzero(np.sum((p - center) ** 2, axis=1) <= radius * radius)
     if out.size == 0:
         raise SceneError(f"{what} holds no point of the body; widen it "
@@ -235,8 +242,10 @@ class HandleMethods:
 
     def _require_physical(self, what):
         if not self.physical:
-            raise SceneError(f"{what} needs the physical path (a body with a FEM material: "
-                             "jellysim.physics.policy.physical_model)")
+            raise SceneError(f"{what} needs the physical path: a body with tets and a FEM "
+                             "material (a scene: [material] preset = 'gelatin' or model = "
+                             "'fem' with connect = 'marching' or 'delaunay'; Python: "
+                             "js.physical_model(body, material))")
 
     def _point_indices(self, indices, what: str) -> np.ndarray:
         """Unique point indices, or a :class:`SceneError` naming ``what`` and the range."""

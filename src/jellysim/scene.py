@@ -20,7 +20,7 @@ from .params import (GRAVITY, MAX_ALL_PAIRS_POINTS, REPORT_DENSITY, GroundParams
 from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-exported)
                               make_obstacle, validate_obstacles)
 from .scene_spec import (REQUIRED, Spec, _nonneg, _pos, as_toml, check_backend, check_value,
-                         grid_radius, missing_path)
+                         grid_radius, missing_path, refuse_unused_keys)
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
 from .scene_doc import schema_markdown as make
@@ -347,9 +347,7 @@ class Scene:
                                  f"{kind!r}): the {'mesh' if kind == 'mesh' else 'body'} file")
             if kind == "mesh" and b["points"] is None:
                 b["points"] = 2000
-            if kind == "file" and b["size"] is not None:
-                raise SceneError(f"{name}: [body] size is not used for type = 'file' (a body "
-                                 "file has its own units); use base to place it")
+        refuse_unused_keys(raw, kind, name)  # e.g. [body] size for type = 'file'
         if not all(u > lo for u, lo in zip(b["upper"], b["lower"])):
             raise SceneError(f"{name}: [body] upper = {b['upper']} must exceed lower = "
                              f"{b['lower']} in every coordinate")

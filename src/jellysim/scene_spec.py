@@ -73,7 +73,7 @@ def check_value(name: str, section: str, key: str, spec: Spec, value: Any) -> An
         ok = (isinstance(value, list) and len(value) == 3 and all(
             isinstance(c, (int, float)) and not isinstance(c, bool) for c in value))
         if not ok:
-            raise fail("wrong type", "a list of three numbers, e.g. [0.0, -9.8, 0.0]")
+            raise fail("wrong type", "a list of three numbers [x, y, z], e.g. [0.0, 0.1, 0.0]")
         value = [float(c) for c in value]
         if not all(math.isfinite(c) for c in value):
             raise fail("not finite", "three finite numbers")
@@ -186,3 +186,27 @@ def grid_radius(points, lower, upper) -> float | None:
     size = hi - lo
     h = (np.prod(size) / points) ** (1.0 / 3.0)
     return float(1.8 * np.max(size / np.maximum(1, np.round(size / h))))
+
+
+UNUSED_BY_TYPE = {
+    "file": {"body": ("size", "points", "lower", "upper", "distribution", "sampling"),
+             "springs": ("connect", "radius", "neighbours", "h")},
+    "box": {"body": ("path", "size", "sampling"), "springs": ("neighbours", "h")},
+    "mesh": {"body": ("lower", "upper", "distribution"), "springs": ()},
+}
+"""Keys a ``[body] type`` does not read: given in a scene, they are refused rather than
+silently ignored (a body file has its own points, springs and units; a box has no mesh)."""
+
+
+def refuse_unused_keys(raw: dict, kind: str, name: str) -> None:
+    """A :class:`SceneError` for the first key of ``raw`` (the scene as written, presets
+    not merged) that ``[body] type = kind`` would ignore."""
+    why = {"file": "a body file has its own points, springs and units; use base to place it",
+           "box": "a box body is made of [body] points, lower and upper",
+           "mesh": "a mesh body fills the mesh; use size and base to scale and place it"}[kind]
+    for section, keys in UNUSED_BY_TYPE[kind].items():
+        given = raw.get(section, {})
+        for key in keys:
+            if isinstance(given, dict) and key in given:
+                raise SceneError(f"{name}: [{section}] {key} is not used for [body] type = "
+                                 f"{kind!r} ({why}); remove it")

@@ -522,6 +522,10 @@ def read_npz(path) -> Body:
             NotImplementedError, MemoryError) as exc:
         raise JelloFileError(f"{src}: not a readable .npz file ({exc})") from None
     fmt = arrays.pop("format", None)
+    if fmt is None and "positions" in arrays and "times" in arrays:
+        raise JelloFileError(f"{src}: this is a trajectory (a run's frames), not a body file; "
+                             "jellysim render / plot / export read it, and a body file comes "
+                             "from jellysim build")
     if fmt is None or fmt.shape != () or str(fmt) != NPZ_FORMAT:
         raise JelloFileError(f"{src}: array 'format': expected {NPZ_FORMAT!r}, found "
                              f"{None if fmt is None else str(fmt)!r}")

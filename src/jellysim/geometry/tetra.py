@@ -242,7 +242,8 @@ def _finish(points: np.ndarray, tets: np.ndarray, density: float, meta: dict,
     if tets.shape[0] == 0:
         raise BuildError(
             f"{meta.get('builder', 'builder')}: no tetrahedron was kept - the resolution is too "
-            "coarse for the shape, or the inside test rejects everything"
+            "coarse for the shape (more points; for connect = 'marching' a smaller cube edge "
+            "h / --h than the shape's thickness), or the inside test rejects everything"
         )
     n_in = points.shape[0]
     sv = tet_signed_volumes(points, tets) if signed_volumes is None else signed_volumes
