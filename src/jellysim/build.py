@@ -248,6 +248,9 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
     sampling = _choice(Sampling, sampling, "sampling")
     if surface_samples and connect not in (Connect.DELAUNAY, Connect.RADIUS):
         raise BuildError("surface_samples applies to connect='delaunay' or 'radius' only")
+    if h is not None and connect is not Connect.MARCHING:
+        raise BuildError(f"h (the cube edge) applies to connect='marching' only, not "
+                         f"{connect.value!r}; remove it")
     if relax is not None:
         if isinstance(relax, bool) or not isinstance(relax, (int, np.integer)) or relax < 0:
             raise BuildError(f"relax must be a whole number of passes >= 0, got {relax!r}")

@@ -262,6 +262,12 @@ def export(trajectory, target, output, sequence, fps, max_frames, overwrite=Fals
         _fail("no output given: jellysim export TRAJECTORY -o run.glb (or .usdc, .pvd), or "
               "--sequence obj|ply FOLDER")
     out = Path(output or target)
+    suffix = out.suffix.lower()
+    if fps is not None and (sequence or suffix not in (".usdc", ".usda", ".usd")):
+        _fail("--fps sets the frame rate of a USD stage (.usdc/.usda/.usd); glTF and the other "
+              "formats keep the trajectory's own times: remove it")
+    if max_frames is not None and (sequence or suffix != ".glb"):
+        _fail("--max-frames applies to .glb exports (one morph target per frame): remove it")
     try:
         traj = _load(trajectory)
         if sequence:
