@@ -14,9 +14,10 @@ __all__ = ["grid_points", "grid_point_volumes"]
 
 
 def grid_points(count: int, lower, upper) -> np.ndarray:
-    """About ``count`` points on a cubic grid filling the box ``[lower, upper]`` [m], corners
-    included; spacing ``h = (volume / count)^(1/3)`` rounded so each side is a whole number of
-    cells.  Returns points [m], shape (n, 3), float64, x-major order."""
+    """A cubic grid of about ``count`` cells filling the box ``[lower, upper]`` [m], corners
+    included (so more points than ``count``: 216 cells of a cube give 7^3 = 343 points);
+    spacing ``h = (volume / count)^(1/3)`` rounded so each side is a whole number of cells.
+    Returns points [m], shape (n, 3), float64, x-major order."""
     lower = np.asarray(lower, dtype=np.float64).reshape(3)
     upper = np.asarray(upper, dtype=np.float64).reshape(3)
     if count < 8:
