@@ -371,9 +371,9 @@ def test_file_scene_and_missing_paths(tmp_path):
     # keys a body file does not read are refused, not ignored (it has its own points, springs)
     text = text.replace("points = 300\n", "").replace('connect = "radius"\n', "")
     for key, where, line in (("points", "seed = 1\n", "points = 300\n"),
-                             ("connect", "[springs]\n", 'connect = "radius"\n'),
+                             ("connect", "[springs]\n", 'connect = "delaunay"\n'),
                              ("size", "seed = 1\n", "size = 2.0\n"),
-                             ("lower", "seed = 1\n", "lower = [0.0, 0.0, 0.0]\n")):
+                             ("lower", "seed = 1\n", "lower = [0.0, 1.0, 0.0]\n")):
         p.write_text(text.replace(where, where + line))
         with pytest.raises(SceneError, match=rf"{key} is not used for \[body\] type = 'file'"):
             Scene.load(p)

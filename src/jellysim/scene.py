@@ -347,7 +347,7 @@ class Scene:
                                  f"{kind!r}): the {'mesh' if kind == 'mesh' else 'body'} file")
             if kind == "mesh" and b["points"] is None:
                 b["points"] = 2000
-        refuse_unused_keys(raw, kind, name)  # e.g. [body] size for type = 'file'
+        refuse_unused_keys(raw, kind, name, SCHEMA)  # e.g. [body] size for type = 'file'
         if not all(u > lo for u, lo in zip(b["upper"], b["lower"])):
             raise SceneError(f"{name}: [body] upper = {b['upper']} must exceed lower = "
                              f"{b['lower']} in every coordinate")

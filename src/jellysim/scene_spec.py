@@ -198,15 +198,18 @@ UNUSED_BY_TYPE = {
 silently ignored (a body file has its own points, springs and units; a box has no mesh)."""
 
 
-def refuse_unused_keys(raw: dict, kind: str, name: str) -> None:
-    """A :class:`SceneError` for the first key of ``raw`` (the scene as written, presets
-    not merged) that ``[body] type = kind`` would ignore."""
+def refuse_unused_keys(raw: dict, kind: str, name: str, schema: dict) -> None:
+    """A :class:`SceneError` for the first key of ``raw`` (the scene as written, with its
+    preset) that ``[body] type = kind`` would ignore, given a value other than its default
+    (``schema[section][key].default``: a scene's validated parameters, which hold every key,
+    can be read back)."""
     why = {"file": "a body file has its own points, springs and units; use base to place it",
            "box": "a box body is made of [body] points, lower and upper",
            "mesh": "a mesh body fills the mesh; use size and base to scale and place it"}[kind]
     for section, keys in UNUSED_BY_TYPE[kind].items():
         given = raw.get(section, {})
         for key in keys:
-            if isinstance(given, dict) and key in given:
+            if isinstance(given, dict) and given.get(key) is not None and (
+                    given[key] != schema[section][key].default):
                 raise SceneError(f"{name}: [{section}] {key} is not used for [body] type = "
                                  f"{kind!r} ({why}); remove it")

@@ -310,16 +310,16 @@ class Simulator(HandleMethods, PhysicalStepping):
     MAX_AUTO_SUBSTEPS = 10_000
     """``substeps = "auto"`` on the springs' symplectic path refuses to go beyond this."""
 
-    @classmethod
-    def _springs_auto_substeps(cls, model, dt) -> int:
+    def _springs_auto_substeps(self, model, dt) -> int:
         """Substeps for the springs' symplectic integrator: ``dt`` over 0.9 of the estimated
         stable step (as the physical path counts its own; the report's ``paper`` integrator
         keeps its one step per ``dt``)."""
         est = estimate_stability(model, Integrator.SYMPLECTIC, float(dt))
+        self._symplectic_estimate = est  # check_stability reuses it (it does not depend on dt)
         if not (est.dt_max > 0 and np.isfinite(est.dt_max)):
             return 1
         need = max(1, int(np.ceil(float(dt) / (0.9 * est.dt_max))))
-        if need > cls.MAX_AUTO_SUBSTEPS:
+        if need > self.MAX_AUTO_SUBSTEPS:
             raise SceneError(
                 f"the springs are too stiff for dt = {float(dt):g} s: the symplectic integrator "
                 f"would need {need} substeps per step (stable limit {est.dt_max:.3g} s, "
@@ -330,9 +330,11 @@ class Simulator(HandleMethods, PhysicalStepping):
 
     def check_stability(self) -> StabilityEstimate:
         """Estimate the largest stable dt; warn when ``dt`` exceeds it."""
-        est = estimate_stability(self.model, self.integrator, self.dt_step,
-                                 theta=self.implicit.theta,
-                                 scheme=self.implicit.scheme)
+        est = getattr(self, "_symplectic_estimate", None)
+        if est is None or self.integrator is not Integrator.SYMPLECTIC:
+            est = estimate_stability(self.model, self.integrator, self.dt_step,
+                                     theta=self.implicit.theta,
+                                     scheme=self.implicit.scheme)
         self.stability = est
         if self.dt_step > est.dt_max:
             hint = (f"use dt <= {0.9 * est.dt_max:.3g} s" if est.dt_max > 0
