@@ -118,7 +118,8 @@ def apply_override(raw: dict, item: str, name: str) -> None:
         parsed = value.strip()      # a bare word: a string (e.g. integrator.name=implicit)
     table = raw.setdefault(section, {})
     if not isinstance(table, dict):
-        raise SceneError(f"{name}: --set {item!r}: [{section}] is not a table")
+        raise SceneError(f"{name}: --set {item!r}: [[{section}]] is a list of tables, which "
+                         "--set cannot address; edit them in the scene file")
     table[key] = parsed
 
 
