@@ -73,8 +73,9 @@ def test_huge_digit_counts_and_indices_are_located_errors(tmp_path):
     # also from a scene that names the file
     p = _jello(tmp_path, VALID.replace("springs 3", "springs " + "7" * 4400))
     scene = tmp_path / "s.toml"
-    scene.write_text(BOX.replace("points = 40\n", "").replace(
-        "[body]", f'[body]\ntype = "file"\npath = "{p.name}"'))
+    scene.write_text(BOX.replace("points = 40\n", "").replace(  # keys a file body ignores
+        "lower = [0.0, 0.1, 0.0]\nupper = [0.2, 0.3, 0.2]\n", "").replace(
+        "radius = 0.1\n", "").replace("[body]", f'[body]\ntype = "file"\npath = "{p.name}"'))
     r = CliRunner().invoke(cli, ["run", str(scene), "-o", str(tmp_path / "o"), "--quiet"])
     assert r.exit_code == 2 and "b.jello:8:9:" in r.output and "Traceback" not in r.output
 
