@@ -197,6 +197,23 @@ def test_mpiexec_run_is_bitwise_equal_to_serial(tmp_path, scene, ranks):
 
 
 @needs_mpi
+def test_mpiexec_counts_the_springs_auto_substeps_like_serial(tmp_path):
+    """substeps = 'auto' on the springs' symplectic path: every rank takes the substep count
+    the serial run takes (from the global model's stability estimate), bitwise the same run."""
+    text = (DATA / "symplectic_contact.toml").read_text().replace("substeps = 2\n", "")
+    scene = tmp_path / "auto.toml"
+    scene.write_text(text.replace("dt = 0.004", "dt = 0.016").replace("steps = 80", "steps = 24"))
+    assert Scene.load(scene).simulator().substeps == 5  # 0.016 s is beyond the stable step
+    ref = _serial(scene, tmp_path / "serial")
+    proc, _ = _mpirun(2, "-m", "jellysim.cli", "run", str(scene), "--out",
+                      str(tmp_path / "mpi"), "--quiet", "--no-vtu")
+    assert proc.returncode == 0, proc.stderr
+    got = load_trajectory(tmp_path / "mpi" / "trajectory.npz")
+    assert np.array_equal(got.positions, ref.positions)
+    assert np.array_equal(got.velocities, ref.velocities)
+
+
+@needs_mpi
 def test_mpiexec_blow_up_is_agreed_by_all_ranks_at_the_serial_step(tmp_path):
     text = (DATA / "symplectic_contact.toml").read_text()
     text = text.replace("dt = 0.004", "dt = 0.05").replace("substeps = 2", "substeps = 1")

@@ -24,7 +24,8 @@ from .handles import HandleMethods
 from .physical_stepping import PhysicalStepping
 from .stability import StabilityEstimate, estimate_stability, implicit_accuracy
 
-__all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads"]
+__all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads",
+           "springs_auto_substeps"]
 
 PARALLEL_MIN_POINTS = 500
 """Below this many points one thread is used.  From the paper scene's 600 points on, two
@@ -55,6 +56,28 @@ STATUS_NOT_CONVERGED = 101
 """``SimulationError.status`` of a solve that did not converge (not a kernel code)."""
 STATUS_COLLAPSE = 102
 """``SimulationError.status`` of a body that collapsed in one call (not a kernel code)."""
+
+
+MAX_AUTO_SUBSTEPS = 10_000
+"""``substeps = "auto"`` on the springs' symplectic path refuses to go beyond this."""
+
+
+def springs_auto_substeps(model, dt) -> tuple[int, StabilityEstimate]:
+    """Substeps of the springs' symplectic integrator for ``substeps = "auto"``: ``dt`` [s]
+    over 0.9 of the estimated stable step (as the physical path counts its own; the report's
+    ``paper`` integrator keeps one step per ``dt``), and the estimate."""
+    est = estimate_stability(model, Integrator.SYMPLECTIC, float(dt))
+    if not (est.dt_max > 0 and np.isfinite(est.dt_max)):
+        return 1, est
+    need = max(1, int(np.ceil(float(dt) / (0.9 * est.dt_max))))
+    if need > MAX_AUTO_SUBSTEPS:
+        raise SceneError(
+            f"the springs are too stiff for dt = {float(dt):g} s: the symplectic integrator "
+            f"would need {need} substeps per step (stable limit {est.dt_max:.3g} s, "
+            f"{est.reason}); soften them, use integrator = 'implicit', or for a tet body "
+            "(connect = 'marching' or 'delaunay') the physical material "
+            "([material] model = 'fem')")
+    return need, est
 
 
 def auto_threads(point_count: int) -> int:
@@ -307,25 +330,9 @@ class Simulator(HandleMethods, PhysicalStepping):
         if check_stability and not self.physical:
             self.check_stability()
 
-    MAX_AUTO_SUBSTEPS = 10_000
-    """``substeps = "auto"`` on the springs' symplectic path refuses to go beyond this."""
-
     def _springs_auto_substeps(self, model, dt) -> int:
-        """Substeps for the springs' symplectic integrator: ``dt`` over 0.9 of the estimated
-        stable step (as the physical path counts its own; the report's ``paper`` integrator
-        keeps its one step per ``dt``)."""
-        est = estimate_stability(model, Integrator.SYMPLECTIC, float(dt))
-        self._symplectic_estimate = est  # check_stability reuses it (it does not depend on dt)
-        if not (est.dt_max > 0 and np.isfinite(est.dt_max)):
-            return 1
-        need = max(1, int(np.ceil(float(dt) / (0.9 * est.dt_max))))
-        if need > self.MAX_AUTO_SUBSTEPS:
-            raise SceneError(
-                f"the springs are too stiff for dt = {float(dt):g} s: the symplectic integrator "
-                f"would need {need} substeps per step (stable limit {est.dt_max:.3g} s, "
-                f"{est.reason}); soften them, use integrator = 'implicit', or for a tet body "
-                "(connect = 'marching' or 'delaunay') the physical material "
-                "([material] model = 'fem')")
+        """:func:`springs_auto_substeps`, its estimate kept for :meth:`check_stability`."""
+        need, self._symplectic_estimate = springs_auto_substeps(model, dt)
         return need
 
     def check_stability(self) -> StabilityEstimate:

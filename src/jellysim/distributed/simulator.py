@@ -25,7 +25,7 @@ from ..state import State
 from .fem import PhysicalMethods, _rest_thinness
 from .local import LocalPart, combine_status, halo_depth, replicated_reason
 from .partition import partition_points, point_graph
-from ..simulator import Simulator
+from ..simulator import Simulator, springs_auto_substeps
 from ..physics.contact import Plane, pack_obstacles
 
 __all__ = ["DistributedSimulator", "on_root", "world", "launched_under_mpi"]
@@ -164,8 +164,10 @@ class DistributedSimulator(PhysicalMethods):
                                 threads, substeps)
             self._pack_obstacles(ground, obstacles, rest_speed)
             return
-        if substeps == "auto":  # the springs path: one step per dt unless asked
-            substeps = 1
+        if substeps == "auto":  # as the serial Simulator counts them, on the global model
+            symplectic = Integrator(integrator) is Integrator.SYMPLECTIC and check_stability
+            substeps = on_root(self.comm, lambda: springs_auto_substeps(model, self.dt)[0]
+                               if symplectic else 1)
         self.substeps = int(substeps)
         if self.substeps < 1:
             raise SceneError(f"substeps must be an integer >= 1, got {substeps}")
