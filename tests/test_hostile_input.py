@@ -469,3 +469,18 @@ def test_point_selections_refuse_empty_inverted_and_negative_shapes():
         js.select_points(x, sphere=([0.05, 0.05, 0.05], -0.02))
     inside = js.select_points(x, sphere=([0.05, 0.05, 0.05], 0.02))
     assert np.array_equal(inside, np.flatnonzero(np.linalg.norm(x - 0.05, axis=1) <= 0.02))
+
+
+def test_a_physical_blow_up_names_the_handle_not_an_infinite_dt():
+    """A force no material can hold (1e30 N) blows the physical path up even after its
+    substep doublings; the error says what does that instead of 'stable limit inf s'."""
+    import jellysim as js
+    from jellysim.errors import SimulationError, StabilityWarning
+
+    sphere = Path(__file__).parent / "data" / "sphere.obj"
+    body = js.Body.from_mesh(sphere, size=0.04, points=60, connect="marching", base=(0, 0, 0))
+    sim = js.Simulator(js.physical_model(body, js.material("gelatin")), dt=1 / 60)
+    sim.apply_force([0], [1e30, 0.0, 0.0])
+    with pytest.warns(StabilityWarning), pytest.raises(SimulationError) as info:
+        sim.advance(2)
+    assert "too strong for the material" in str(info.value) and "inf" not in str(info.value)

@@ -556,6 +556,13 @@ class Simulator(HandleMethods, PhysicalStepping):
                 f"simulation went unstable at step {failed} (t = {s.t:.6g} s): {what}; the "
                 "implicit step is linearised: try a smaller dt, theta closer to 1 or a tighter "
                 f"CG tolerance ({words})", step=failed, status=int(status))
+        if self.physical:  # its substeps were counted and doubled: the forces are the cause
+            raise SimulationError(
+                f"simulation went unstable at step {failed} (t = {s.t:.6g} s): {what}, with "
+                f"{self.substeps} substeps per step (doubled up to {self.MAX_SUBSTEP_DOUBLINGS} "
+                "times after a blow-up); a force, drag or pin path too strong for the material, "
+                "or a body squashed inside out, does that: gentler handles or a stiffer "
+                "material help", step=failed, status=int(status))
         if est.dt_max > 0:
             hint = f"try dt <= {0.5 * min(self.dt_step, est.dt_max):.3g} s"
         else:
