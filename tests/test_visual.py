@@ -118,6 +118,39 @@ def test_camera_keeps_every_frame_in_view():
     assert np.all(np.abs(rel @ right) / depth <= tan_v * 160 / 90)
 
 
+@pytest.mark.parametrize("azimuth,elevation", [(None, None), (120.0, 5.0), (-45.0, 90.0)])
+def test_camera_options_set_the_view_direction_and_keep_the_motion_in_view(azimuth, elevation):
+    """--azimuth / --elevation: the camera sits in that direction from the focal point
+    (defaults: the built-in three-quarter view); every point stays in view from any of them
+    (from straight above too, where +y cannot be the image's up); --zoom 2 halves the
+    distance."""
+    from jellysim.render.camera import DEFAULT_DIRECTION, frame_motion, view_direction
+
+    d = view_direction(azimuth, elevation)
+    if azimuth is None:
+        assert np.allclose(d, np.array(DEFAULT_DIRECTION) / np.linalg.norm(DEFAULT_DIRECTION))
+    else:
+        az, el = np.radians(azimuth), np.radians(elevation)
+        assert np.allclose(d, [np.cos(el) * np.cos(az), np.sin(el), np.cos(el) * np.sin(az)])
+    rng = np.random.default_rng(1)
+    pts = rng.normal(size=(80, 3)) * [0.03, 0.01, 0.02] + [0.1, 0.02, -0.05]
+    cam = frame_motion(pts, (160, 90), direction=d)
+    pos, focal = np.array(cam.position), np.array(cam.focal_point)
+    assert np.allclose((pos - focal) / np.linalg.norm(pos - focal), d)
+    forward = (focal - pos) / np.linalg.norm(focal - pos)
+    up = np.array(cam.up) - forward * (np.array(cam.up) @ forward)
+    assert np.linalg.norm(up) > 0.5  # a usable up vector, even looking straight down
+    up /= np.linalg.norm(up)
+    rel = pts - pos
+    depth = rel @ forward
+    tan_v = np.tan(np.radians(cam.view_angle) / 2)
+    assert np.all(depth > 0) and np.all(np.abs(rel @ up) / depth <= tan_v)
+    assert np.all(np.abs(rel @ np.cross(forward, up)) / depth <= tan_v * 160 / 90)
+    near = frame_motion(pts, (160, 90), direction=d, zoom=2.0)
+    assert np.linalg.norm(np.array(near.position) - focal) == pytest.approx(
+        0.5 * np.linalg.norm(pos - focal), rel=1e-12)
+
+
 def test_usd_has_one_time_sample_per_frame_equal_to_the_skin(traj, tmp_path):
     from pxr import Usd, UsdGeom
 
@@ -266,6 +299,16 @@ def test_cli_render_one_picture(run_dir, tmp_path):
     assert img.shape == (64, 96, 3)
     greenish = (img[..., 1] > img[..., 0] + 20) & (img[..., 1] > img[..., 2])
     assert greenish.sum() > 20                   # the configured skin colour is drawn
+    # the camera options reach the renderer: from above and zoomed in, the same frame shows
+    # more of the skin (it fills more of the picture) and a different picture
+    r = CliRunner().invoke(cli, ["render", str(run_dir / "trajectory.npz"), "-o",
+                                 str(tmp_path / "top.png"), "--frame", "-1", "--size", "96x64",
+                                 "--color", "#33aa55", "--quiet", "--elevation", "90",
+                                 "--zoom", "2"])
+    assert r.exit_code == 0, r.output
+    top = iio.imread(tmp_path / "top.png")[..., :3].astype(int)
+    green_top = (top[..., 1] > top[..., 0] + 20) & (top[..., 1] > top[..., 2])
+    assert green_top.sum() > greenish.sum() and np.abs(top - img).mean() > 5
 
 
 def _env_without_display():

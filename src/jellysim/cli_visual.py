@@ -59,13 +59,32 @@ def _check_color(color: str) -> str:
     return color
 
 
-def _options(size, color, opacity, show, no_floor):
+_camera = [
+    click.option("--azimuth", type=click.FloatRange(-360, 360), default=None,
+                 help="Camera azimuth in degrees around the vertical, from +x towards +z "
+                      "(default 32)."),
+    click.option("--elevation", type=click.FloatRange(-89, 90), default=None,
+                 help="Camera elevation in degrees above the horizontal (default 20.4; 90: "
+                      "from above)."),
+    click.option("--zoom", type=click.FloatRange(0.1, 20), default=1.0, show_default=True,
+                 help="Move the camera closer (> 1) or farther (< 1) than the framing that "
+                      "keeps the whole motion in view.")]
+
+
+def _camera_options(f):
+    for opt in reversed(_camera):
+        f = opt(f)
+    return f
+
+
+def _options(size, color, opacity, show, no_floor, camera=(None, None, 1.0)):
     show = {s.lower() for s in show}
     if "all" in show:
         show |= {"skin", "points", "springs"}
     return RenderOptions(size=_size(size), color=_check_color(color), opacity=opacity,
                          show_points="points" in show, show_springs="springs" in show,
-                         show_skin="skin" in show or not show, floor=not no_floor)
+                         show_skin="skin" in show or not show, floor=not no_floor,
+                         azimuth=camera[0], elevation=camera[1], zoom=camera[2])
 
 
 def _load(path):
@@ -213,8 +232,9 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
               help="Use every N-th saved frame.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @_overwrite
+@_camera_options
 def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame, every,
-           quiet, overwrite=False):
+           quiet, overwrite=False, azimuth=None, elevation=None, zoom=1.0):
     """Render TRAJECTORY (trajectory.npz) to a video or pictures, off screen."""
     import numpy as np
 
@@ -228,7 +248,8 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
             frames = np.array([frame % traj.frame_count])
         if fps is None and every > 1:
             fps = default_fps(traj.times[frames])
-        path = render_trajectory(traj, output, _options(size, color, opacity, show, no_floor),
+        path = render_trajectory(traj, output, _options(size, color, opacity, show, no_floor,
+                                                        (azimuth, elevation, zoom)),
                                  fps=fps, frames=frames, progress=not quiet)
     except JellysimError as exc:
         _fail(str(exc))
@@ -309,13 +330,19 @@ def export(trajectory, target, output, sequence, fps, max_frames, overwrite=Fals
               help="Playback speed in frames per second (default: real time).")
 @click.option("--screenshot", type=click.Path(dir_okay=False), default=None,
               help="Draw the window, save it to this PNG and close (no interaction).")
-def view(trajectory, show, size, color, opacity, no_floor, fps, screenshot):
+@_camera_options
+def view(trajectory, show, size, color, opacity, no_floor, fps, screenshot, azimuth=None,
+         elevation=None, zoom=1.0):
     """Interactive window over TRAJECTORY: play/pause (check box or space), scrub (slider),
     orbit (mouse).  Given a scene file (.toml) instead, it simulates live and the right mouse
     button pulls the jello (a spring to the cursor)."""
 
     if str(trajectory).endswith(".toml"):
         from .scene import Scene
+
+        if azimuth is not None or elevation is not None or zoom != 1.0:
+            _fail("--azimuth / --elevation / --zoom frame a saved trajectory; the live view of "
+                  "a scene is orbited with the mouse: remove them")
 
         try:
             view_live(Scene.load(trajectory), size=_size(size), screenshot=screenshot,
@@ -327,7 +354,8 @@ def view(trajectory, show, size, color, opacity, no_floor, fps, screenshot):
         return
     try:
         traj = _load(trajectory)
-        view_trajectory(traj, _options(size, color, opacity, show, no_floor), fps=fps,
+        view_trajectory(traj, _options(size, color, opacity, show, no_floor,
+                                       (azimuth, elevation, zoom)), fps=fps,
                         screenshot=screenshot)
     except JellysimError as exc:
         _fail(str(exc))

@@ -11,10 +11,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Camera", "frame_motion"]
+__all__ = ["Camera", "frame_motion", "view_direction"]
 
 DEFAULT_DIRECTION = (1.6, 0.7, 1.0)
 """From the focal point towards the camera (x, y up, z)."""
+
+
+def view_direction(azimuth: float | None = None, elevation: float | None = None) -> np.ndarray:
+    """Unit vector from the focal point towards the camera for an ``azimuth`` [degrees]
+    around the vertical y axis, from +x towards +z, and an ``elevation`` [degrees] above the
+    horizontal; each left ``None`` takes :data:`DEFAULT_DIRECTION`'s (32.0 and 20.4)."""
+    d = np.asarray(DEFAULT_DIRECTION, dtype=np.float64)
+    d = d / np.linalg.norm(d)
+    az = math.atan2(d[2], d[0]) if azimuth is None else math.radians(float(azimuth))
+    el = math.asin(d[1]) if elevation is None else math.radians(float(elevation))
+    return np.array([math.cos(el) * math.cos(az), math.sin(el), math.cos(el) * math.sin(az)])
 
 
 @dataclass(frozen=True)
@@ -40,7 +51,7 @@ class Camera:
 
 def frame_motion(positions: np.ndarray, size: tuple[int, int], *, view_angle: float = 30.0,
                  direction=DEFAULT_DIRECTION, margin: float = 0.85,
-                 extra_points: np.ndarray | None = None) -> Camera:
+                 extra_points: np.ndarray | None = None, zoom: float = 1.0) -> Camera:
     """A camera that keeps all of ``positions`` in view.
 
     Parameters
@@ -51,6 +62,7 @@ def frame_motion(positions: np.ndarray, size: tuple[int, int], *, view_angle: fl
     direction: from the focal point towards the camera (normalised here).
     margin: extra room around the bounding sphere (1 = touching the image border).
     extra_points: more positions [m] (..., 3) to include (e.g. a floor patch).
+    zoom: > 1 moves the camera closer by that factor (the framing then crops the motion).
     """
     pts = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
     if extra_points is not None:
@@ -65,9 +77,13 @@ def frame_motion(positions: np.ndarray, size: tuple[int, int], *, view_angle: fl
     vfov = math.radians(view_angle)
     hfov = 2.0 * math.atan(math.tan(vfov / 2.0) * width / height)
     fov = min(vfov, hfov)
-    distance = margin * radius / math.sin(fov / 2.0)
+    distance = margin * radius / math.sin(fov / 2.0) / float(zoom)
     d = np.asarray(direction, dtype=np.float64)
     d = d / np.linalg.norm(d)
     pos = center + distance * d
-    return Camera(tuple(pos.tolist()), tuple(center.tolist()), (0.0, 1.0, 0.0),
+    up = (0.0, 1.0, 0.0)
+    if abs(d[1]) > 0.999:  # looking (nearly) straight down: +y is not "up" on the image
+        n = float(np.hypot(d[0], d[2]))
+        up = (-d[0] / n, 0.0, -d[2] / n) if n > 0 else (0.0, 0.0, -1.0)
+    return Camera(tuple(pos.tolist()), tuple(center.tolist()), tuple(float(u) for u in up),
                   float(view_angle))

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import JellysimError
-from .camera import frame_motion
+from .camera import frame_motion, view_direction
 
 __all__ = ["RenderOptions", "Renderer", "ground_height"]
 
@@ -38,6 +38,12 @@ class RenderOptions:
     """Draw a round white plate on the floor under the body's last position."""
     background: str = "#f4f1ec"
     """Background colour."""
+    azimuth: float | None = None
+    """Camera azimuth [degrees] around the vertical, from +x towards +z (None: 32)."""
+    elevation: float | None = None
+    """Camera elevation [degrees] above the horizontal (None: 20.4; 90: from above)."""
+    zoom: float = 1.0
+    """> 1 moves the camera closer (the automatic framing keeps the whole motion at 1)."""
 
     def even_size(self) -> tuple[int, int]:
         w, h = (int(s) for s in self.size)
@@ -146,7 +152,8 @@ class Renderer:
                 self._floor_y = floor_y + 0.0045 * ext
             else:
                 self._floor_y = floor_y + 0.0005 * ext
-        self.camera = frame_motion(motion, self.size, extra_points=extra)
+        self.camera = frame_motion(motion, self.size, extra_points=extra, zoom=o.zoom,
+                                   direction=view_direction(o.azimuth, o.elevation))
         self.shadow = None
         if o.floor and o.shadow and self._surface_frames is not None:
             self.shadow = pv.PolyData(self._shadow_points(0), _faces(faces))
