@@ -556,7 +556,7 @@ class Simulator(HandleMethods, PhysicalStepping):
                 f"simulation went unstable at step {failed} (t = {s.t:.6g} s): {what}; the "
                 "implicit step is linearised: try a smaller dt, theta closer to 1 or a tighter "
                 f"CG tolerance ({words})", step=failed, status=int(status))
-        if getattr(self, "physical", False):  # substeps counted and doubled: forces caused it
+        if self.physical:  # its substeps were counted and doubled: the forces are the cause
             raise SimulationError(
                 f"simulation went unstable at step {failed} (t = {s.t:.6g} s): {what}, with "
                 f"{self.substeps} substeps per step (doubled up to {self.MAX_SUBSTEP_DOUBLINGS} "

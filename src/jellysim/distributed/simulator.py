@@ -449,7 +449,9 @@ class DistributedSimulator(PhysicalMethods):
         view = types.SimpleNamespace(
             model=self.model, state=types.SimpleNamespace(step=self.step, t=self.t),
             runaway_distance=self.runaway_distance, stability=self.stability,
-            integrator=self.integrator, dt_step=self.dt_step, implicit=self.implicit)
+            integrator=self.integrator, dt_step=self.dt_step, implicit=self.implicit,
+            physical=self.physical, substeps=self.substeps,
+            MAX_SUBSTEP_DOUBLINGS=self.MAX_SUBSTEP_DOUBLINGS)
         raise_agreed(self.comm, lambda: Simulator._raise(view, status))
 
     # -- output ---------------------------------------------------------------------------
