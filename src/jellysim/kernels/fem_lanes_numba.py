@@ -189,37 +189,49 @@ def _gather_block(s, t0, m, x, fem, q, damped):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
+def _corner_forces(s, l):
+    """Lane ``l``'s four corner forces [N] as 12 numbers (corner 0 x y z, corner 1 ...):
+    corners 1-3 are the columns of H, corner 0 minus their sum (in this order: the gather
+    and the summed pass must add the same bits)."""
+    B = LANES
+    h1x = s[29 * B + l]
+    h1y = s[30 * B + l]
+    h1z = s[31 * B + l]
+    h2x = s[32 * B + l]
+    h2y = s[33 * B + l]
+    h2z = s[34 * B + l]
+    h3x = s[35 * B + l]
+    h3y = s[36 * B + l]
+    h3z = s[37 * B + l]
+    return (-((0.0 + h1x) + h2x + h3x), -((0.0 + h1y) + h2y + h3y), -((0.0 + h1z) + h2z + h3z),
+            h1x, h1y, h1z, h2x, h2y, h2z, h3x, h3y, h3z)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _store_j_q(s, l, t, q, tet_j, damped):
+    """Lane ``l``'s J into ``tet_j[t]`` and (``damped``) its updated strain into ``q[t]``;
+    returns J."""
+    B = LANES
+    J = s[38 * B + l]
+    tet_j[t] = J
+    if damped:
+        for k in range(6):
+            q[t, k] = s[(23 + k) * B + l]
+    return J
+
+
+@njit(cache=True, inline="always", error_model="numpy")
 def _scatter_block(s, t0, m, q, tet_force, tet_j, damped):
     """The block's corner forces [N] to rows ``4 t .. 4 t + 3``, J, and the updated q."""
-    B = LANES
     for l in range(m):
         t = t0 + l
+        f = _corner_forces(s, l)  # constant indices below: a loop over f ran 20 % slower
         r = 4 * t
-        h1x = s[29 * B + l]
-        h1y = s[30 * B + l]
-        h1z = s[31 * B + l]
-        h2x = s[32 * B + l]
-        h2y = s[33 * B + l]
-        h2z = s[34 * B + l]
-        h3x = s[35 * B + l]
-        h3y = s[36 * B + l]
-        h3z = s[37 * B + l]
-        tet_force[r + 1, 0] = h1x
-        tet_force[r + 1, 1] = h1y
-        tet_force[r + 1, 2] = h1z
-        tet_force[r + 2, 0] = h2x
-        tet_force[r + 2, 1] = h2y
-        tet_force[r + 2, 2] = h2z
-        tet_force[r + 3, 0] = h3x
-        tet_force[r + 3, 1] = h3y
-        tet_force[r + 3, 2] = h3z
-        tet_force[r, 0] = -((0.0 + h1x) + h2x + h3x)
-        tet_force[r, 1] = -((0.0 + h1y) + h2y + h3y)
-        tet_force[r, 2] = -((0.0 + h1z) + h2z + h3z)
-        tet_j[t] = s[38 * B + l]
-        if damped:
-            for k in range(6):
-                q[t, k] = s[(23 + k) * B + l]
+        tet_force[r, 0], tet_force[r, 1], tet_force[r, 2] = f[0], f[1], f[2]
+        tet_force[r + 1, 0], tet_force[r + 1, 1], tet_force[r + 1, 2] = f[3], f[4], f[5]
+        tet_force[r + 2, 0], tet_force[r + 2, 1], tet_force[r + 2, 2] = f[6], f[7], f[8]
+        tet_force[r + 3, 0], tet_force[r + 3, 1], tet_force[r + 3, 2] = f[9], f[10], f[11]
+        _store_j_q(s, l, t, q, tet_j, damped)
 
 
 @njit(**_opts)
@@ -266,33 +278,17 @@ def tet_forces_summed(x, fem, g, decay, q, fsum, tet_j, min_j):
             _lanes_elastic(s, g, decay)
         for l in range(m):
             t = t0 + l
+            f = _corner_forces(s, l)
             i0, i1, i2, i3 = tets[t, 0], tets[t, 1], tets[t, 2], tets[t, 3]
-            h1x = s[29 * B + l]
-            h1y = s[30 * B + l]
-            h1z = s[31 * B + l]
-            h2x = s[32 * B + l]
-            h2y = s[33 * B + l]
-            h2z = s[34 * B + l]
-            h3x = s[35 * B + l]
-            h3y = s[36 * B + l]
-            h3z = s[37 * B + l]
-            fsum[i0, 0] += -((0.0 + h1x) + h2x + h3x)
-            fsum[i0, 1] += -((0.0 + h1y) + h2y + h3y)
-            fsum[i0, 2] += -((0.0 + h1z) + h2z + h3z)
-            fsum[i1, 0] += h1x
-            fsum[i1, 1] += h1y
-            fsum[i1, 2] += h1z
-            fsum[i2, 0] += h2x
-            fsum[i2, 1] += h2y
-            fsum[i2, 2] += h2z
-            fsum[i3, 0] += h3x
-            fsum[i3, 1] += h3y
-            fsum[i3, 2] += h3z
-            J = s[38 * B + l]
-            tet_j[t] = J
+            fsum[i0, 0], fsum[i0, 1], fsum[i0, 2] = fsum[i0, 0] + f[0], fsum[i0, 1] + f[1], \
+                fsum[i0, 2] + f[2]
+            fsum[i1, 0], fsum[i1, 1], fsum[i1, 2] = fsum[i1, 0] + f[3], fsum[i1, 1] + f[4], \
+                fsum[i1, 2] + f[5]
+            fsum[i2, 0], fsum[i2, 1], fsum[i2, 2] = fsum[i2, 0] + f[6], fsum[i2, 1] + f[7], \
+                fsum[i2, 2] + f[8]
+            fsum[i3, 0], fsum[i3, 1], fsum[i3, 2] = fsum[i3, 0] + f[9], fsum[i3, 1] + f[10], \
+                fsum[i3, 2] + f[11]
+            J = _store_j_q(s, l, t, q, tet_j, damped)
             if J < m_j:
                 m_j = J
-            if damped:
-                for k in range(6):
-                    q[t, k] = s[(23 + k) * B + l]
     min_j[0] = m_j
