@@ -24,9 +24,11 @@ FLOAT32_FEM_DROP_BOUND = 5e-4
 0.5 s at 60 frames/s): largest point distance at any frame over the body's size [-]
 (measured 1.8e-4: 7 um)."""
 
-FLOAT32_DEMO_BOUND = 1e-3
+FLOAT32_DEMO_BOUND = 2e-3
 """float32 Warp vs numba on the scaled-down demo (12 frames, 160x90): largest point distance
-at any frame over the jello's largest extent [-] (measured 1.9e-4: 16 um of 8.7 cm)."""
+at any frame over the jello's largest extent [-].  Measured 1.02e-3 (89 um of 8.7 cm; session
+7's mould warped onto its surface; 1.9e-4 with the earlier staircase mould): 1e-6 of the size
+in free fall, then the landing (frames 6-8) amplifies the rounding differences."""
 
 DEMO_PIXEL_BOUND = 1.0
 """Mean absolute difference of the decoded demo video frames (0-255 per channel), Warp

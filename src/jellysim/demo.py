@@ -30,7 +30,7 @@ DEMO_SHAPES = {
         "length": 0.087,        # [m] largest extent
         "drop_height": 0.03,    # [m] gap between the jello and the plate at t = 0
         "velocity": [0.5, 0.0, 0.0],   # [m/s] tossed onto the plate: it lands, sticks, sways
-        "points": 1500,         # grid nodes inside (marching grid snapped to the surface)
+        "points": 1500,         # grid nodes (marching grid warped onto the surface)
         "connect": "marching",
         "seed": 7,
     },
@@ -92,7 +92,7 @@ def demo_mesh(name: str = "jelly"):
 
 def build_demo_body(name: str = "jelly", points: int | None = None):
     """The demo's jello body and its skin: ``(Body, Skin)``: the surface filled with a
-    marching grid (its boundary snapped onto the surface) by :func:`jellysim.build.build_body`,
+    marching grid (warped onto the surface) by :func:`jellysim.build.build_body`,
     the skin the surface itself bound to the body's tets.  ``points``: grid points inside
     (default ``DEMO_SHAPES[name]["points"]``)."""
     import warnings

@@ -35,8 +35,28 @@ def _kuhn_offsets() -> np.ndarray:
     return np.array(out, dtype=np.int64)
 
 
+def _grid_springs(tets: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray:
+    """The grid's Kuhn edges (node ids, (k, 2)) whose two ends are corners of ``tets``."""
+    nx, ny, nz = shape
+    strides = np.array([ny * nz, nz, 1], dtype=np.int64)
+    kept = np.zeros(nx * ny * nz, dtype=bool)
+    kept[tets.ravel()] = True
+    sub = kept.reshape(nx, ny, nz)
+    springs = []
+    for d in itertools.product((0, 1), repeat=3):
+        if d == (0, 0, 0):
+            continue
+        d = np.array(d)
+        a = sub[: nx - d[0], : ny - d[1], : nz - d[2]]
+        b = sub[d[0]:, d[1]:, d[2]:]
+        ii, jj, kk = np.nonzero(a & b)
+        src = ii * strides[0] + jj * strides[1] + kk * strides[2]
+        springs.append(np.stack([src, src + int(d @ strides)], axis=1))
+    return np.concatenate(springs, axis=0)
+
+
 def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
-                  density: float = DEFAULT_DENSITY) -> Body:
+                  density: float = DEFAULT_DENSITY, warp: bool = False) -> Body:
     """Marching-tetrahedra grid body (report section 4.3).
 
     The grid has ``n = ceil(extent / h)`` cubes of edge ``h`` along each axis, centred on the
@@ -45,12 +65,16 @@ def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
     same in every cube and therefore conforming (no T-junctions).
 
     * A grid node is *inside* when ``inside_fn`` says so.
-    * A tet is kept when its four corners are inside (for mass, volume and skin).
-    * Points = inside nodes that are a corner of a kept tet (renumbered in grid order
-      ``i, j, k`` with ``k`` fastest).  Inside nodes in no kept tet would be massless and are
+    * A tet is kept when its four corners are inside (for mass, volume and skin).  With
+      ``warp``, the nodes near the surface move onto it and the cut cubes' tets are kept as
+      :func:`~jellysim.geometry.snap.warp_to_surface` says: the body fills the mesh instead of a
+      staircase inside it (not the report's; :func:`jellysim.build.build_body`'s default).
+    * Points = inside nodes that are a corner of a kept tet (warped: and the nodes moved onto
+      the surface; renumbered in grid order ``i, j, k`` with ``k`` fastest).  Inside nodes in no kept tet would be massless and are
       dropped (``meta["dropped_points"]``).
     * Springs = every edge of the grid's tetrahedralization whose two end points are points:
-      the report's "edges whose end points are inside", restricted to points that carry mass.
+      the report's "edges whose end points are inside", restricted to points that carry mass
+      (warped: the edges of the kept tets).
       These edges join node ``(i, j, k)`` to ``(i, j, k) + d``, ``d`` in ``{0, 1}^3 \\ {0}``.
 
     Parameters
@@ -59,6 +83,7 @@ def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
     inside_fn: point-in-mesh test, ``(n, 3) float64 -> (n,) bool``.
     h: cube edge length [m], > 0.
     density: mass density [kg/m^3].
+    warp: move the grid onto the surface (see above).
     """
     v = _as_vertices(vertices)
     nf = int(np.asarray(faces).shape[0]) if faces is not None else 0
@@ -81,41 +106,35 @@ def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
     inside = _check_inside(inside_fn, nodes, "grid nodes")
 
     # cubes: base node (i, j, k) with i < nx-1 etc.; only cubes with >= 4 inside corners matter
+    # (warped: >= 1, the cubes the surface cuts)
     strides = np.array([ny * nz, nz, 1], dtype=np.int64)
     ins3 = inside.reshape(nx, ny, nz)
     count = np.zeros((nx - 1, ny - 1, nz - 1), dtype=np.int8)
     for dx, dy, dz in itertools.product((0, 1), repeat=3):
         count += ins3[dx:nx - 1 + dx, dy:ny - 1 + dy, dz:nz - 1 + dz]
-    ci, cj, ck = np.nonzero(count >= 4)
+    ci, cj, ck = np.nonzero(count >= (1 if warp else 4))
     base = ci * strides[0] + cj * strides[1] + ck * strides[2]
     corner = _kuhn_offsets() @ strides  # (6, 4) node-id offsets
     tets = (base[:, None, None] + corner[None]).reshape(-1, 4)
-    tets = tets[inside[tets].all(axis=1)]
+    if warp:
+        from jellysim.geometry.snap import warp_to_surface
 
-    kept = np.zeros(nodes.shape[0], dtype=bool)
-    kept[tets.ravel()] = True
-    springs = []
-    for d in itertools.product((0, 1), repeat=3):
-        if d == (0, 0, 0):
-            continue
-        d = np.array(d)
-        sub = kept.reshape(nx, ny, nz)
-        a = sub[: nx - d[0], : ny - d[1], : nz - d[2]]
-        b = sub[d[0]:, d[1]:, d[2]:]
-        ii, jj, kk = np.nonzero(a & b)
-        src = ii * strides[0] + jj * strides[1] + kk * strides[2]
-        springs.append(np.stack([src, src + int(d @ strides)], axis=1))
-    springs = np.concatenate(springs, axis=0)
+        nodes, tets = warp_to_surface(nodes, inside, tets, inside_fn)
+    else:
+        tets = tets[inside[tets].all(axis=1)]
 
+    # warped: the tets' edges (a grid edge between two nodes on the surface may cross a
+    # concavity where the tets between them were dropped)
+    springs = None if warp else _grid_springs(tets, (nx, ny, nz))
     meta = {
         "builder": "marching_grid",
         "h": h,
         "grid_origin": [float(x) for x in origin],
         "grid_cells": [int(c) for c in ncell],
         "split": "kuhn6",
+        "warped": bool(warp),
         "surface_vertices": int(v.shape[0]),
         "surface_faces": nf,
     }
     return _finish(nodes, tets, density, meta, springs=springs)
-
 
