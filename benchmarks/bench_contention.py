@@ -46,7 +46,9 @@ VARIANTS = {
     "default": {},
     # what numba + libgomp do without jellysim's setting: spin for ~300k iterations
     "spin": {"JELLYSIM_THREADING": "spin"},
+    "spin2k": {"JELLYSIM_THREADING": "spin", "GOMP_SPINCOUNT": "2000"},
     "spin10k": {"JELLYSIM_THREADING": "spin", "GOMP_SPINCOUNT": "10000"},
+    "spin50k": {"JELLYSIM_THREADING": "spin", "GOMP_SPINCOUNT": "50000"},
     "workqueue": {"NUMBA_THREADING_LAYER": "workqueue"},
     "threads1": {"JELLYSIM_BENCH_THREADS": "1"},
 }

@@ -91,6 +91,9 @@ def test_auto_threads_drops_to_one_on_an_oversubscribed_machine(monkeypatch):
     monkeypatch.setattr(os, "getloadavg", lambda: (0.2, 0.2, 0.2))  # idle: every thread
     assert simulator.auto_threads(10_000) == numba.config.NUMBA_NUM_THREADS
     assert simulator.auto_threads(100) == 1  # small bodies: one thread regardless
+    assert simulator.auto_threads(10_000, simulator.PARALLEL_MIN_SPRINGS - 1) == 1
+    assert simulator.auto_threads(10_000, simulator.PARALLEL_MIN_SPRINGS) == (
+        numba.config.NUMBA_NUM_THREADS)
     monkeypatch.setattr(os, "getloadavg", lambda: (cpus + 1.0, 0.0, 0.0))  # a busy process
     assert simulator.auto_threads(10_000) == numba.config.NUMBA_NUM_THREADS  # per core: passive
     monkeypatch.setattr(os, "getloadavg", lambda: (2.5 * cpus, 0.0, 0.0))  # oversubscribed

@@ -28,10 +28,15 @@ __all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads",
            "springs_auto_substeps"]
 
 PARALLEL_MIN_POINTS = 500
-"""Below this many points one thread is used.  From the paper scene's 600 points on, two
-threads win on a quiet machine (about 20k vs 12k steps/s, BENCHMARKS.md); on a machine whose
-cores are taken by other work they lose badly, so :func:`auto_threads` also counts the free
-cores."""
+"""Below this many points one thread is used."""
+
+PARALLEL_MIN_SPRINGS = 20_000
+"""Below this many springs one thread is used.  Each parallel region wakes the sleeping
+(passive) second thread, which costs more than it saves on small bodies: the report's step on
+2 threads against 1, quiet machine (session 7, BENCHMARKS.md "Threads and body size"): 0.69x at
+10,127 springs (the paper scene), 1.17x at 31,704, 1.49x at 72,729, 1.89x at 397,280; the
+implicit gelatin cube (14,230 springs) 1.01x.  On a machine whose cores are taken by other work
+two threads lose badly, so :func:`auto_threads` also counts the free cores."""
 
 
 PHYSICAL_PARALLEL_MIN_TETS = 50_000
@@ -80,9 +85,11 @@ def springs_auto_substeps(model, dt) -> tuple[int, StabilityEstimate]:
     return need, est
 
 
-def auto_threads(point_count: int) -> int:
-    """Thread count used when none is given: 1 for small bodies; 1 on a heavily oversubscribed
-    machine (1-minute load average above twice the CPU count); otherwise all of numba's
+def auto_threads(point_count: int, spring_count: int | None = None) -> int:
+    """Thread count used when none is given: 1 for small bodies (fewer than
+    :data:`PARALLEL_MIN_POINTS` points or :data:`PARALLEL_MIN_SPRINGS` springs); 1 on a
+    heavily oversubscribed machine (1-minute load average above twice the CPU count);
+    otherwise all of numba's
     threads.  With one busy process per core, passive-waiting threads keep a run within
     1.2-2.2x of its quiet speed (one thread: 2.9-3.4x); with a load average of 19 on 2 cores
     a second thread has to wait for a core at every parallel region and the paper scene ran 39
@@ -91,7 +98,8 @@ def auto_threads(point_count: int) -> int:
 
     import numba
 
-    if point_count < PARALLEL_MIN_POINTS:
+    if point_count < PARALLEL_MIN_POINTS or (spring_count is not None
+                                             and spring_count < PARALLEL_MIN_SPRINGS):
         return 1
     most = numba.config.NUMBA_NUM_THREADS
     try:
@@ -262,7 +270,7 @@ class Simulator(HandleMethods, PhysicalStepping):
                 f"this body has {n}. Use pairs = 'springs' (and a stiffer material) instead.")
         if threads is None and self.physical and model.fem.tet_count < PHYSICAL_PARALLEL_MIN_TETS:
             threads = 1  # a substep's work is too small to pay for thread synchronisation
-        self.threads = auto_threads(n) if threads is None else int(threads)
+        self.threads = auto_threads(n, model.spring_count) if threads is None else int(threads)
         self.state = model.state() if state is None else state
         x0 = model.point_x0
         self.center = np.ascontiguousarray(x0.mean(axis=0))
