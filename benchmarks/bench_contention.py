@@ -20,7 +20,9 @@ process costs at most, worse = the threads hurt each other):
 
 ``--variants`` compares threading set-ups (each child gets that environment): ``default``
 (jellysim as shipped), ``spin`` (OpenMP's own default: ``OMP_WAIT_POLICY=active``-like spinning,
-i.e. jellysim's setting undone), ``workqueue`` (numba's workqueue layer), ``threads1``.
+i.e. jellysim's setting undone), ``spin2k``/``spin10k``/``spin50k`` (the same with libgomp's
+``GOMP_SPINCOUNT`` set: a short spin before sleeping), ``workqueue`` (numba's workqueue layer),
+``threads1``.
 
 Run:  PYTHONPATH=src python -m benchmarks.bench_contention [--variants default,spin]
           [--busy N] [--repeats 3]

@@ -70,8 +70,8 @@ def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
       :func:`~jellysim.geometry.snap.warp_to_surface` says: the body fills the mesh instead of a
       staircase inside it (not the report's; :func:`jellysim.build.build_body`'s default).
     * Points = inside nodes that are a corner of a kept tet (warped: and the nodes moved onto
-      the surface; renumbered in grid order ``i, j, k`` with ``k`` fastest).  Inside nodes in no kept tet would be massless and are
-      dropped (``meta["dropped_points"]``).
+      the surface; renumbered in grid order ``i, j, k`` with ``k`` fastest).  Inside nodes in
+      no kept tet would be massless and are dropped (``meta["dropped_points"]``).
     * Springs = every edge of the grid's tetrahedralization whose two end points are points:
       the report's "edges whose end points are inside", restricted to points that carry mass
       (warped: the edges of the kept tets).
