@@ -122,3 +122,25 @@ def test_body_from_a_vertices_faces_pair_and_bad_mesh_argument():
     assert body.points[:, 1].min() == pytest.approx(0.0, abs=math.sqrt(3) * h / 2**14)
     with pytest.raises(BuildError, match=r"\(vertices, faces\) pair"):
         jellysim.Body.from_mesh(42)
+
+
+def test_python_api_misuse_gets_one_clear_error():
+    """A finalized Model where a Body is needed, a misspelt integrator, a negative step count:
+    each a one-line error naming the fix, not an AttributeError from inside, a bare enum
+    message or a silent no-op; the state is untouched."""
+    from jellysim.errors import SceneError
+
+    body = jellysim.Body.from_mesh(mesh_path("sphere.obj"), size=0.04, points=60,
+                                   base=(0, 0, 0))
+    with pytest.raises(TypeError, match=r"takes a Body.*not finalize\(body\)"):
+        jellysim.physical_model(jellysim.finalize(body, stiffness=2.0))
+    model = jellysim.physical_model(body, jellysim.material("gelatin"))
+    with pytest.raises(SceneError, match=r"integrator must be one of \[.*'symplectic'"):
+        jellysim.Simulator(model, dt=1 / 60, integrator="simplectic")
+    sim = jellysim.Simulator(model, dt=1 / 60)
+    x0 = sim.state.x.copy()
+    for bad in (-1, 1.5, True):
+        with pytest.raises(SceneError, match="whole number >= 0"):
+            sim.advance(bad)
+    sim.advance(0)
+    assert np.array_equal(sim.state.x, x0) and sim.state.step == 0

@@ -2,9 +2,9 @@
 
 Linear elasticity gives the scale: a column of height H sags rho g H^2 / (2 E) under its own
 weight (5.6 mm = 6 % for H = 10 cm at E = 10 kPa); slender parts sag far more.  A 10 cm cow's
-legs (about 1 cm across) carry ~0.5 N each, an axial stress of ~6 kPa: at the dessert preset's
-10 kPa that is a 60 % strain and the cow slumps (measured: 62 % of its height), so the cow is
-tested at a firm gelatin's 100 kPa (examples/spot_drop.toml), where the legs strain ~6 %: it
+legs (about 1 cm across) carry ~0.4 N each (its 1.6 N weight over four), an axial stress of
+~5 kPa: at the dessert preset's 10 kPa that is a 50 % strain and the cow slumps (measured:
+62-65 % of its height), so the cow is tested at a firm gelatin's 100 kPa (examples/spot_drop.toml), where the legs strain ~6 %: it
 stands within 10 %.  The bunny at 10 kPa: its body sags like a column, rho g H^2 / (2 E) =
 4.5 mm, 5 % of its 9 cm; its ears (~3 cm long, 5-6 mm thick) are near their buckling length
 under self-weight, (7.84 E I / (rho g A))^(1/3) = (7.84 E t^2 / (12 rho g))^(1/3) = 2.4-2.7 cm,

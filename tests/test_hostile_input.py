@@ -3,6 +3,7 @@ its spec exactly, and a bounded fuzz run lets only jellysim's own errors escape.
 from __future__ import annotations
 
 import io
+import math
 import random
 import time
 import tracemalloc
@@ -484,3 +485,73 @@ def test_a_physical_blow_up_names_the_handle_not_an_infinite_dt():
     with pytest.warns(StabilityWarning), pytest.raises(SimulationError) as info:
         sim.advance(2)
     assert "too strong for the material" in str(info.value) and "inf" not in str(info.value)
+
+
+@pytest.mark.parametrize("override", [{"density": 1e-9}, {"youngs_modulus": 1e12}])
+def test_an_absurd_material_is_refused_before_it_runs_for_minutes(override):
+    """A gelatin body with a near-zero density or a steel-like modulus would need 10^5-10^7
+    substeps per frame (a frame running for minutes, in a kernel Ctrl-C cannot stop): refused
+    at once, saying how many and which parameters set it.  The count is the stability limit's
+    (omega_max from the body's rest stiffness), so the refusal scales as sqrt(E / rho)."""
+    import jellysim as js
+    from jellysim.simulator import MAX_AUTO_SUBSTEPS
+
+    sphere = Path(__file__).parent / "data" / "sphere.obj"
+    body = js.Body.from_mesh(sphere, size=0.04, points=60, base=(0, 0, 0))
+    ok = js.Simulator(js.physical_model(body, js.material("gelatin")), dt=1 / 60)
+    # sqrt(E / rho) grows by sqrt(1141 / 1e-9) or sqrt(1e12 / 1e4) over the gelatin's count
+    assert ok.substeps * math.sqrt(1e8) > MAX_AUTO_SUBSTEPS
+    with pytest.raises(SceneError, match=r"needs \d+ substeps per step.*youngs_modulus.*density"):
+        js.Simulator(js.physical_model(body, js.material("gelatin", **override)), dt=1 / 60)
+
+
+def _mesh_handle_scene(tmp_path, extra=""):
+    mesh = Path(__file__).parent / "data" / "torus.obj"
+    p = tmp_path / "s.toml"
+    p.write_text(f"""[material]
+preset = "gelatin"
+[body]
+type = "mesh"
+path = "{mesh.as_posix()}"
+points = 200
+size = 0.08
+base = [0.0, 0.0, 0.0]
+{extra}
+[[handle]]
+kind = "pin"
+box = [[-1.0, -1.0, -1.0], [1.0, 0.002, 1.0]]
+""")
+    return Scene.load(p)
+
+
+def test_handles_on_a_springs_body_say_why_it_is_not_on_the_physical_path(tmp_path):
+    """A gelatin mesh scene without [springs] connect gets the report's radius builder
+    (springs only): pinning then says that, and the fix, instead of asking for the gelatin
+    preset it already has; with connect = 'marching' the same pin works (FEM path)."""
+    scene = _mesh_handle_scene(tmp_path, "[integrator]\nsteps = 2")
+    with pytest.raises(SceneError, match=r"runs on springs: it is a radius body.*connect = 'marching'"):
+        scene.simulator()
+    sim = _mesh_handle_scene(tmp_path, '[springs]\nconnect = "marching"\n[integrator]\n'
+                             'steps = 2').simulator()
+    assert sim.physical and int(sim.handles.pinned.sum()) > 0
+
+
+def test_an_integrator_that_takes_a_tet_body_off_the_physical_path_is_said(tmp_path):
+    """[integrator] name = 'implicit' on a gelatin tet body runs it on calibrated springs
+    (the implicit integrator has no tet forces): a warning says so instead of swapping the
+    material model silently."""
+    scene = _mesh_handle_scene(tmp_path, '[springs]\nconnect = "marching"\n'
+                               '[integrator]\nname = "implicit"\nsteps = 2')
+    scene.params.pop("handle")
+    with pytest.warns(UserWarning, match=r"calibrated springs, not its FEM tets.*implicit"):
+        model = scene.build_model()
+    assert getattr(model, "fem", None) is None
+
+
+def test_a_box_body_refuses_base():
+    """A box field is placed by [body] lower and upper; [body] base (mesh and file bodies)
+    used to be accepted and ignored."""
+    example = Path(__file__).resolve().parents[1] / "examples" / "gelatin_cube.toml"
+    with pytest.raises(SceneError, match=r"base is not used for \[body\] type = 'box'"):
+        Scene.load(example, overrides=["body.base=[0, 0, 0]"])
+    assert Scene.load(example).params["body"]["base"] is None

@@ -38,7 +38,7 @@ DEMO_SHAPES = {
         "mesh": "spot",         # Spot the cow (public domain, Keenan Crane), data/spot.obj
         "length": 0.10,
         # set down on the plate (1 mm gap): dropped even 5 mm, its legs buckle (Euler load,
-        # README "Physical jello from Python") and it lands on its belly
+        # README "Physical jello from Python") and it falls over
         "drop_height": 0.001,
         "velocity": [0.0, 0.0, 0.0],
         "points": 3000,

@@ -218,9 +218,14 @@ def validate_handle_tables(entries, name: str) -> list[dict]:
     return out
 
 
-def apply_handle_tables(sim, tables) -> None:
+def apply_handle_tables(sim, tables, springs_reason: str | None = None) -> None:
     """Apply validated ``[[handle]]`` tables to a :class:`~jellysim.simulator.Simulator`;
-    points are selected at their positions when the run starts."""
+    points are selected at their positions when the run starts.  ``springs_reason``: why the
+    scene runs its body on springs (:func:`jellysim.physics.policy.springs_reason`), said
+    when the tables need the physical path."""
+    if tables and springs_reason and not sim.physical:
+        raise SceneError(f"[[handle]] needs the physical (FEM) path, but this body runs on "
+                         f"springs: {springs_reason}")
     x = sim.state.x
     for entry in tables:
         sphere = entry.get("sphere")

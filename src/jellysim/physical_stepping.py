@@ -46,8 +46,22 @@ class PhysicalStepping:
 
     @classmethod
     def _auto_substeps(cls, model, dt) -> int:
-        h = cls.SUBSTEP_SAFETY * 2.0 / fem_omega_max(model)
-        return max(1, int(np.ceil(float(dt) / h)))
+        from .errors import SceneError
+        from .simulator import MAX_AUTO_SUBSTEPS
+
+        omega = fem_omega_max(model)
+        h = cls.SUBSTEP_SAFETY * 2.0 / omega
+        need = max(1, int(np.ceil(float(dt) / h)))
+        if need > MAX_AUTO_SUBSTEPS:  # refused before a frame runs for minutes, uninterruptibly
+            raise SceneError(
+                f"the physical (FEM) material needs {need} substeps per step of dt = "
+                f"{float(dt):g} s (stable limit {2.0 / omega:.3g} s: its fastest vibration, "
+                f"{omega:.4g} rad/s, is a pressure wave sqrt((lam + 2 mu) / rho) across its "
+                f"smallest tet; more than {MAX_AUTO_SUBSTEPS} is refused): check the material's "
+                "youngs_modulus [Pa] and density [kg/m^3] (gelatin: 1e4 and 1141), use fewer "
+                "points (larger tets) or connect = 'marching' (well-shaped tets), or a smaller "
+                "dt")
+        return need
 
     def _setup_physical(self):
         m, fem = self.model, self.model.fem

@@ -28,7 +28,7 @@ from .handles import apply_handle_tables, validate_handle_tables
 from .resources import check_body_memory
 from .body import Body
 from .model import finalize
-from .physics.policy import scene_fem_model, scene_material
+from .physics.policy import scene_fem_model, scene_material, springs_reason
 from .simulator import Simulator
 from .presets import PRESETS, apply_preset
 
@@ -507,8 +507,8 @@ class Scene:
 
     def _material_model(self, body):
         """The fem model of the body (``[material] model`` 'fem', or 'auto' with tets), else
-        ``None`` (the springs path)."""
-
+        ``None`` (the springs path; why is kept for the handles' error)."""
+        self._springs_reason = springs_reason(self.params, body)
         return scene_fem_model(self.params, body)
 
     def provot_params(self):
@@ -558,7 +558,8 @@ class Scene:
         sim.state.v[:] = np.asarray(self.params["body"]["velocity"], dtype=np.float64)
         if self.params.get("handle"):
             try:
-                apply_handle_tables(sim, self.params["handle"])
+                apply_handle_tables(sim, self.params["handle"], getattr(
+                    self, "_springs_reason", None))
             except SceneError as exc:
                 raise SceneError(f"{self.name}: {exc}") from None
 

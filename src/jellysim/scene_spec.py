@@ -192,7 +192,7 @@ def grid_radius(points, lower, upper) -> float | None:
 UNUSED_BY_TYPE = {
     "file": {"body": ("size", "points", "lower", "upper", "distribution", "sampling"),
              "springs": ("connect", "radius", "neighbours", "h")},
-    "box": {"body": ("path", "size", "sampling"), "springs": ("neighbours", "h")},
+    "box": {"body": ("path", "size", "sampling", "base"), "springs": ("neighbours", "h")},
     "mesh": {"body": ("lower", "upper", "distribution"), "springs": ()},
 }
 """Keys a ``[body] type`` does not read: given in a scene, they are refused rather than

@@ -179,7 +179,11 @@ class Simulator(HandleMethods, PhysicalStepping):
             raise SceneError(f"time step dt must be a positive number of seconds, got {dt}")
         self.model = model
         self.dt = float(dt)
-        self.integrator = Integrator(integrator)
+        try:
+            self.integrator = Integrator(integrator)
+        except ValueError:
+            raise SceneError(f"integrator must be one of {[i.value for i in Integrator]}, got "
+                             f"{integrator!r}") from None
         provot = ProvotParams(enabled=False) if provot is None else provot
         ground = GroundParams(enabled=False) if ground is None else ground
         self.provot = provot
@@ -436,7 +440,9 @@ class Simulator(HandleMethods, PhysicalStepping):
     def advance(self, steps: int = 1) -> None:
         """Take ``steps`` time steps.  Raises :class:`SimulationError` on blow-up, leaving
         the state as it was after the failing step."""
-        if steps <= 0:
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
+            raise SceneError(f"advance(steps): steps must be a whole number >= 0, got {steps!r}")
+        if steps == 0:
             return
         s = self.state
         thin_before = self._thinness(s.x) if self._collapse_check else None

@@ -38,8 +38,12 @@ def physical_model(body, material: Material = Material(), *, gravity=GRAVITY,
     point_volume: [m^3], shape (n,): volumes owned by the points (springs model only; default
         from the tets or the body volume).
     """
+    from ..body import Body
     from ..geometry.tetra import lump_tet_masses
 
+    if not isinstance(body, Body):
+        raise TypeError(f"physical_model takes a Body (Body.from_mesh, build_body, read_body), "
+                        f"got {type(body).__name__}: pass the body itself, not finalize(body)")
     g = np.asarray(gravity, dtype=np.float64)
     if g.shape != (3,) or not np.all(np.isfinite(g)):
         raise ValueError(f"gravity must be 3 finite numbers (x, y, z) in m/s^2, e.g. (0, -9.8, "
@@ -90,20 +94,46 @@ def scene_material(params: dict):
                     model="springs" if mat["model"] == "springs" else "fem")
 
 
-def scene_fem_model(params: dict, body):
-    """The FEM model of ``body`` for scene ``params`` (``[material] model`` 'fem', or 'auto'
-    and the body has tets), else ``None`` (the scene's springs path)."""
+def springs_reason(params: dict, body) -> str | None:
+    """Why scene ``params`` run ``body`` on springs rather than the physical (FEM) path, or
+    ``None`` when it takes the FEM path (``[material] model`` 'fem', or 'auto' and the body
+    has tets).  'auto' takes the FEM path for tet bodies (tet builders, grid boxes); a radius
+    body's Delaunay tets of random points have slivers (a tiny explicit substep): it stays on
+    springs unless model = 'fem' asks for them; so does a scene that names another integrator
+    than the physical path's."""
     mat = params["material"]
-    material = scene_material(params)
-    if material is None or mat["model"] == "springs":
+    if scene_material(params) is None:
+        return ("the material is the report's springs ([material] preset = 'gelatin' or "
+                "youngs_modulus = ... makes a physical one)")
+    if mat["model"] == "springs":
+        return "[material] model = 'springs'"
+    if mat["model"] == "fem":
         return None
-    if mat["model"] == "auto" and (body.tets is None or len(body.tets) == 0
-                                   or "cloud_tets" in body.meta
-                                   or params["integrator"]["name"] != "symplectic"):
-        # 'auto' takes the FEM path for tet bodies (tet builders, grid boxes); a radius
-        # body's Delaunay tets of random points have slivers (a tiny explicit substep):
-        # it stays on springs unless model = 'fem' asks for them; so does a scene that names
-        # another integrator than the physical path's
+    if body.tets is None or len(body.tets) == 0:
+        return ("the body has no tets (a random box field, or a body file without tets: use "
+                "a mesh body with [springs] connect = 'marching' or 'delaunay', or a box with "
+                "distribution = 'grid')")
+    if "cloud_tets" in body.meta:
+        return ("it is a radius body ([springs] connect = 'radius', the default), whose tets "
+                "(Delaunay of random points) are slivers: use connect = 'marching' or "
+                "'delaunay', or [material] model = 'fem'")
+    if params["integrator"]["name"] != "symplectic":
+        return (f"[integrator] name = '{params['integrator']['name']}': the physical path "
+                "integrates by symplectic substeps (remove name, or set [material] model = "
+                "'springs' to say you want springs)")
+    return None
+
+
+def scene_fem_model(params: dict, body):
+    """The FEM model of ``body`` for scene ``params`` (:func:`springs_reason` is ``None``),
+    else ``None`` (the scene's springs path).  A tet body with a physical material that runs
+    on springs only because the scene names another integrator is told so (a warning)."""
+    why = springs_reason(params, body)
+    if why is not None:
+        if why.startswith("[integrator]"):
+            warnings.warn(f"the body runs on calibrated springs, not its FEM tets: {why}",
+                          UserWarning, stacklevel=3)
         return None
     ph = params["physics"]
-    return physical_model(body, material, gravity=ph["gravity"], damping=ph["damping"])
+    return physical_model(body, scene_material(params), gravity=ph["gravity"],
+                          damping=ph["damping"])
