@@ -499,3 +499,20 @@ def test_grid_box_radius_defaults_to_1_8_spacings():
     with pytest.raises(SceneError, match=r"\[springs\] missing value 'radius'"):
         Scene.from_text(text.replace('distribution = "grid"', 'distribution = "uniform"'),
                         name="field.toml")
+
+
+def test_run_result_separates_the_first_steps_start_up():
+    """The first advance call of a fresh process also compiles numba's kernels: the start-up
+    is what it took beyond the later calls' pace (10 steps in 5 s, then 90 in 0.9 s: 4.9 s),
+    and nothing can be told from a run of one call or a resumed run's first call alone."""
+    from jellysim.runner import RunResult
+
+    def result(first, steps=100, seconds=5.9, resumed=None):
+        return RunResult(Path("."), Path("t.npz"), None, 10, steps, seconds,
+                         resumed_from=resumed, first_chunk=first)
+
+    assert result((10, 5.0)).startup_seconds() == pytest.approx(4.9)
+    assert result((10, 0.1), seconds=1.0).startup_seconds() == 0.0  # steady pace
+    assert result((100, 5.9)).startup_seconds() == 0.0  # one call: nothing to compare
+    assert result((10, 5.0), steps=120, resumed=20).startup_seconds() == pytest.approx(4.9)
+    assert result(None).startup_seconds() == 0.0

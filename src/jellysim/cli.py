@@ -157,6 +157,13 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
                 if result.seconds > 0 and result.simulated > 0 else "")
     click.echo(f"{taken} steps, {result.frames} frames in {result.seconds:.3g} s "
                f"({rate:,.0f} steps/s{realtime})")
+    startup = result.startup_seconds()
+    if startup > 1.0 and startup > 0.3 * result.seconds:  # numba compiling on a first run
+        pace = result.seconds - startup
+        click.echo(f"  of which {startup:.3g} s were the first steps' start-up (numba compiling "
+                   f"its kernels on a first run; cached for the next): "
+                   f"{taken / pace:,.0f} steps/s, {result.simulated / pace:.2g}x real time "
+                   "without it")
     click.echo(f"wrote {result.trajectory}")
     if result.pvd:
         click.echo(f"wrote {result.pvd} (+ {result.frames} .vtu frames)")

@@ -86,6 +86,21 @@ class RunResult:
     """Step of the checkpoint the run continued from (``resume=True``), else ``None``."""
     simulated: float = 0.0
     """Simulated time this call stepped [s] (its steps x the frame step ``dt``)."""
+    first_chunk: tuple[int, float] | None = None
+    """Steps and wall-clock seconds of the first ``advance`` call (on a first run they include
+    numba compiling the kernels, which later runs load from its cache)."""
+
+    def startup_seconds(self) -> float:
+        """How much longer the first ``advance`` call took than the later calls' pace [s]:
+        numba's compilation on a first run (0 when there is nothing to compare with)."""
+        if self.first_chunk is None:
+            return 0.0
+        steps, seconds = self.first_chunk
+        later_steps = self.steps - (self.resumed_from or 0) - steps
+        later_seconds = self.seconds - seconds
+        if later_steps <= 0 or later_seconds <= 0:
+            return 0.0
+        return max(0.0, seconds - steps * later_seconds / later_steps)
 
 
 def _clean(out_dir: Path) -> None:
@@ -210,6 +225,7 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
         if checkpoint_every != 0:
             checkpoint()  # a killed run can always be resumed, from its start at least
     stepped = 0.0
+    first = None  # (steps, seconds) of the first advance call
     bar = None
     stop: list[int | None] = [None]
     previous_handlers = {}
@@ -243,6 +259,7 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
                     sim.advance(n)
                 finally:
                     stepped += time.perf_counter() - t0
+                    first = (n, stepped) if first is None else first
                 done += n
                 emit()
                 if bar is not None:
@@ -292,4 +309,5 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
         ckpt_path.unlink()
     return RunResult(out_dir, path, series.pvd_path if series else None,
                      frames, total, stepped, messages, resumed_from,
-                     simulated=(total - (resumed_from or 0)) * float(sim.dt))
+                     simulated=(total - (resumed_from or 0)) * float(sim.dt),
+                     first_chunk=first)
