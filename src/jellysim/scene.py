@@ -297,7 +297,8 @@ class Scene:
                 near = difflib.get_close_matches(section, SCHEMA, n=1)
                 hint = f" (did you mean [{near[0]}]?)" if near else ""
                 raise SceneError(f"{name}: unknown section [{section}]{hint}; allowed: "
-                                 + ", ".join(f"[{s}]" for s in SCHEMA))
+                                 + ", ".join(f"[{s}]" for s in SCHEMA)
+                                 + ", [[handle]], [[obstacle]]")
             if not isinstance(raw[section], dict):
                 raise SceneError(f"{name}: '{section}' must be a [{section}] table")
         for section in REQUIRED_SECTIONS:

@@ -114,7 +114,8 @@ def tetgen_body(vertices, faces, *, max_volume: float | None = None, quality: bo
     remap[used] = np.arange(used.size)
     v, f = uv[used], remap[f]
 
-    hint = 'use connect="delaunay" (points inside + an inside test) instead'
+    hint = ("use the delaunay builder instead (points inside + an inside test: --connect "
+            "delaunay, connect = 'delaunay' in a scene, connect=\"delaunay\" in Python)")
     if closed_check:
         d = surface_defects(f)
         bad = [f"{val} {key.replace('_', ' ')}" for key, val in d.items() if val]
