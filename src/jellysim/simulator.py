@@ -39,10 +39,13 @@ implicit gelatin cube (14,230 springs) 1.01x.  On a machine whose cores are take
 two threads lose badly, so :func:`auto_threads` also counts the free cores."""
 
 
-PHYSICAL_PARALLEL_MIN_TETS = 50_000
-"""Below this many tets the physical path runs on one thread: it takes 4 parallel regions per
-substep and 100+ substeps per frame, so synchronising threads costs more than it saves on a
-small body (and far more when another process competes for the cores)."""
+PHYSICAL_PARALLEL_MIN_TETS = 24_000
+"""Below this many tets the physical path runs on one thread (whose tet pass also sums the
+corner forces at once): it takes 4 parallel regions per substep and 100+ substeps per frame,
+so synchronising threads costs more than it saves on a small body (and far more when another
+process competes for the cores).  Measured (session 7, quiet machine, `bench_physical.py
+--cells 14 15 18 21 --seconds 0.25 --no-drops --threads 1|2`), real-time factor 2 threads /
+1: 20,250 tets 0.86-1.01, 24,576 1.18-1.19, 41,154 1.38-1.43, 63,888 1.36 (was 50,000)."""
 
 
 CG_ERROR_RESIDUAL = 0.1
