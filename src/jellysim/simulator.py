@@ -92,11 +92,11 @@ def auto_threads(point_count: int, spring_count: int | None = None) -> int:
     """Thread count used when none is given: 1 for small bodies (fewer than
     :data:`PARALLEL_MIN_POINTS` points or :data:`PARALLEL_MIN_SPRINGS` springs); 1 on a
     heavily oversubscribed machine (1-minute load average above twice the CPU count);
-    otherwise all of numba's
-    threads.  With one busy process per core, passive-waiting threads keep a run within
-    1.2-2.2x of its quiet speed (one thread: 2.9-3.4x); with a load average of 19 on 2 cores
-    a second thread has to wait for a core at every parallel region and the paper scene ran 39
-    steps/s on 2 threads, 3,244 on one (BENCHMARKS.md, "Contention")."""
+    otherwise all of numba's threads.  With one busy process per core, passive-waiting
+    threads keep a run within 1.2-2.2x of its quiet speed (one thread: 2.9-3.4x); with a load
+    average of 19 on 2 cores a second thread has to wait for a core at every parallel region
+    and the paper scene ran 39 steps/s on 2 threads, 3,244 on one (BENCHMARKS.md,
+    "Contention")."""
     import os
 
     import numba
@@ -277,7 +277,9 @@ class Simulator(HandleMethods, PhysicalStepping):
                 f"this body has {n}. Use pairs = 'springs' (and a stiffer material) instead.")
         if threads is None and self.physical and model.fem.tet_count < PHYSICAL_PARALLEL_MIN_TETS:
             threads = 1  # a substep's work is too small to pay for thread synchronisation
-        self.threads = auto_threads(n, model.spring_count) if threads is None else int(threads)
+        if threads is None:  # (the physical path's work is its tets, counted above)
+            threads = auto_threads(n, None if self.physical else model.spring_count)
+        self.threads = int(threads)
         self.state = model.state() if state is None else state
         x0 = model.point_x0
         self.center = np.ascontiguousarray(x0.mean(axis=0))
