@@ -208,3 +208,14 @@ def test_vtp_polydata(tmp_path, compression):
     bad.write_text("<VTKFile type='PolyData'><PolyData><Piece>")
     with pytest.raises(MeshError, match="could not parse"):
         load_mesh(bad)
+
+
+def test_inspect_says_an_open_surface_has_no_enclosed_volume():
+    """cube_no_bottom.obj: the divergence-theorem 'volume' of the open cube is 20/3 m^3, not
+    its 8 m^3 (the missing face's share): the report says the figure is not an enclosed
+    volume; a closed cube's report has no such note and its volume is exact."""
+    open_cube = load_mesh(DATA / "cube_no_bottom.obj").defects
+    assert open_cube.volume == pytest.approx(20 / 3)
+    assert "open surface encloses no volume" in open_cube.describe()
+    closed = load_mesh(DATA / "cube.obj").defects
+    assert closed.volume == pytest.approx(8.0) and "open surface" not in closed.describe()

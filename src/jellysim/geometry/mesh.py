@@ -111,7 +111,10 @@ class MeshDefects:
             f"vertices / faces:        {self.vertex_count} / {self.face_count}",
             f"watertight:              {'yes' if self.watertight else 'no'}",
             f"shells:                  {self.shells}",
-            f"volume (signed) [m^3]:   {self.volume:.6g}",
+            f"volume (signed) [m^3]:   {self.volume:.6g}" + (
+                "" if self.watertight else "  (an open surface encloses no volume: the "
+                "divergence-theorem figure depends on where it is open; jellysim build "
+                "estimates the inside by Monte Carlo)"),
             f"boundary edges:          {self.boundary_edges}",
             f"non-manifold edges:      {self.non_manifold_edges}",
             f"inconsistent edges:      {self.inconsistent_edges}",
