@@ -242,7 +242,12 @@ def test_killed_run_leaves_its_frames_and_resumes_bitwise(tmp_path, sig):
         assert "--resume" in err and str(out) in err
     else:
         assert proc.returncode == -signal.SIGKILL
-    assert not [p.name for p in out.iterdir() if p.name.startswith(".")]
+    from jellysim.io.lock import LOCK_NAME
+
+    left = [p.name for p in out.iterdir() if p.name.startswith(".")]
+    # no hidden temporary; only SIGKILL (no clean-up possible) leaves the run's lock, whose
+    # process is gone: the resume below takes it over
+    assert left == ([LOCK_NAME] if sig == signal.SIGKILL else [])
     part = load_trajectory(out / "trajectory.npz")         # falls back to the stream
     frames = part.frame_count
     assert frames >= 12
@@ -271,6 +276,7 @@ def test_killed_run_leaves_its_frames_and_resumes_bitwise(tmp_path, sig):
                     progress=False, resume=True, steps=steps)
     assert res.resumed_from <= int(part.steps[-1])
     _same(load_trajectory(res.trajectory), ref)
+    assert not (out / LOCK_NAME).exists()
 
 
 # -- solver honesty ----------------------------------------------------------------------
@@ -353,3 +359,30 @@ def test_implicit_accuracy_estimate_matches_the_amplification_factor():
     _, loss1, _ = implicit_accuracy(100.0, 0.001, theta=1.0)
     assert 0 < loss2 < loss1 / 10
     assert "inf" not in words + words2 and "unconditionally stable" in words
+
+
+def test_one_run_per_output_folder(tmp_path):
+    """A run (or a resume) into a folder a live run is writing is refused before it touches
+    anything there (it would delete the other's partial files and interleave frames); a lock
+    left by a killed run (its process gone) is taken over; the lock goes when a run ends."""
+    from jellysim.errors import OutputError
+    from jellysim.io.lock import LOCK_NAME
+
+    scene = Scene.from_text(EXPLICIT, name="scene.toml")
+    out = tmp_path / "out"
+    out.mkdir()
+    partial = out / "frames.partial"
+    partial.write_text("the other run's")
+    lock = out / LOCK_NAME
+    lock.write_text(f"{os.getpid()} {__import__('socket').gethostname()}\n")  # alive: us
+    with pytest.raises(OutputError, match=rf"another jellysim run \(process {os.getpid()}\)"):
+        run_scene(scene, out, progress=False)
+    assert partial.read_text() == "the other run's" and lock.exists()
+    lock.write_text(f"{os.getpid()} elsewhere\n")  # another machine's: cannot be checked
+    with pytest.raises(OutputError, match=rf"on elsewhere .*delete {lock}"):
+        run_scene(scene, out, progress=False)
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    lock.write_text(f"{gone.pid} {__import__('socket').gethostname()}\n")  # a killed run's
+    res = run_scene(scene, out, progress=False)
+    assert res.steps == scene.steps and not lock.exists() and not partial.exists()

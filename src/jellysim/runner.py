@@ -27,6 +27,7 @@ from pathlib import Path
 from .errors import (BuildError, CheckpointError, JellysimError, ResourceError, RunInterrupted,
                      SimulationError)
 from .io.checkpoint import CHECKPOINT, read_checkpoint, write_checkpoint
+from .io.lock import claim
 from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream
 from .io.trajectory import trajectory_meta
 from .io.vtk import PVDSeries
@@ -135,10 +136,7 @@ def _check_disk(out_dir: Path, total: int, every: int, n: int, messages: list) -
                         f"of {n:,} points; [output] every = {every} steps)")
 
 
-def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
-              steps: int | None = None, skin="auto", body=None, resume: bool = False,
-              checkpoint_every: int | None = None, stop_after: int | None = None,
-              handle_signals: bool = True) -> RunResult:
+def run_scene(scene, out_dir, **options) -> RunResult:
     """Simulate ``scene`` (a :class:`~jellysim.scene.Scene`) and write its outputs.
 
     ``skin``: a :class:`~jellysim.skin.Skin` to carry, ``None`` for none, or ``"auto"``
@@ -149,20 +147,31 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     0: only when interrupted).
     ``stop_after``: stop (checkpoint, :class:`RunInterrupted`) at the first frame once this
     many steps are done, e.g. to split a long run into jobs.
-    ``handle_signals``: catch SIGINT/SIGTERM (main thread only) to stop cleanly."""
+    ``handle_signals``: catch SIGINT/SIGTERM (main thread only) to stop cleanly.
+    A live run already writing ``out_dir`` (its lock file, :mod:`jellysim.io.lock`) makes this
+    an :class:`~jellysim.errors.OutputError`."""
     out_dir = Path(out_dir)
     created = not out_dir.exists()
     out_dir.mkdir(parents=True, exist_ok=True)
-    _clean(out_dir)
+    lock = claim(out_dir)  # before anything there is touched: one run per folder
     try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            model = scene.build_model(body)
-            sim = scene.simulator(model)
-    except JellysimError:
+        return _run(scene, out_dir, **options)
+    finally:
+        lock.unlink(missing_ok=True)
         if created and not any(out_dir.iterdir()):  # refused before anything was written
             out_dir.rmdir()
-        raise
+
+
+def _run(scene, out_dir: Path, *, progress: bool = True, vtu: bool | None = None,
+         steps: int | None = None, skin="auto", body=None, resume: bool = False,
+         checkpoint_every: int | None = None, stop_after: int | None = None,
+         handle_signals: bool = True) -> RunResult:
+    """:func:`run_scene` in a folder this process holds."""
+    _clean(out_dir)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = scene.build_model(body)
+        sim = scene.simulator(model)
     messages = [str(w.message) for w in caught]
     if isinstance(skin, str) and skin == "auto":
         try:
