@@ -136,7 +136,10 @@ def _check_disk(out_dir: Path, total: int, every: int, n: int, messages: list) -
                         f"of {n:,} points; [output] every = {every} steps)")
 
 
-def run_scene(scene, out_dir, **options) -> RunResult:
+def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
+              steps: int | None = None, skin="auto", body=None, resume: bool = False,
+              checkpoint_every: int | None = None, stop_after: int | None = None,
+              handle_signals: bool = True) -> RunResult:
     """Simulate ``scene`` (a :class:`~jellysim.scene.Scene`) and write its outputs.
 
     ``skin``: a :class:`~jellysim.skin.Skin` to carry, ``None`` for none, or ``"auto"``
@@ -155,17 +158,17 @@ def run_scene(scene, out_dir, **options) -> RunResult:
     out_dir.mkdir(parents=True, exist_ok=True)
     lock = claim(out_dir)  # before anything there is touched: one run per folder
     try:
-        return _run(scene, out_dir, **options)
+        return _run(scene, out_dir, progress=progress, vtu=vtu, steps=steps, skin=skin,
+                    body=body, resume=resume, checkpoint_every=checkpoint_every,
+                    stop_after=stop_after, handle_signals=handle_signals)
     finally:
         lock.unlink(missing_ok=True)
         if created and not any(out_dir.iterdir()):  # refused before anything was written
             out_dir.rmdir()
 
 
-def _run(scene, out_dir: Path, *, progress: bool = True, vtu: bool | None = None,
-         steps: int | None = None, skin="auto", body=None, resume: bool = False,
-         checkpoint_every: int | None = None, stop_after: int | None = None,
-         handle_signals: bool = True) -> RunResult:
+def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, checkpoint_every,
+         stop_after, handle_signals) -> RunResult:
     """:func:`run_scene` in a folder this process holds."""
     _clean(out_dir)
     with warnings.catch_warnings(record=True) as caught:
