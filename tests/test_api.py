@@ -144,3 +144,24 @@ def test_python_api_misuse_gets_one_clear_error():
             sim.advance(bad)
     sim.advance(0)
     assert np.array_equal(sim.state.x, x0) and sim.state.step == 0
+
+
+def test_a_body_density_the_material_overrides_is_said():
+    """Body.from_mesh(density=500) then the gelatin material: the physical model's masses are
+    the material's (1141 kg/m^3 x the tets' volume), and a warning says so and how to keep the
+    body's; with the same density, no warning and the masses are density x tet volume."""
+    import warnings
+
+    from jellysim.geometry.tetra import tet_signed_volumes
+
+    body = jellysim.Body.from_mesh(mesh_path("sphere.obj"), size=0.04, points=60,
+                                   base=(0, 0, 0), density=500.0)
+    tet_volume = tet_signed_volumes(body.points, body.tets).sum()
+    with pytest.warns(UserWarning, match=r"built with density = 500.*material\(\.\.\., "
+                                         r"density=500\)"):
+        model = jellysim.physical_model(body, jellysim.material("gelatin"))
+    assert model.point_mass.sum() == pytest.approx(1141.0 * tet_volume, rel=1e-9)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        same = jellysim.physical_model(body, jellysim.material("gelatin", density=500.0))
+    assert same.point_mass.sum() == pytest.approx(500.0 * tet_volume, rel=1e-9)

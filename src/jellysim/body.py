@@ -90,6 +90,8 @@ class Body:
                           density=REPORT_DENSITY if density is None else density, **options)
         if size is not None:
             body.meta["size"] = float(size)
+        if density is not None:  # said when a material with another density is applied
+            body.meta["density_given"] = float(density)
         return body
 
     def __repr__(self) -> str:

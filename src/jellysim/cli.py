@@ -247,6 +247,9 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
     if body.meta.get("radius_chosen_for_neighbours"):
         extra = (f"; radius r = {body.meta['radius']:.4g} m chosen for "
                  f"{body.meta['radius_chosen_for_neighbours']:g} neighbours")
+    if body.meta.get("surface_samples") and st["points"] > points:
+        extra += (f"; {points} points sampled inside as asked (fewer where too near the "
+                  "surface), the rest on the surface")
     held = ""
     if st["tet_volume"] is not None and st["volume"]:
         held = (f" (its tets hold {st['tet_volume']:.6g} m^3, "

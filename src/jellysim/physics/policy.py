@@ -44,6 +44,12 @@ def physical_model(body, material: Material = Material(), *, gravity=GRAVITY,
     if not isinstance(body, Body):
         raise TypeError(f"physical_model takes a Body (Body.from_mesh, build_body, read_body), "
                         f"got {type(body).__name__}: pass the body itself, not finalize(body)")
+    given = body.meta.get("density_given")
+    if given is not None and not np.isclose(given, material.density, rtol=1e-9):
+        warnings.warn(f"the body was built with density = {given:g} kg/m^3 but the material's is "
+                      f"{material.density:g}: the physical model's masses take the material's "
+                      f"(pass jellysim.material(..., density={given:g}) to keep the body's)",
+                      UserWarning, stacklevel=2)
     g = np.asarray(gravity, dtype=np.float64)
     if g.shape != (3,) or not np.all(np.isfinite(g)):
         raise ValueError(f"gravity must be 3 finite numbers (x, y, z) in m/s^2, e.g. (0, -9.8, "
