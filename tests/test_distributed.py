@@ -385,3 +385,28 @@ def test_mpiexec_implicit_scene_with_contact_runs_split(tmp_path):
     # a contact event amplifies rounding (serially too: CG tolerance 1e-8 vs 1e-12 moves points
     # by centimetres after this landing), so afterwards: the same physics, not the same digits
     assert got[:, :, 1].min() > -1e-12 and got[-1, :, 1].min() < 1e-9  # landed, never below
+
+
+@needs_mpi
+def test_mpiexec_run_refuses_a_folder_a_live_run_holds(tmp_path):
+    """Under mpiexec rank 0 claims the output folder as a serial run does: a live run's lock
+    (this test process) makes every rank stop with one clear error, nothing written; once the
+    lock is gone the run goes through and leaves none behind."""
+    import socket
+
+    from jellysim.io.lock import LOCK_NAME
+
+    out = tmp_path / "o"
+    out.mkdir()
+    lock = out / LOCK_NAME
+    lock.write_text(f"{os.getpid()} {socket.gethostname()}\n")
+    args = ("-m", "jellysim.cli", "run", str(DATA / "paper_springs.toml"), "--out", str(out),
+            "--quiet", "--no-vtu", "--steps", "4")
+    proc, _ = _mpirun(2, *args)
+    assert proc.returncode != 0
+    assert proc.stderr.count("error:") == 1 and f"(process {os.getpid()})" in proc.stderr
+    assert sorted(p.name for p in out.iterdir()) == [LOCK_NAME]
+    lock.unlink()
+    proc, _ = _mpirun(2, *args)
+    assert proc.returncode == 0, proc.stderr
+    assert (out / "trajectory.npz").exists() and not lock.exists()

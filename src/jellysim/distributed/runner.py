@@ -18,6 +18,7 @@ from pathlib import Path
 
 from ..errors import BuildError, JellysimError, SceneError, SimulationError
 from ..runner import RunResult
+from ..io.lock import claim
 from ..io.trajectory import Recorder
 from ..io.vtk import PVDSeries
 from .simulator import DistributedSimulator, on_root, world
@@ -31,11 +32,28 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
                           vtu: bool | None = None, steps: int | None = None,
                           partition: str = "morton", skin="auto") -> RunResult | None:
     """:func:`jellysim.runner.run_scene` over the ranks of ``comm``; a collective call.
-    Returns the :class:`~jellysim.runner.RunResult` on rank 0, ``None`` elsewhere."""
+    Returns the :class:`~jellysim.runner.RunResult` on rank 0, ``None`` elsewhere.  Rank 0,
+    which writes, holds the output folder's lock (:mod:`jellysim.io.lock`) while it runs."""
 
     comm = world() if comm is None else comm
-    rank, size = comm.Get_rank(), comm.Get_size()
     out_dir = Path(out_dir)
+
+    def claim_folder():
+        out_dir.mkdir(parents=True, exist_ok=True)
+        return claim(out_dir)
+
+    lock = on_root(comm, claim_folder, share=False)  # a refusal is raised on every rank
+    try:
+        return _run_distributed(scene, out_dir, comm, progress=progress, vtu=vtu, steps=steps,
+                                partition=partition, skin=skin)
+    finally:
+        if lock is not None:
+            lock.unlink(missing_ok=True)
+
+
+def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partition, skin):
+    """:func:`run_scene_distributed` once rank 0 holds the folder."""
+    rank, size = comm.Get_rank(), comm.Get_size()
 
     def build():
         with warnings.catch_warnings(record=True) as caught:
