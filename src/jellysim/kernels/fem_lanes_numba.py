@@ -234,6 +234,17 @@ def _scatter_block(s, t0, m, q, tet_force, tet_j, damped):
         _store_j_q(s, l, t, q, tet_j, damped)
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _block(s, t0, m, x, fem, q, damped, g, decay):
+    """Tets ``t0 .. t0 + m - 1`` gathered into ``s`` and their forces computed there (the
+    lane loop with or without the damping branch: two loops, so each vectorises)."""
+    _gather_block(s, t0, m, x, fem, q, damped)
+    if damped:
+        _lanes_damped(s, g, decay)
+    else:
+        _lanes_elastic(s, g, decay)
+
+
 @njit(**_opts)
 def tet_forces(x, fem, g, decay, q, tet_force, tet_j):
     """See :func:`.fem_numpy.tet_forces` (same arguments and results)."""
@@ -247,11 +258,7 @@ def tet_forces(x, fem, g, decay, q, tet_force, tet_j):
         for blk in range(ch * nb // nch, (ch + 1) * nb // nch):
             t0 = blk * LANES
             m = min(LANES, n - t0)
-            _gather_block(s, t0, m, x, fem, q, damped)
-            if damped:
-                _lanes_damped(s, g, decay)
-            else:
-                _lanes_elastic(s, g, decay)
+            _block(s, t0, m, x, fem, q, damped, g, decay)
             _scatter_block(s, t0, m, q, tet_force, tet_j, damped)
 
 
@@ -271,11 +278,7 @@ def tet_forces_summed(x, fem, g, decay, q, fsum, tet_j, min_j):
     m_j = min_j[0]
     for t0 in range(0, n, B):
         m = min(B, n - t0)
-        _gather_block(s, t0, m, x, fem, q, damped)
-        if damped:
-            _lanes_damped(s, g, decay)
-        else:
-            _lanes_elastic(s, g, decay)
+        _block(s, t0, m, x, fem, q, damped, g, decay)
         for l in range(m):
             t = t0 + l
             f = _corner_forces(s, l)
