@@ -1,7 +1,7 @@
 """The building blocks of the scene format (:mod:`jellysim.scene`): one :class:`Spec` per key,
 and the checks that turn a parsed TOML table into validated values with one-line errors.
 
-The table of keys itself, ``SCHEMA``, lives in :mod:`jellysim.scene`: a new key is one row
+The table of keys itself, ``SCHEMA``, lives in :mod:`jellysim.scene_schema`: a new key is one row
 ``"key": Spec(kind, default, doc, check, allowed, choices)`` in its section there.
 """
 from __future__ import annotations

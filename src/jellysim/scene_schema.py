@@ -1,0 +1,181 @@
+"""The table of scene keys (:data:`SCHEMA`): one :class:`~jellysim.scene_spec.Spec` per key,
+its type, default, check and the words of its error.  A new key is one row here; the reading of
+a scene is :mod:`jellysim.scene`, ``docs/scene.md`` is generated from this table
+(``jellysim scene-help``).
+"""
+from __future__ import annotations
+
+from .params import GRAVITY, REPORT_DENSITY, GroundParams, ImplicitParams, ProvotParams
+from .scene_spec import REQUIRED, Spec, _nonneg, _pos
+
+__all__ = ["SCHEMA"]
+
+_P, _G, _I = ProvotParams(), GroundParams(), ImplicitParams()
+"""Defaults come from the option dataclasses (:mod:`jellysim.params`), the one source."""
+
+SCHEMA: dict[str, dict[str, Spec]] = {
+    "body": {
+        "type": Spec("str", "box", "Where the body comes from: 'box' (a random field), 'mesh' "
+                     "(points inside a surface mesh file) or 'file' (a .jello/.npz body).",
+                     choices=("box", "mesh", "file")),
+        "path": Spec("str", None, "Mesh or body file (type 'mesh' / 'file'), relative to the "
+                     "scene file.", allowed="a file name"),
+        "points": Spec("int", None, "Number of points: of the random field (type 'box', "
+                       "required) or sampled inside the mesh (type 'mesh', default 2000).",
+                       lambda v: v >= 2, "an integer >= 2"),
+        "sampling": Spec("str", "uniform", "Type 'mesh': how points are placed inside.",
+                         choices=("uniform", "edge", "grid", "poisson")),
+        "surface_samples": Spec("bool", None, "Type 'mesh', connect 'delaunay' or 'radius': "
+                                "also put points on the surface (sharp edges, faces) a spacing "
+                                "apart, so the body's surface lies on the mesh (default: on for "
+                                "'delaunay', off for 'radius', the report's ways: mesh vertices "
+                                "only / exactly `points` inside).  A physical radius body wants "
+                                "it on: without flat faces it rests on its lowest points."),
+        "relax": Spec("int", None, "Type 'mesh', connect 'delaunay': Lloyd passes of the "
+                      "sampled interior points before the tetrahedralization (default 10 with "
+                      "surface samples, 0 without; 0 is the report's random points).  Relaxed "
+                      "points make far fewer flat tets: fewer substeps and far fewer inverted "
+                      "tets on hard drops (docs/physics.md section 0).", lambda v: v >= 0,
+                      "an integer >= 0"),
+        "size": Spec("float", None, "Type 'mesh': scale the mesh so its largest extent is this "
+                     "[m].", lambda v: v > 0, "a number > 0 (m)"),
+        "base": Spec("vec3", None, "Types 'mesh'/'file': move the body so the bottom centre of "
+                     "its bounding box is here [m]."),
+        "distribution": Spec("str", "edge", "Random field: 'uniform' or the report's "
+                             "edge-favouring (1 + cos(2 pi u)) / 2; or 'grid': a cubic lattice "
+                             "of about that many cells, corners included (216: 7^3 points).",
+                             choices=("uniform", "edge", "grid")),
+        "lower": Spec("vec3", [0.0, 0.0, 0.0], "Lower box corner [m]."),
+        "upper": Spec("vec3", [1.0, 1.0, 1.0], "Upper box corner [m]."),
+        "seed": Spec("int", 0, "Random seed (same seed, same points).", lambda v: v >= 0,
+                     "an integer >= 0"),
+        "velocity": Spec("vec3", [0.0, 0.0, 0.0], "Initial velocity of every point [m/s]."),
+    },
+    "springs": {
+        "connect": Spec("str", "radius", "Spring builder: 'radius' (report: implicit); for "
+                        "type 'mesh' also 'marching', 'delaunay', 'tetgen'.",
+                        choices=("radius", "marching", "delaunay", "tetgen")),
+        "radius": _pos("Connection radius r [m]: every pair closer than r gets a spring "
+                       "(type 'box': required, but 1.8 spacings for a grid; type 'mesh': "
+                       "default from neighbours).", None,
+                       unit=" (m)"),
+        "neighbours": _pos("Type 'mesh', radius not given: target mean springs per point.",
+                           24.0),
+        "h": _pos("Type 'mesh', connect 'marching': cube edge [m] (default from points).", None,
+                  unit=" (m)"),
+        "stiffness": Spec("float", None, "Spring stiffness k [N/m] (paper mode; give this or "
+                          "[material] youngs_modulus).", lambda v: v > 0, "a number > 0 (N/m)"),
+    },
+    "material": {
+        "preset": Spec("str", None, "Preset filling every key not given: 'gelatin' (real "
+                       "gelatin: Stable Neo-Hookean tets, physical ground, symplectic substeps) "
+                       "or 'paper-2010' (the report's "
+                       "constants and hacks).", choices=("gelatin", "paper-2010")),
+        "density": _pos("Density [kg/m^3]; point masses = density x the volume each point "
+                        "owns (overrides [mass] density).", None, " (kg/m^3)"),
+        "youngs_modulus": _pos("Young's modulus E [Pa] of a physical material: Stable "
+                               "Neo-Hookean tets (model 'fem') or calibrated springs (model "
+                               "'springs'), docs/physics.md.", None, " (Pa)"),
+        "model": Spec("str", "auto", "Physical material model: 'fem' (tets that resist "
+                      "inversion and keep volume; needs a tet body), 'springs' (the report's "
+                      "springs, each k derived from E) or 'auto' (fem when the body has tets).",
+                      choices=("auto", "fem", "springs")),
+        "poisson_ratio": Spec("float", 0.48, "Poisson's ratio nu of the fem model (gelatin: "
+                              "nearly incompressible).", lambda v: -0.5 < v < 0.5,
+                              "a number in (-0.5, 0.5)"),
+        "damping_ratio": Spec("float", 0.0, "Fem model: fraction of critical damping zeta of a "
+                              "vibration at damping_frequency (a standard linear solid).",
+                              lambda v: 0 <= v < 1, "a number in [0, 1)"),
+        "damping_frequency": _pos("Fem model: frequency [Hz] at which the damping ratio "
+                                  "holds (the loss peak).", 5.0, " (Hz)"),
+    },
+    "mass": {
+        "density": _pos("Density [kg/m^3]; total mass = density x volume, split evenly.",
+                        REPORT_DENSITY, " (kg/m^3)"),
+        "point_mass": Spec("float", None, "Mass of every point [kg] (overrides density).",
+                           lambda v: v > 0, "a number > 0 (kg)"),
+    },
+    "physics": {
+        "damping": _nonneg("Velocity damping delta [kg/s] (report eq. 1).", 0.0, " (kg/s)"),
+        "gravity": Spec("vec3", list(GRAVITY), "Gravitational acceleration [m/s^2]."),
+    },
+    "integrator": {
+        "name": Spec("str", "symplectic", "'paper' (report order: x, v, then a), "
+                     "'symplectic' (semi-implicit Euler) or 'implicit' (theta-method with a "
+                     "conjugate-gradient solve, stiff-stable).",
+                     choices=("paper", "symplectic", "implicit")),
+        "dt": _pos("Time step [s].", unit=" (s)"),
+        "steps": Spec("int", REQUIRED, "Number of time steps.", lambda v: v >= 1,
+                      "an integer >= 1"),
+        "backend": Spec("str", "numba", "Kernels: 'numba', 'numpy' (reference) or 'warp' "
+                        "(NVIDIA Warp: a GPU, else Warp's CPU device; integrators 'paper' and "
+                        "'symplectic'; pip install 'jellysim[gpu]').",
+                        choices=("numba", "numpy", "warp")),
+        "device": Spec("str", "auto", "Warp device: 'auto' (a GPU when present, else the "
+                       "CPU), 'cpu', 'cuda' or 'cuda:N' (backend = 'warp' only)."),
+        "precision": Spec("str", "float64", "'float64' or 'float32': Warp arithmetic "
+                          "(float64: bitwise the numba backend's on the CPU device); numba's "
+                          "explicit step stores x, v, a in float32 and sums in float64.",
+                          choices=("float64", "float32")),
+        "threads": Spec("int", None, "Numba threads (default: by problem size).",
+                        lambda v: v >= 1, "an integer >= 1"),
+        "substeps": Spec("int", None, "Steps of dt / substeps per step (default: what the "
+                         "stability estimate needs for 'symplectic'; 1 otherwise).",
+                         lambda v: v >= 1, "an integer >= 1"),
+        "start_acceleration": Spec("str", "forces", "Accelerations at t = 0: 'forces' (from "
+                                   "the forces at rest: gravity) or 'zero' (the report's "
+                                   "code: a = 0 until the first force evaluation).",
+                                   choices=("forces", "zero")),
+        "scheme": Spec("str", _I.scheme, "Implicit: 'theta' (one step, see theta) or 'bdf2' "
+                       "(two-step, second order: keeps a frame-rate wobble, 0.90 of its "
+                       "energy per period at 2.8 Hz and dt = 1/60 s; less robust through "
+                       "impacts).",
+                       choices=("theta", "bdf2")),
+        "theta": Spec("float", _I.theta, "Implicit: 1 = backward Euler (robust, damps), 0.5 = "
+                      "midpoint (no damping of linear vibrations).", lambda v: 0.5 <= v <= 1,
+                      "a number in [0.5, 1]"),
+        "cg_tolerance": _pos("Implicit: relative residual at which CG stops.", _I.cg_tolerance),
+        "cg_max_iterations": Spec("int", _I.max_iterations, "Implicit: CG iterations per step at most.",
+                                  lambda v: v >= 1, "an integer >= 1"),
+    },
+    "provot": {
+        "enabled": Spec("bool", _P.enabled, "Provot strain limiting on/off."),
+        "tau": Spec("float", _P.tau, "Tolerance as a fraction of rest length (0.001 = 0.1 %).",
+                    lambda v: 0 < v < 1, "a number in (0, 1)"),
+        "loops": Spec("int", _P.loops, "Passes per step (report: 5).", lambda v: v >= 1,
+                      "an integer >= 1"),
+        "pairs": Spec("str", _P.pairs.value, "'springs' or 'all' (the report's O(n^2) hack).",
+                      choices=("springs", "all")),
+        "order": Spec("str", _P.order.value, "'jacobi' (parallel, averaged) or 'gauss-seidel'.",
+                      choices=("jacobi", "gauss-seidel")),
+        "tolerance": _nonneg("Stop the loops once the largest correction is below this [m].",
+                             _P.tolerance, " (m)"),
+        "velocity_update": Spec("bool", _P.velocity_update, "Add the correction / dt to the velocity."),
+    },
+    "ground": {
+        "enabled": Spec("bool", _G.enabled, "The report's ground plane on/off."),
+        "model": Spec("str", _G.model.value, "'paper': the report's mu/nu rule (eqs. 2, 3); "
+                      "'contact': non-penetration, restitution, Coulomb friction.",
+                      choices=("paper", "contact")),
+        "height": Spec("float", _G.height, "Height of the plane y = height [m]."),
+        "mu": Spec("float", _G.mu, "Factor on x/z velocity of a point on the ground.",
+                   lambda v: 0 <= v <= 1, "a number in [0, 1]"),
+        "nu": Spec("float", _G.nu, "Fraction of y acceleration removed on the ground.",
+                   lambda v: 0 <= v <= 1, "a number in [0, 1]"),
+        "restitution": Spec("float", _G.restitution, "Contact: coefficient of restitution e.",
+                            lambda v: 0 <= v <= 1, "a number in [0, 1]"),
+        "friction": _nonneg("Contact: kinetic Coulomb friction coefficient.", _G.friction),
+        "static_friction": Spec("float", None, "Contact: static Coulomb coefficient "
+                                "(default: friction).", lambda v: v >= 0, "a number >= 0"),
+    },
+    "output": {
+        "every": Spec("int", None, "Steps between saved frames (default: about 100 frames).",
+                      lambda v: v >= 1, "an integer >= 1"),
+        "vtu": Spec("bool", True, "Write the ParaView series body.pvd + one .vtu per frame."),
+        "checkpoint_every": Spec("int", None, "Steps between checkpoints (checkpoint.npz, for "
+                                 "'jellysim run --resume'), taken at the next saved frame; "
+                                 "0: only when interrupted; default: at a frame once a "
+                                 "minute of wall-clock time has passed.",
+                                 lambda v: v >= 0, "an integer >= 0"),
+    },
+}
