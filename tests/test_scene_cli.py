@@ -358,6 +358,51 @@ def test_relax_option(tmp_path):
         Scene.load(p)
 
 
+def test_snap_option(tmp_path):
+    """[springs] snap: a marching body is warped onto the surface by default (it fills more of
+    the sphere); false keeps the report's staircase, whose points all lie on the grid and whose
+    tets are the grid's own (six of one volume per cube); refused for other builders, and the
+    CLI's --no-snap builds the same staircase."""
+    from conftest import mesh_path
+    from jellysim.geometry.jellyfile import read_body
+    from jellysim.geometry.tetra import tet_signed_volumes as tet_volumes
+
+    (tmp_path / "sphere.obj").write_bytes(mesh_path("sphere.obj").read_bytes())
+    p = tmp_path / "sphere.toml"
+    text = MESH_SCENE.format(path="sphere.obj", connect="marching")
+    filled, bodies = {}, {}
+    for flag in (None, "false"):
+        p.write_text(text if flag is None else text.replace(
+            'connect = "marching"', f'connect = "marching"\nsnap = {flag}'))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            body = bodies[flag] = Scene.load(p).build_body()
+        # the staircase's loss is said (below 80 % of the mesh), the warped body's is not
+        assert any("fills only" in str(w.message) for w in caught) is (flag is not None)
+        filled[flag] = np.abs(tet_volumes(body.points, body.tets)).sum()
+    stair = bodies["false"]
+    h = stair.meta["h"]
+    steps = (stair.points - stair.points.min(axis=0)) / h
+    assert np.abs(steps - np.round(steps)).max() < 1e-9  # every point a grid node
+    assert np.allclose(np.abs(tet_volumes(stair.points, stair.tets)), h**3 / 6, rtol=1e-9)
+    assert filled[None] > 1.05 * filled["false"]
+    p.write_text(MESH_SCENE.format(path="sphere.obj", connect="delaunay").replace(
+        'connect = "delaunay"', 'connect = "delaunay"\nsnap = false'))
+    with pytest.raises(SceneError, match="snap is used only by"):
+        Scene.load(p)
+    out = tmp_path / "stair.jello"
+    res = CliRunner().invoke(cli, ["build", str(tmp_path / "sphere.obj"), "-o", str(out), "--connect",
+                                    "marching", "--points", "300", "--size", "0.1", "--no-snap"])
+    assert res.exit_code == 0, res.output
+    built = read_body(out)
+    steps = (built.points - built.points.min(axis=0)) / built.meta["h"]
+    assert np.abs(steps - np.round(steps)).max() < 1e-9
+    res = CliRunner().invoke(cli, ["build", str(tmp_path / "sphere.obj"), "-o", str(tmp_path / "d.jello"),
+                                    "--connect", "delaunay", "--no-snap"])
+    assert res.exit_code != 0 and "connect='marching' only" in res.output
+    assert "Traceback" not in res.output
+
+
 def test_file_scene_and_missing_paths(tmp_path):
     from jellysim.body import Body
     from jellysim.geometry.jellyfile import write_body

@@ -254,6 +254,9 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
     if h is not None and connect is not Connect.MARCHING:
         raise BuildError(f"h (the cube edge) applies to connect='marching' only, not "
                          f"{connect.value!r}; remove it")
+    if not snap and connect is not Connect.MARCHING:
+        raise BuildError(f"snap=False (the report's staircase grid) applies to "
+                         f"connect='marching' only, not {connect.value!r}; remove it")
     if relax is not None:
         if isinstance(relax, bool) or not isinstance(relax, (int, np.integer)) or relax < 0:
             raise BuildError(f"relax must be a whole number of passes >= 0, got {relax!r}")

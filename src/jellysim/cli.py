@@ -193,6 +193,9 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
               help="Target mean neighbour count when --radius is not given.")
 @click.option("--h", "h", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Cube edge [m] of the marching grid.")
+@click.option("--snap/--no-snap", default=True, show_default=True,
+              help="marching: warp the grid onto the surface so the body fills the mesh; "
+                   "--no-snap keeps the report's staircase (the grid's tets wholly inside).")
 @click.option("--surface-vertices/--no-surface-vertices", default=None,
               help="Add the mesh vertices to the points (default: on for delaunay).")
 @click.option("--surface-samples/--no-surface-samples", default=None,
@@ -210,7 +213,7 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @_max_memory
 @click.option("--overwrite", is_flag=True, help="Replace OUT_FILE if it exists.")
-def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
+def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h, snap,
           surface_vertices, surface_samples, relax, density, size, seed,
           max_memory=None, overwrite=False) -> None:
     """Build a jello body from MESH_FILE and write it to a .jello or .npz file.
@@ -236,7 +239,7 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
                               radius=radius, neighbours=neighbours, h=h,
                               surface_vertices=surface_vertices,
                               surface_samples=surface_samples, relax=relax, density=density,
-                              seed=seed, size=size)
+                              seed=seed, size=size, snap=snap)
         write_body(out_file, body)
     except JellysimError as exc:
         _fail(str(exc))

@@ -164,6 +164,9 @@ class Scene:
         if raw.get("body", {}).get("relax") and (kind != "mesh" or sp["connect"] != "delaunay"):
             raise SceneError(f"{name}: [body] relax is used only by type = 'mesh' with "
                              "[springs] connect = 'delaunay'; remove it")
+        if raw.get("springs", {}).get("snap") is not None and (kind != "mesh" or sp["connect"] != "marching"):
+            raise SceneError(f"{name}: [springs] snap is used only by type = 'mesh' with "
+                             "connect = 'marching'; remove it")
         if kind == "box" and sp["radius"] is None and b["distribution"] == "grid":
             sp["radius"] = grid_radius(b["points"], b["lower"], b["upper"])  # 1.8 spacings
         if kind == "box":
@@ -279,7 +282,8 @@ class Scene:
                               sampling=b["sampling"], radius=s["radius"],
                               neighbours=s["neighbours"], h=s["h"], density=density,
                               seed=b["seed"],
-                              surface_samples=b["surface_samples"], relax=b["relax"])
+                              surface_samples=b["surface_samples"], relax=b["relax"],
+                              snap=s["snap"] is not False)
         if b["distribution"] == "grid":
             from .geometry.lattice import grid_points
 
