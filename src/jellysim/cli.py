@@ -289,7 +289,8 @@ def inspect(path) -> None:
                 ("tets hold [m^3]", "-" if st["tet_volume"] is None else
                  f"{st['tet_volume']:.6g} (x {REPORT_DENSITY:g} kg/m^3 = {st['tet_mass']:.6g} "
                  "kg: the physical path's mass at that density)"),
-                ("bounds [m]", f"{st['bounds'][0]} .. {st['bounds'][1]}"),
+                ("bounds [m]", " .. ".join("[" + ", ".join(f"{c:.6g}" for c in corner) + "]"
+                                           for corner in st["bounds"])),
             ]
             for k, v in rows:
                 click.echo(f"  {k:<20} {v}")
