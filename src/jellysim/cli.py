@@ -164,17 +164,9 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
                    f"its kernels on a first run; cached for the next): "
                    f"{taken / pace:,.0f} steps/s, {result.simulated / pace:.2g}x real time "
                    "without it")
-    click.echo(f"wrote {result.trajectory}")
-    if result.pvd:
-        click.echo(f"wrote {result.pvd} (+ {result.frames} .vtu frames)")
-    from .cli_visual import write_run_outputs
+    from .cli_visual import echo_run_outputs
 
-    try:
-        for p in write_run_outputs(result.trajectory, video=video, usd=usd, glb=glb,
-                                   progress=not quiet):
-            click.echo(f"wrote {p}")
-    except JellysimError as exc:
-        _fail(str(exc))
+    echo_run_outputs(result, _fail, video=video, usd=usd, glb=glb, quiet=quiet)
 
 
 @cli.command()

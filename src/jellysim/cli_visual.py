@@ -117,6 +117,20 @@ def check_run_outputs(*, video=None, usd=None, glb=None, overwrite=False) -> Non
         guard_output(path, overwrite)
 
 
+def echo_run_outputs(result, fail, *, video=None, usd=None, glb=None, quiet=False) -> None:
+    """The end of ``jellysim run`` (serial or under mpiexec): say what the run wrote, then
+    render and export what was asked (:func:`write_run_outputs`); a refusal goes to ``fail``."""
+    click.echo(f"wrote {result.trajectory}")
+    if result.pvd:
+        click.echo(f"wrote {result.pvd} (+ {result.frames} .vtu frames)")
+    try:
+        for p in write_run_outputs(result.trajectory, video=video, usd=usd, glb=glb,
+                                   progress=not quiet):
+            click.echo(f"wrote {p}")
+    except JellysimError as exc:
+        fail(str(exc))
+
+
 def write_run_outputs(trajectory, *, video=None, usd=None, glb=None, progress=True):
     """After ``jellysim run``: render ``video`` and export ``usd`` / ``glb`` from the saved
     trajectory.  Returns the paths written."""

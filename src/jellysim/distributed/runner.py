@@ -223,14 +223,6 @@ def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
     click.echo(f"{result.steps} steps, {result.frames} frames in {result.seconds:.3g} s "
                f"({rate:,.0f} steps/s, {result.simulated / max(result.seconds, 1e-300):.2g}x "
                f"real time) on {comm.Get_size()} ranks")
-    click.echo(f"wrote {result.trajectory}")
-    if result.pvd:
-        click.echo(f"wrote {result.pvd} (+ {result.frames} .vtu frames)")
-    from ..cli_visual import write_run_outputs
+    from ..cli_visual import echo_run_outputs
 
-    try:
-        for p in write_run_outputs(result.trajectory, video=video, usd=usd, glb=glb,
-                                   progress=not quiet):
-            click.echo(f"wrote {p}")
-    except JellysimError as exc:
-        fail(str(exc))
+    echo_run_outputs(result, fail, video=video, usd=usd, glb=glb, quiet=quiet)
