@@ -32,6 +32,17 @@ end
 """
 
 
+SKIN = """\
+skin_vertices 3
+0.0 0.0 0.0
+1.0 0.0 0.0
+0.0 1.0 0.0
+skin_faces 1
+0 1 2
+end
+"""
+
+
 def with_line(lineno: int, new: str | None) -> str:
     lines = VALID.splitlines()
     if new is None:
@@ -42,7 +53,8 @@ def with_line(lineno: int, new: str | None) -> str:
 
 
 def body_equal(a: Body, b: Body) -> None:
-    for name in ("points", "springs", "rest_length", "stiffness", "masses", "tets", "triangles"):
+    for name in ("points", "springs", "rest_length", "stiffness", "masses", "tets", "triangles",
+                 "skin_vertices", "skin_faces"):
         x, y = getattr(a, name), getattr(b, name)
         if x is None:
             assert y is None, name
@@ -95,6 +107,9 @@ def random_body(rng, with_extras=True):
         volume=float(rng.uniform(0.1, 1.0)) if with_extras else None,
         meta={"builder": "test", "h": 0.1, "nested": {"a": [1, 2.5, None]}, "s": "x # y"}
         if with_extras else {},
+        skin_vertices=rng.normal(size=(9, 3)) / 3.0 if with_extras else None,
+        skin_faces=np.argsort(rng.random((5, 9)), axis=1)[:, :3].astype(np.int64)
+        if with_extras else None,
     )
 
 
@@ -166,6 +181,15 @@ MALFORMED = {
     "empty file": ("# nothing but a comment\n\n", 1, 1, r"empty file; expected the header"),
     "section before points": (VALID.replace("jello 1\n", "jello 1\nsprings 0\n", 1), 2, 1,
                               r"before 'points'"),
+    "skin face out of range": (VALID.replace("end\n", SKIN.replace("0 1 2", "0 1 3")), 19, 5,
+                               r"index 3 out of range.*0\.\.2"),
+    "skin face repeats a vertex": (VALID.replace("end\n", SKIN.replace("0 1 2", "0 2 2")), 19,
+                                   5, r"vertex 2 repeated in one face"),
+    "skin faces before vertices": (VALID.replace("end\n", "skin_faces 0\nend\n"), 14, 1,
+                                   r"'skin_faces' before 'skin_vertices'"),
+    "skin vertices without faces": (VALID.replace("end\n", SKIN.split("skin_faces")[0]
+                                                  + "end\n"), 14, 1,
+                                    r"'skin_vertices' without 'skin_faces'"),
 }
 
 
@@ -233,6 +257,10 @@ def test_npz_errors_name_file_and_array(tmp_path):
         "shape": (dict(z, rest_length=np.ones(2)), r"array 'rest_length': shape \(2,\)"),
         "format": (dict(z, format=np.str_("jello-npz 9")), r"array 'format'"),
         "missing": ({k: v for k, v in z.items() if k != "points"}, r"array 'points' is missing"),
+        "skin alone": (dict(z, skin_vertices=np.eye(3)),
+                       r"array 'skin_faces': missing: a skin needs both"),
+        "skin face": (dict(z, skin_vertices=np.eye(3), skin_faces=np.array([[0, 1, 3]])),
+                      r"array 'skin_faces': row 0 has an index out of range 0..2"),
     }
     for name, (arrays, pattern) in cases.items():
         q = tmp_path / f"{name}.npz"

@@ -403,6 +403,48 @@ def test_snap_option(tmp_path):
     assert "Traceback" not in res.output
 
 
+@pytest.mark.parametrize("suffix", [".jello", ".npz"])
+def test_a_built_body_file_carries_its_mesh_as_the_skin(tmp_path, suffix):
+    """jellysim build writes the (scaled) mesh into the body file; a file scene placing the
+    body elsewhere runs with that mesh as its skin, moved with the body, and the skin follows
+    the falling body (a uniform fall: every skin vertex moves as the points do)."""
+    from conftest import mesh_path
+    from jellysim.geometry import load_mesh
+
+    src = mesh_path("sphere.obj")
+    out = tmp_path / f"ball{suffix}"
+    res = CliRunner().invoke(cli, ["build", str(src), "-o", str(out), "--connect", "marching",
+                                   "--points", "300", "--size", "0.1"])
+    assert res.exit_code == 0, res.output
+    mesh = load_mesh(src)
+    scaled = mesh.vertices * (0.1 / np.ptp(mesh.vertices, axis=0).max())
+    text = MESH_SCENE.format(path=out.name, connect="radius").replace('"mesh"', '"file"')
+    text = text.replace("size = 0.1\n", "").replace("base = [0.0, 0.05, 0.0]",
+                                                     "base = [1.0, 0.5, -2.0]")
+    text = text.replace("points = 300\n", "").replace('connect = "radius"\n', "")
+    p = tmp_path / "ball.toml"
+    p.write_text(text)
+    scene = Scene.load(p)
+    body = scene.build_body()
+    lo, hi = body.points.min(axis=0), body.points.max(axis=0)
+    assert np.allclose([0.5 * (lo[0] + hi[0]), lo[1], 0.5 * (lo[2] + hi[2])], [1.0, 0.5, -2.0])
+    traj = load_trajectory(run_scene(scene, tmp_path / "o", progress=False).trajectory)
+    shift = body.points[0] - read_body_points(out)[0]  # where the scene moved the body
+    rest = traj.skin_positions(0)
+    assert np.array_equal(traj.skin.faces, mesh.faces)
+    assert np.abs(rest - (scaled + shift)).max() < 1e-12  # the mesh itself, moved along
+    moved = traj.positions[-1] - traj.positions[0]
+    assert np.abs(moved - moved.mean(axis=0)).max() < 1e-12 and moved[:, 1].mean() < -1e-6
+    assert np.abs(traj.skin_positions(len(traj.times) - 1) - rest - moved.mean(axis=0)).max() \
+        < 1e-12
+
+
+def read_body_points(path):
+    from jellysim.geometry.jellyfile import read_body
+
+    return read_body(path).points
+
+
 def test_file_scene_and_missing_paths(tmp_path):
     from jellysim.body import Body
     from jellysim.geometry.jellyfile import write_body

@@ -41,6 +41,13 @@ class Body:
         Enclosed volume [m^3], or ``None`` when unknown.
     meta:
         Free-form provenance (builder name, parameters), JSON-serialisable values only.
+    skin_vertices:
+        Vertices [m] of the surface mesh the body was built from, placed as the body, shape
+        (m, 3), float64, or ``None``: body files carry it so that a run of the file gets the
+        smooth mesh as its skin (:func:`jellysim.skin.default_skin`).
+    skin_faces:
+        That mesh's triangles (indices into ``skin_vertices``), shape (f, 3), int64, or
+        ``None`` (given together with ``skin_vertices``).
     """
 
     points: np.ndarray
@@ -52,6 +59,8 @@ class Body:
     triangles: np.ndarray | None = None
     volume: float | None = None
     meta: dict = field(default_factory=dict)
+    skin_vertices: np.ndarray | None = None
+    skin_faces: np.ndarray | None = None
 
     @classmethod
     def from_mesh(cls, mesh, *, size: float | None = 0.1, points: int = 5000,

@@ -182,6 +182,8 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     The mesh's coordinates are read as metres.  ``size`` scales it first (about the origin)
     so that its largest bounding-box extent is ``size`` metres; masses (density x enclosed
     volume) are those of the scaled body.
+    The body keeps the (scaled) mesh as ``skin_vertices`` / ``skin_faces``: written into body
+    files, it is the smooth skin a run of the file carries.
 
     Parameters
     ----------
@@ -229,11 +231,16 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
         mould can still end a frame inverted: use ``marching`` for hard drops), and needs 93
         instead of 153 substeps per frame.
     """
+    keep: dict = {}
     body = _build_body(mesh, points=points, connect=connect, sampling=sampling, radius=radius,
                        neighbours=neighbours, h=h, surface_vertices=surface_vertices,
                        surface_samples=surface_samples, density=density, seed=seed, rule=rule,
                        epsilon=epsilon, min_quality=min_quality, max_volume=max_volume,
-                       size=size, snap=snap, relax=relax)
+                       size=size, snap=snap, relax=relax, keep=keep)
+    if "mesh" in keep:  # the (scaled) mesh the body fills: its skin in body files
+        m = keep["mesh"]
+        body.skin_vertices = np.array(m.vertices, dtype=np.float64).reshape(-1, 3)
+        body.skin_faces = np.array(m.faces, dtype=np.int64).reshape(-1, 3)
     body.meta["density"] = float(density)
     if size is not None:
         body.meta["size"] = float(size)
@@ -242,7 +249,7 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
 
 def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surface_vertices,
                 surface_samples, density, seed, rule, epsilon, min_quality, max_volume,
-                size, snap=True, relax=None) -> Body:
+                size, snap=True, relax=None, keep=None) -> Body:
     from .geometry.connect import choose_radius, radius_springs
     from .geometry.inside import InsideQuery
     from .geometry.sampling import morton_order, relax_interior, sample_inside
@@ -271,6 +278,8 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
     if not (np.isfinite(density) and density > 0):
         raise BuildError(f"density must be a positive number of kg/m^3, got {density}")
     m = _mesh_of(mesh, size)
+    if keep is not None:
+        keep["mesh"] = m
     name = str(m.path) if getattr(m, "path", None) else "mesh"
     _warn_defects(m, name)
     if connect is Connect.TETGEN:

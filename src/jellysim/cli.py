@@ -267,11 +267,16 @@ def inspect(path) -> None:
             from .build import body_stats
             from .geometry.jellyfile import read_body
 
-            st = body_stats(read_body(path))
+            body = read_body(path)
+            st = body_stats(body)
             click.echo(f"{path}: body")
+            skin = ("none" + (" (a run shows the surface triangles)" if st["triangles"] else "")
+                    if body.skin_vertices is None
+                    else f"{len(body.skin_vertices)} vertices, {len(body.skin_faces)} faces (the "
+                    "mesh it was built from: a run's skin)")
             rows = [
                 ("points", st["points"]), ("springs", st["springs"]), ("tets", st["tets"]),
-                ("surface triangles", st["triangles"]),
+                ("surface triangles", st["triangles"]), ("skin", skin),
                 ("springs per point", f"min {st['degree_min']}, mean {st['degree_mean']:.2f}, "
                                       f"max {st['degree_max']}"),
                 ("rest length [m]", f"min {st['rest_length_min']:.4g}, mean "

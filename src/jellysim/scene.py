@@ -209,8 +209,9 @@ class Scene:
 
     @property
     def surface(self):
-        """The placed surface mesh of a type 'mesh' scene (vertices [m] (m, 3), faces
-        (f, 3)) after :meth:`build_body`, else ``None``: the skin to carry."""
+        """The placed surface mesh of a type 'mesh' scene, or of a type 'file' body that
+        carries one (vertices [m] (m, 3), faces (f, 3)), after :meth:`build_body`, else
+        ``None``: the skin to carry."""
         return getattr(self, "_surface", None)
 
     def _place(self, points: np.ndarray) -> np.ndarray:
@@ -257,7 +258,12 @@ class Scene:
             if not path.exists():
                 raise SceneError(missing_path(self.name, b["path"], path))
             body = read_body(path)
-            return replace(body, points=self._place(body.points))
+            placed = self._place(body.points)
+            if body.skin_vertices is None:
+                return replace(body, points=placed)
+            skin = body.skin_vertices + (placed[0] - body.points[0])  # moved with the body
+            self._surface = (skin, body.skin_faces)
+            return replace(body, points=placed, skin_vertices=skin)
         if b["type"] == "mesh":
             from .build import build_body
             from .geometry.mesh import Mesh, load_mesh

@@ -23,8 +23,10 @@ Binding (:func:`bind_skin`):
 Because the four weights of every vertex sum to one, the deformed skin follows any affine
 motion of the points exactly (to rounding): rigid translations and rotations in particular.
 
-Box scenes get the box's surface as their skin (:func:`box_skin`); a body given as points with
-surface ``triangles`` gets those triangles (each vertex bound to its own point, weight 1).
+Box scenes get the box's surface as their skin (:func:`box_skin`); a body file built from a
+mesh carries that mesh (``Body.skin_vertices`` / ``skin_faces``) and gets it; a body given as
+points with surface ``triangles`` gets those triangles (each vertex bound to its own point,
+weight 1).
 """
 from __future__ import annotations
 
@@ -270,12 +272,15 @@ def box_skin(body, lower, upper, divisions: int = 8) -> Skin:
 
 
 def default_skin(scene, body) -> Skin | None:
-    """The skin a scene's body gets when none is given: the input mesh for mesh scenes; the
-    box surface for box scenes; the body's own ``triangles`` when it has some; else ``None``."""
+    """The skin a scene's body gets when none is given: the input mesh for mesh scenes, and
+    the mesh a body file was built from (``body.skin_vertices``); the box surface for box
+    scenes; the body's own ``triangles`` when it has some; else ``None``."""
     b = scene.params.get("body", {}) if scene is not None else {}
     surface = getattr(scene, "surface", None)
     if surface is not None:  # a mesh scene carries its (placed) input mesh
         return bind_body_skin(body, surface[0], surface[1])
+    if getattr(body, "skin_vertices", None) is not None:
+        return bind_body_skin(body, body.skin_vertices, body.skin_faces)
     if b.get("type") == "box" and "lower" in b:
         return box_skin(body, b["lower"], b["upper"])
     if body.triangles is not None and len(body.triangles):

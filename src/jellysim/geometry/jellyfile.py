@@ -11,6 +11,8 @@ The text format is specified in ``docs/jello-format.md``; in short::
     ...
     tets 0                           # optional: a b c d
     triangles 0                      # optional: a b c
+    skin_vertices 0                  # optional: x y z [m] of the skin (the built-from mesh)
+    skin_faces 0                     # with it: a b c, indices into skin_vertices
     volume 0.125                     # optional: [m^3]
     meta {"builder": "delaunay"}     # optional: one line of JSON
     end
@@ -47,14 +49,18 @@ MAX_COUNT_DIGITS = 15
 from .jellymeta import MAX_META_DEPTH  # noqa: E402,F401 (deepest meta nesting accepted)
 # section -> (fixed fields, allowed optional columns)
 from .jellymeta import _meta_json  # noqa: E402 (the meta line's JSON rules)
+from .jellyarrays import validate_arrays  # noqa: E402 (the arrays' checks)
 
 _SECTIONS = {
     "points": (("x", "y", "z"), ("mass",)),
     "springs": (("i", "j"), ("rest_length", "stiffness")),
     "tets": (("a", "b", "c", "d"), ()),
     "triangles": (("a", "b", "c"), ()),
+    "skin_vertices": (("x", "y", "z"), ()),
+    "skin_faces": (("a", "b", "c"), ()),
 }
-_ORDER = ("points", "springs", "tets", "triangles", "volume", "meta")
+_ORDER = ("points", "springs", "tets", "triangles", "skin_vertices", "skin_faces", "volume",
+          "meta")
 _POSITIVE = {"mass": "mass [kg]", "rest_length": "rest length [m]", "stiffness": "stiffness [N/m]"}
 
 
@@ -204,10 +210,10 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
 
     seen: dict[str, int] = {}
     data: dict[str, object] = {}
-    n_points = 0
+    n_points = n_skin = 0
     while True:
-        no, toks, _ = lines.next("a section ('points', 'springs', 'tets', 'triangles', "
-                                 "'volume', 'meta') or 'end'")
+        no, toks, _ = lines.next("a section (" + ", ".join(repr(w) for w in _ORDER)
+                                 + ") or 'end'")
         col, word = toks[0]
         if word == "end":
             if len(toks) > 1:
@@ -221,6 +227,9 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
         if word != "points" and "points" not in seen:
             raise lines.error(no, col, f"section {word!r} before 'points'; expected 'points' "
                               "first")
+        if word == "skin_faces" and "skin_vertices" not in seen:
+            raise lines.error(no, col, "section 'skin_faces' before 'skin_vertices'; expected "
+                              "the skin's vertices first (its faces index them)")
         seen[word] = no
         if word == "volume":
             if len(toks) != 2:
@@ -261,17 +270,20 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
                 c = rtoks[nf][0] if len(rtoks) > nf else rtoks[-1][0] + len(rtoks[-1][1])
                 raise lines.error(rno, c, f"{len(rtoks)} fields in section '{word}'; expected "
                                   f"{nf} ({what})")
-            if word == "points":
+            if word in ("points", "skin_vertices"):
                 vals = [_parse_float(lines, rno, c, t, "coordinate [m]" if k < 3 else
                                      _POSITIVE[cols[k - 3]]) for k, (c, t) in enumerate(rtoks)]
             else:
                 nidx = len(fixed)
-                vals = [_parse_int(lines, rno, c, t, "a point index", n_points)
+                vals = [_parse_int(lines, rno, c, t, "a skin vertex index", n_skin)
+                        if word == "skin_faces" else
+                        _parse_int(lines, rno, c, t, "a point index", n_points)
                         for c, t in rtoks[:nidx]]
                 for (c, t), (c2, t2) in ((a, b) for k, a in enumerate(rtoks[:nidx])
                                          for b in rtoks[k + 1:nidx]):
                     if int(t) == int(t2):
                         msg = (f"self-spring: both ends are point {int(t)}" if word == "springs"
+                               else f"vertex {int(t)} repeated in one face" if word == "skin_faces"
                                else f"point {int(t)} repeated in one {word[:-1]}")
                         raise lines.error(rno, c2, msg)
                 vals += [_parse_float(lines, rno, c, t, _POSITIVE[cols[k]])
@@ -285,6 +297,8 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
             idx_rows.append((rno, rtoks[0][0]))
         if word == "points":
             n_points = count
+        if word == "skin_vertices":
+            n_skin = count
         data[word] = (cols, rows, idx_rows)
 
     # trailing content after 'end'
@@ -294,6 +308,9 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
     for req in ("points", "springs"):
         if req not in data:
             raise lines.error(no, 1, f"missing section {req!r} before 'end'")
+    if "skin_vertices" in data and "skin_faces" not in data:
+        raise lines.error(seen["skin_vertices"], 1, "section 'skin_vertices' without "
+                          "'skin_faces'; a skin needs both")
 
     cols, rows, _ = data["points"]
     arr = np.array(rows, dtype=np.float64).reshape(-1, 3 + len(cols))
@@ -333,91 +350,10 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
         triangles=_idx("triangles", 3),
         volume=data.get("volume"),
         meta=data.get("meta", {}),
+        skin_vertices=None if "skin_vertices" not in data else np.array(
+            data["skin_vertices"][1], dtype=np.float64).reshape(-1, 3),
+        skin_faces=_idx("skin_faces", 3),
     )
-
-
-# ----------------------------------------------------------------------------------------------
-# Array validation (npz reader and both writers)
-# ----------------------------------------------------------------------------------------------
-def _validate(src: str, points, springs, rest_length=None, stiffness=None, masses=None,
-              tets=None, triangles=None, volume=None) -> dict:
-    """Check body arrays; return them normalised (dtype, contiguous).  ``src`` names the file."""
-
-    def err(array: str, msg: str) -> JelloFileError:
-        return JelloFileError(f"{src}: array '{array}': {msg}")
-
-    def floats(name, a, shape):
-        a = np.asarray(a)
-        if a.dtype.kind not in "fiu":
-            raise err(name, f"dtype {a.dtype}; expected float64")
-        a = a.astype(np.float64)
-        if a.ndim != len(shape) or any(s is not None and s != d for s, d in zip(shape, a.shape)):
-            want = tuple("n" if s is None else s for s in shape)
-            raise err(name, f"shape {a.shape}; expected {want}")
-        bad = np.flatnonzero(~np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)) if a.size else []
-        if len(bad):
-            raise err(name, f"row {bad[0]} is NaN or infinite; expected finite values")
-        return np.ascontiguousarray(a)
-
-    def ints(name, a, width, n):
-        a = np.asarray(a)
-        if a.dtype.kind not in "iu":
-            raise err(name, f"dtype {a.dtype}; expected an integer array")
-        if a.ndim != 2 or a.shape[1] != width:
-            raise err(name, f"shape {a.shape}; expected (rows, {width})")
-        a = a.astype(np.int64)
-        bad = np.flatnonzero(((a < 0) | (a >= n)).any(axis=1))
-        if bad.size:
-            raise err(name, f"row {bad[0]} has an index out of range 0..{n - 1}")
-        s = np.sort(a, axis=1)
-        rep = np.flatnonzero((s[:, 1:] == s[:, :-1]).any(axis=1))
-        if rep.size:
-            what = "self-spring" if name == "springs" else "repeated point index"
-            raise err(name, f"row {rep[0]} is a {what} ({a[rep[0]].tolist()})")
-        return np.ascontiguousarray(a)
-
-    def positive(name, a, k):
-        if a is None:
-            return None
-        a = floats(name, a, (k,))
-        bad = np.flatnonzero(a <= 0)
-        if bad.size:
-            raise err(name, f"row {bad[0]} is {a[bad[0]]!r}; expected > 0")
-        return a
-
-    points = floats("points", points, (None, 3))
-    n = points.shape[0]
-    if n == 0:
-        raise err("points", "no rows; a body needs at least one point")
-    springs = ints("springs", springs, 2, n)
-    k = springs.shape[0]
-    if k:
-        if not (springs[:, 0] < springs[:, 1]).all():
-            r = int(np.flatnonzero(springs[:, 0] >= springs[:, 1])[0])
-            raise err("springs", f"row {r} {springs[r].tolist()}: expected i < j")
-        key = springs[:, 0] * n + springs[:, 1]
-        if (np.diff(key) == 0).any():
-            r = int(np.flatnonzero(np.diff(key) == 0)[0]) + 1
-            raise err("springs", f"row {r} duplicates row {r - 1} ({springs[r].tolist()})")
-        if (np.diff(key) < 0).any():
-            r = int(np.flatnonzero(np.diff(key) < 0)[0]) + 1
-            raise err("springs", f"row {r}: rows must be sorted lexicographically")
-    out = {
-        "points": points,
-        "springs": springs,
-        "rest_length": positive("rest_length", rest_length, k),
-        "stiffness": positive("stiffness", stiffness, k),
-        "masses": positive("masses", masses, n),
-        "tets": None if tets is None else ints("tets", tets, 4, n),
-        "triangles": None if triangles is None else ints("triangles", triangles, 3, n),
-        "volume": None,
-    }
-    if volume is not None:
-        v = np.asarray(volume)
-        if v.shape != () or v.dtype.kind not in "fiu" or not math.isfinite(float(v)) or v <= 0:
-            raise err("volume", f"{volume!r}; expected one finite number > 0")
-        out["volume"] = float(v)
-    return out
 
 
 # ----------------------------------------------------------------------------------------------
@@ -430,8 +366,9 @@ def _atomic_write(path: Path, write) -> None:
 
 
 def _body_arrays(path, body: Body) -> dict:
-    return _validate(f"{path} (writing)", body.points, body.springs, body.rest_length,
-                     body.stiffness, body.masses, body.tets, body.triangles, body.volume)
+    return validate_arrays(f"{path} (writing)", body.points, body.springs, body.rest_length,
+                           body.stiffness, body.masses, body.tets, body.triangles, body.volume,
+                           body.skin_vertices, body.skin_faces)
 
 
 def write_jello(path, body: Body) -> None:
@@ -468,7 +405,7 @@ def write_jello(path, body: Body) -> None:
             for r, x in zip(rows, a[c].tolist()):
                 r.append(x)
         out.append(fmt(rows))
-        for sec in ("tets", "triangles"):
+        for sec in ("tets", "triangles", "skin_vertices", "skin_faces"):
             if a[sec] is not None:
                 out.append(f"{sec} {a[sec].shape[0]}\n")
                 out.append(fmt(a[sec].tolist()))
@@ -533,7 +470,7 @@ def read_npz(path) -> Body:
         if req not in arrays:
             raise JelloFileError(f"{src}: array '{req}' is missing")
     known = {"points", "springs", "rest_length", "stiffness", "masses", "tets", "triangles",
-             "volume", "meta"}
+             "skin_vertices", "skin_faces", "volume", "meta"}
     unknown = sorted(set(arrays) - known)
     if unknown:
         raise JelloFileError(f"{src}: array '{unknown[0]}' is not part of the format; expected "
@@ -550,7 +487,7 @@ def read_npz(path) -> Body:
                                  "object of finite values") from None
         if not isinstance(meta, dict):
             raise JelloFileError(f"{src}: array 'meta': expected a JSON object")
-    a = _validate(src, **arrays)
+    a = validate_arrays(src, **arrays)
     return Body(meta=meta, **a)
 
 
