@@ -6,9 +6,10 @@ shear mode, ``v_x = v0 sin(pi y / (2 L))``.  Estimate: a shear layer clamped at 
 ``f = (1 / (4 L)) sqrt(G / rho)``, ``G = E / (2 (1 + nu))`` with the network's nu = 1/4 (a
 cube is no thin layer, so this is an estimate, not a closed form).  Reference: the explicit
 symplectic integrator at a small dt (no numerical damping).  Implicit runs: backward Euler
-(theta = 1), theta = 3/4 and 1/2, backward Euler with 4 substeps, and BDF2.  theta = 1/2 is listed to show
-that it is not usable here: with contact at a frame-rate dt the linearised midpoint step gains
-energy (docs/physics.md).  Measured per run: the wobble
+(theta = 1), theta = 3/4 and 1/2, backward Euler with 4 substeps, and BDF2.  theta = 1/2 (the
+midpoint step, energy-neutral in the linear closed form) measured 0.89 of the energy per
+period in session 8, the inexact CG solve damping it (it gained energy in session 1's
+version; docs/physics.md section 3).  Measured per run: the wobble
 frequency (zero crossings of the top's mean sideways displacement) and the fraction of the
 wobble's energy kept per period (from the amplitude envelope: the largest |u| in each whole
 period, first to last, squared per period).

@@ -33,20 +33,16 @@ def _tet_body(points, tets, builder):
 
 
 def kuhn_box(shape, lower=(0, 0, 0), upper=(1, 1, 1)) -> Body:
-    """Grid of ``shape`` cubes, each split into 6 tets around its main diagonal."""
+    """Grid of ``shape`` cubes, each split into 6 tets around its main diagonal (the plain,
+    unmirrored split: the figures of the tests that use it were measured on it)."""
+    from jellysim.geometry.lattice import cell_tets
+
     nx, ny, nz = shape
     pts = _grid(shape, lower, upper)
-    idx = np.arange(len(pts)).reshape(nx + 1, ny + 1, nz + 1)
-    tets = []
-    for perm in itertools.permutations(range(3)):
-        corner = [np.zeros(3, dtype=int)]
-        for a in perm:
-            c = corner[-1].copy()
-            c[a] = 1
-            corner.append(c)
-        cols = [idx[c[0]:c[0] + nx, c[1]:c[1] + ny, c[2]:c[2] + nz].ravel() for c in corner]
-        tets.append(np.stack(cols, axis=1))
-    return _tet_body(pts, np.concatenate(tets), "kuhn")
+    cells = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"),
+                     axis=-1).reshape(-1, 3)
+    tets = cell_tets(cells, ((ny + 1) * (nz + 1), nz + 1, 1), mirrored=False)
+    return _tet_body(pts, tets, "kuhn")
 
 
 def delaunay_box(shape, lower=(0, 0, 0), upper=(1, 1, 1), *, jitter=0.3, seed=0) -> Body:

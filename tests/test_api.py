@@ -144,6 +144,34 @@ def test_python_api_misuse_gets_one_clear_error():
             sim.advance(bad)
     sim.advance(0)
     assert np.array_equal(sim.state.x, x0) and sim.state.step == 0
+    # session 8's new-user trial: each of these was a TypeError/AttributeError from inside or
+    # was accepted and failed thousands of substeps later
+    with pytest.raises(ValueError, match=r"material youngs_modulus must be a number, got '1e4'"):
+        jellysim.material("gelatin", youngs_modulus="1e4")
+    with pytest.raises(TypeError, match=r"ground must be a jellysim.GroundParams"):
+        jellysim.Simulator(model, dt=1 / 60, ground="contact")
+    with pytest.raises(ValueError, match=r"scale must be a finite number"):
+        sim.set_gravity_scale([0], float("nan"))
+    with pytest.raises(ValueError, match=r"every number of an obstacle must be finite"):
+        jellysim.Simulator(model, dt=1 / 60, obstacles=[jellysim.Sphere(
+            center=(float("nan"), 0.0, 0.0), radius=0.01)])
+    assert np.array_equal(sim.state.x, x0) and sim.state.step == 0
+
+
+def test_a_scene_dictionary_takes_tuples_and_numpy_values():
+    """Scene.from_dict reads what Python code naturally passes (a tuple, a numpy array, numpy
+    scalars) as the TOML reader's lists and numbers: the same scene, the same body."""
+    text = {"body": {"type": "box", "points": 50, "lower": [0.0, 0.0, 0.0],
+                     "upper": [0.1, 0.1, 0.1], "velocity": [0.0, -1.0, 0.0]},
+            "springs": {"radius": 0.04, "stiffness": 50.0},
+            "integrator": {"dt": 1e-3, "steps": 2}}
+    numpyish = {"body": {"type": "box", "points": np.int64(50), "lower": (0, 0, 0),
+                         "upper": np.full(3, 0.1), "velocity": (0.0, np.float32(-1.0), 0.0)},
+                "springs": {"radius": np.float64(0.04), "stiffness": 50.0},
+                "integrator": {"dt": 1e-3, "steps": 2}}
+    a, b = jellysim.Scene.from_dict(text), jellysim.Scene.from_dict(numpyish)
+    assert a.params == b.params
+    assert np.array_equal(a.build_body().points, b.build_body().points)
 
 
 def test_a_body_density_the_material_overrides_is_said():

@@ -319,7 +319,7 @@ def test_mpiexec_physical_path_is_bitwise_equal_to_serial(tmp_path, scene, ranks
         mean_x = x[:, :, 0].mean(axis=1)  # it back (-x) although it started moving +x
         assert mean_x[-1] < mean_x.max() - 0.01
         d = np.linalg.norm(x - np.array([0.09, -0.02, 0.03]), axis=2)
-        assert d.min() > 0.04 - 1e-9 and d.min(axis=1).max() > 0.045  # touched, never inside
+        assert d.min() > 0.04 - 1e-9 and d.min(axis=1)[0] > 0.041  # started apart, never inside
         assert np.any(d.min(axis=1) < 0.04 + 1e-6)  # touched (within a micron)
     else:  # the pinned top face followed its path: 2 cm right by t = 0.1 s
         top = x[0, :, 1] > 0.105

@@ -57,8 +57,12 @@ def test_calibrated_network_has_requested_youngs_modulus(name):
     # the mean over the three axes: a random sample of a few thousand points is anisotropic
     # by up to +-10 % per axis (a property of the sample, see docs/physics.md)
     assert np.mean(measured) == pytest.approx(E, rel=0.05)
-    if "marching" in name:  # a lattice: exact along every axis
+    if name.startswith("marching"):  # a Bravais lattice (plain Kuhn): exact along every axis
         assert np.allclose(measured, E, rtol=1e-3)
+    elif "marching" in name:
+        # the built (warped) grid mirrors its split cell by cell: a lattice with a 2x2x2
+        # basis, whose non-affine relaxation the per-spring calibration does not see (-0.2 %)
+        assert np.allclose(measured, E, rtol=5e-3)
 
 
 def test_calibration_is_independent_of_scale_and_linear_in_E():

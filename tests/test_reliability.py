@@ -127,6 +127,25 @@ def test_resume_command_repeats_the_set_overrides(tmp_path):
         Scene.load(path, overrides=("body.pionts=5",))
 
 
+def test_a_resume_finishes_the_steps_the_interrupted_run_asked(tmp_path):
+    """A run given its own step count (`jellysim run --steps N`) and cut short finishes those N
+    steps when resumed without repeating --steps (the checkpoint keeps them), bitwise as the
+    uninterrupted run; a step count below the checkpoint's is refused, not "completed"."""
+    scene = Scene.from_text(EXPLICIT, name="scene.toml")
+    every, asked = scene.frame_every, 3 * scene.steps
+    ref = load_trajectory(run_scene(scene, tmp_path / "full", progress=False,
+                                    steps=asked).trajectory)
+    with pytest.raises(RunInterrupted):
+        run_scene(scene, tmp_path / "cut", progress=False, steps=asked,
+                  stop_after=scene.steps + every)
+    with pytest.raises(CheckpointError, match=r"past the 4 steps asked; resume with --steps"):
+        run_scene(scene, tmp_path / "cut", progress=False, resume=True, steps=4)
+    res = run_scene(scene, tmp_path / "cut", progress=False, resume=True)
+    traj = load_trajectory(res.trajectory)
+    assert traj.steps[-1] == asked and traj.status == "complete"
+    _same(traj, ref)
+
+
 def test_internal_state_round_trip_continues_bitwise():
     """Two simulators: one runs 2n steps, the other takes over at n from the first one's
     state + internal_state and must end bitwise identical (implicit BDF2 with contact)."""

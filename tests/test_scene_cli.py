@@ -439,6 +439,33 @@ def test_a_built_body_file_carries_its_mesh_as_the_skin(tmp_path, suffix):
         < 1e-12
 
 
+def test_a_body_file_with_its_own_stiffness_runs_from_a_scene(tmp_path):
+    """A .jello body whose springs carry their own stiffness runs as it is (the model's springs
+    keep the file's k, spring by spring); a scene [springs] stiffness beside it, or no
+    stiffness anywhere, is one clear error naming the file."""
+    from jellysim.body import Body
+    from jellysim.geometry.jellyfile import write_body
+
+    pts = np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]])
+    pairs = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
+    k = np.array([500.0, 400.0, 300.0, 200.0, 100.0, 50.0])
+    write_body(tmp_path / "tet.jello", Body(points=pts, springs=pairs, stiffness=k, volume=1e-3 / 6))
+    text = MESH_SCENE.format(path="tet.jello", connect="radius").replace('"mesh"', '"file"')
+    text = text.replace("size = 0.1\n", "").replace("points = 300\n", "")
+    text = text.replace('connect = "radius"\n', "").replace("stiffness = 50.0\n", "")
+    p = tmp_path / "tet.toml"
+    p.write_text(text)
+    model = Scene.load(p).build_model()
+    assert np.array_equal(model.spring_stiffness, k)
+    p.write_text(text.replace("[springs]\n", "[springs]\nstiffness = 50.0\n"))
+    with pytest.raises(SceneError, match=r"tet.jello gives every spring its own stiffness"):
+        Scene.load(p).build_model()
+    write_body(tmp_path / "tet.jello", Body(points=pts, springs=pairs, volume=1e-3 / 6))
+    p.write_text(text)
+    with pytest.raises(SceneError, match=r"tet.jello has no spring stiffness; give \[springs\]"):
+        Scene.load(p).build_model()
+
+
 def read_body_points(path):
     from jellysim.geometry.jellyfile import read_body
 

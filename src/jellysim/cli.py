@@ -138,8 +138,13 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
                            steps=steps, resume=resume_dir is not None,
                            checkpoint_every=checkpoint_every)
     except RunInterrupted as exc:
-        # the printed resume command ends the message: it keeps this run's --no-vtu
-        click.secho(str(exc) + (" --no-vtu" if no_vtu else ""), fg="yellow", err=True)
+        # the printed resume command ends the message: it keeps this run's --no-vtu and
+        # outputs (the step count is in the checkpoint)
+        import shlex
+
+        extra = "".join(f" {flag} {shlex.quote(str(v))}" for flag, v in
+                        (("--video", video), ("--usd", usd), ("--glb", glb)) if v)
+        click.secho(str(exc) + (" --no-vtu" if no_vtu else "") + extra, fg="yellow", err=True)
         sys.exit(128 + exc.signal if exc.signal else 3)
     except JellysimError as exc:
         if fresh and out.is_dir() and not any(out.iterdir()):

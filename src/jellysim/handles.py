@@ -313,6 +313,10 @@ class HandleMethods:
     def set_gravity_scale(self, indices, scale: float) -> None:
         """Gravity on the points is multiplied by ``scale`` [-]."""
         self._require_physical("a gravity scale")
+        if isinstance(scale, bool) or not isinstance(scale, (int, float, np.number)) or not (
+                np.isfinite(scale)):
+            raise ValueError(f"set_gravity_scale: scale must be a finite number (1 = normal "
+                             f"gravity, 0 = none), got {scale!r}")
         self.handles.gravity_scale[self._point_indices(indices, "set_gravity_scale")] = float(
             scale)
 

@@ -78,6 +78,12 @@ def apply_preset(raw: dict, name: str) -> dict:
             out[section].update(keys)
         else:
             out[section] = keys
+    body, springs = out.get("body"), out.get("springs", {})
+    if (name == "gelatin" and isinstance(body, dict) and body.get("type") == "mesh"
+            and isinstance(springs, dict)
+            and not {"connect", "radius", "neighbours"} & set(springs)):
+        # a gelatin mesh body gets tets (the physical path), not the report's radius springs
+        out.setdefault("springs", {})["connect"] = "marching"
     return out
 
 

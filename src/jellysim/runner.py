@@ -198,6 +198,13 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             raise CheckpointError(f"{out_dir}: nothing to resume: the run has finished "
                                   f"({npz_path}); run without --resume to start afresh")
         ck = read_checkpoint(ckpt_path, scene=scene, model=model)
+        if steps is None and ck.total_steps is not None:
+            total = ck.total_steps  # finish the run that was asked (its --steps)
+        if total < ck.step:
+            raise CheckpointError(f"{out_dir}: the checkpoint is at step {ck.step}, past the "
+                                  f"{total} steps asked; resume with --steps {ck.step} or "
+                                  "more (the interrupted run asked "
+                                  f"{ck.total_steps if ck.total_steps is not None else '?'})")
         s = sim.state
         s.x[:], s.v[:], s.a[:] = ck.x, ck.v, ck.a
         s.t, s.step = ck.t, ck.step
@@ -229,7 +236,8 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             skin_series.add_surface(sim.state.t, skin.deform(sim.state.x), skin.faces)
 
     def checkpoint():
-        write_checkpoint(ckpt_path, sim, frames=stream.frames, scene=scene, model=model)
+        write_checkpoint(ckpt_path, sim, frames=stream.frames, scene=scene, model=model,
+                         total=total)
 
     done = sim.state.step
     if not resume:

@@ -21,7 +21,7 @@ from .params import (MAX_ALL_PAIRS_POINTS, GroundParams, ImplicitParams, ProvotO
 from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-exported)
                               make_obstacle, validate_obstacles)
 from .scene_schema import SCHEMA
-from .scene_spec import (Spec, as_toml, check_backend, check_value,
+from .scene_spec import (Spec, as_toml, check_backend, check_value, plain,
                          grid_radius, missing_path, refuse_unused_keys)
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
@@ -109,6 +109,7 @@ class Scene:
         ``jellysim scene-help``).  Relative paths are relative to the current directory;
         errors name ``name``.  The scene's text (recorded in a run's trajectory) is the
         dictionary written as TOML."""
+        raw = plain(raw)  # tuples, numpy arrays and numpy scalars as the TOML reader's values
         return cls(cls._validate(raw, name), text=as_toml(raw), name=name)
 
     @staticmethod
@@ -140,7 +141,8 @@ class Scene:
         for section, keys in SCHEMA.items():
             out[section] = _table(name, f"[{section}]", raw.get(section, {}), keys)
         mat, spr = out["material"], out["springs"]
-        if mat["youngs_modulus"] is None and spr["stiffness"] is None:
+        if (mat["youngs_modulus"] is None and spr["stiffness"] is None
+                and out["body"]["type"] != "file"):  # a body file may carry its own (build_model)
             raise SceneError(f"{name}: give [springs] stiffness (N/m) or [material] "
                              "youngs_modulus (Pa), or [material] preset = 'gelatin'")
         if mat["youngs_modulus"] is not None and spr["stiffness"] is not None:
@@ -319,6 +321,17 @@ class Scene:
         m, ph = self.params["mass"], self.params["physics"]
         mat = self.params["material"]
         density = mat["density"] if mat["density"] is not None else m["density"]
+        given = self.params["springs"]["stiffness"]
+        if self.params["body"]["type"] == "file" and mat["youngs_modulus"] is None:
+            path = self.params["body"]["path"]
+            if body.stiffness is not None and given is not None:
+                raise SceneError(f"{self.name}: [springs] stiffness = {given:g}, but the body "
+                                 f"file {path} gives every spring its own stiffness; remove "
+                                 "[springs] stiffness to use the file's")
+            if body.stiffness is None and given is None:
+                raise SceneError(f"{self.name}: the body file {path} has no spring stiffness; "
+                                 "give [springs] stiffness (N/m) or [material] youngs_modulus "
+                                 "(Pa), or [material] preset = 'gelatin'")
         try:
             model = self._material_model(body)
             if model is not None:

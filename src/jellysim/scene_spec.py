@@ -17,7 +17,7 @@ import numpy as np
 from .errors import SceneError
 from .kernels import WARP_INTEGRATORS
 
-__all__ = ["REQUIRED", "Spec", "as_toml", "missing_path", "check_table", "check_value",
+__all__ = ["REQUIRED", "Spec", "as_toml", "missing_path", "check_table", "check_value", "plain",
            "apply_override", "check_backend", "grid_radius"]
 
 REQUIRED = object()
@@ -41,6 +41,20 @@ def _pos(doc, default=REQUIRED, unit=""):
 
 def _nonneg(doc, default, unit=""):
     return Spec("float", default, doc, lambda v: v >= 0, f"a number >= 0{unit}")
+
+
+def plain(value: Any) -> Any:
+    """A Python dictionary of scene values with tuples and numpy arrays turned into lists and
+    numpy scalars into Python numbers (what the TOML reader would have given)."""
+    if isinstance(value, dict):
+        return {k: plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return plain(value.tolist())
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
 
 
 def check_value(name: str, section: str, key: str, spec: Spec, value: Any) -> Any:

@@ -189,6 +189,10 @@ class Simulator(HandleMethods, PhysicalStepping):
                              f"{integrator!r}") from None
         provot = ProvotParams(enabled=False) if provot is None else provot
         ground = GroundParams(enabled=False) if ground is None else ground
+        if not isinstance(ground, GroundParams):
+            raise TypeError(f"ground must be a jellysim.GroundParams (e.g. GroundParams(model="
+                            f"GroundModel.CONTACT), the physical contact ground) or None, got "
+                            f"{ground!r}")
         self.provot = provot
         self.ground = ground
         if ground.enabled and (state is None or getattr(state, "step", 0) == 0):

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["grid_points", "grid_point_volumes"]
+__all__ = ["grid_points", "grid_point_volumes", "grid_tets", "cell_tets", "kuhn_offsets"]
 
 
 def grid_points(count: int, lower, upper) -> np.ndarray:
@@ -44,28 +44,56 @@ def grid_point_volumes(points: np.ndarray) -> np.ndarray:
     return vol
 
 
-def grid_tets(points: np.ndarray) -> np.ndarray:
-    """Kuhn tetrahedra (6 per cell, around each cell's main diagonal; conforming) of a full box
-    grid in :func:`grid_points` order.  Returns indices, shape (6 cells, 4), int64, positively
-    oriented."""
+def kuhn_offsets() -> np.ndarray:
+    """The 6 Kuhn tets of the unit cube as corner bit-vectors, shape (6, 4, 3), int64: tet
+    ``p`` walks from corner 000 to 111 adding the unit vectors in the order of permutation
+    ``p`` (the report's marching-tetrahedra split, around the cube's main diagonal)."""
     import itertools
 
+    out = []
+    for perm in itertools.permutations(range(3)):
+        c = np.zeros(3, dtype=np.int64)
+        path = [c.copy()]
+        for axis in perm:
+            c[axis] = 1
+            path.append(c.copy())
+        out.append(path)
+    return np.array(out, dtype=np.int64)
+
+
+def cell_tets(cells: np.ndarray, strides, *, mirrored: bool = True) -> np.ndarray:
+    """The six Kuhn tets of each grid cell: node ids, shape (6 c, 4), int64, cell by cell
+    (orientation mixed: callers orient).
+
+    ``cells``: base node indices (i, j, k) of the cells, shape (c, 3); ``strides``: node id of
+    (i, j, k) = i s0 + j s1 + k s2.  With ``mirrored`` (the default) every cell's split is
+    reflected along each axis on which its index is odd: reflections keep a shared square
+    face's diagonal, so the triangulation stays conforming, and the mesh has no preferred
+    diagonal.  The plain split (every cell around the same diagonal, ``mirrored=False``, the
+    report's) is anisotropic: a 5 cm gelatin cube dropped flat 10 cm slid 34 mm along
+    (-1, 0, -1) and a 6 cm ball rolled 9 cm away after landing; mirrored, 0.0 mm and 1.3-16 mm
+    (docs/physics.md section 0, session 8).
+    """
+    cells = np.asarray(cells, dtype=np.int64).reshape(-1, 3)
+    loc = kuhn_offsets()[None]  # (1, 6, 4, 3)
+    if mirrored:
+        loc = np.where((cells % 2).astype(bool)[:, None, None, :], 1 - loc, loc)
+    pos = cells[:, None, None, :] + loc
+    return (pos @ np.asarray(strides, dtype=np.int64)).reshape(-1, 4)
+
+
+def grid_tets(points: np.ndarray, *, mirrored: bool = True) -> np.ndarray:
+    """Kuhn tetrahedra (6 per cell, :func:`cell_tets`, mirrored by default; conforming) of a
+    full box grid in :func:`grid_points` order.  Returns indices, shape (6 cells, 4), int64,
+    positively oriented."""
     points = np.asarray(points, dtype=np.float64)
     counts = [len(np.unique(points[:, c])) for c in range(3)]
     if int(np.prod(counts)) != points.shape[0]:
         raise ValueError("grid_tets needs a full box grid (grid_points)")
-    idx = np.arange(points.shape[0]).reshape(counts)
     nx, ny, nz = (c - 1 for c in counts)
-    tets = []
-    for perm in itertools.permutations(range(3)):
-        corner = [np.zeros(3, dtype=int)]
-        for a in perm:
-            c = corner[-1].copy()
-            c[a] = 1
-            corner.append(c)
-        cols = [idx[c[0]:c[0] + nx, c[1]:c[1] + ny, c[2]:c[2] + nz].ravel() for c in corner]
-        tets.append(np.stack(cols, axis=1))
-    tets = np.concatenate(tets).astype(np.int64)
+    cells = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"),
+                     axis=-1).reshape(-1, 3)
+    tets = cell_tets(cells, (counts[1] * counts[2], counts[2], 1), mirrored=mirrored)
     a = points[tets[:, 0]]
     vol = np.einsum("ij,ij->i", points[tets[:, 1]] - a,
                     np.cross(points[tets[:, 2]] - a, points[tets[:, 3]] - a))

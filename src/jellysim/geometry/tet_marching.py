@@ -9,6 +9,7 @@ import numpy as np
 
 from jellysim.body import Body
 from jellysim.errors import BuildError
+from jellysim.geometry.lattice import cell_tets
 from jellysim.geometry.tetra import (DEFAULT_DENSITY, InsideFn, _as_vertices, _check_inside,
                                      _finish)
 
@@ -16,25 +17,6 @@ from jellysim.geometry.tetra import (DEFAULT_DENSITY, InsideFn, _as_vertices, _c
 # ----------------------------------------------------------------------------------------------
 # Marching-tetrahedra grid
 # ----------------------------------------------------------------------------------------------
-def _kuhn_offsets() -> np.ndarray:
-    """The 6 Kuhn tets of the unit cube as corner bit-vectors, shape (6, 4, 3).
-
-    Tet ``p`` walks from corner 000 to 111 adding the unit vectors in the order of permutation
-    ``p``.  Every cube of the grid uses the same six, so the triangulation is conforming: each
-    square face is cut by the diagonal from its lowest to its highest corner in both cubes
-    sharing it.
-    """
-    out = []
-    for perm in itertools.permutations(range(3)):
-        c = np.zeros(3, dtype=np.int64)
-        path = [c.copy()]
-        for axis in perm:
-            c[axis] = 1
-            path.append(c.copy())
-        out.append(path)
-    return np.array(out, dtype=np.int64)
-
-
 def _grid_springs(tets: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray:
     """The grid's Kuhn edges (node ids, (k, 2)) whose two ends are corners of ``tets``."""
     nx, ny, nz = shape
@@ -61,8 +43,10 @@ def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
 
     The grid has ``n = ceil(extent / h)`` cubes of edge ``h`` along each axis, centred on the
     bounding box of ``vertices`` (so it covers the box, overhanging equally on both sides).
-    Every cube is cut into the six Kuhn tetrahedra of :func:`_kuhn_offsets`; this split is the
-    same in every cube and therefore conforming (no T-junctions).
+    Every cube is cut into the six Kuhn tetrahedra of :func:`~jellysim.geometry.lattice.
+    cell_tets`: the report's staircase uses the same split in every cube; ``warp`` mirrors it in
+    every other cube along each axis, so the mesh has no preferred diagonal (a body dropped
+    straight no longer slides or rolls off along it).  Both are conforming (no T-junctions).
 
     * A grid node is *inside* when ``inside_fn`` says so.
     * A tet is kept when its four corners are inside (for mass, volume and skin).  With
@@ -113,9 +97,8 @@ def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
     for dx, dy, dz in itertools.product((0, 1), repeat=3):
         count += ins3[dx:nx - 1 + dx, dy:ny - 1 + dy, dz:nz - 1 + dz]
     ci, cj, ck = np.nonzero(count >= (1 if warp else 4))
-    base = ci * strides[0] + cj * strides[1] + ck * strides[2]
-    corner = _kuhn_offsets() @ strides  # (6, 4) node-id offsets
-    tets = (base[:, None, None] + corner[None]).reshape(-1, 4)
+    # warped: the mirrored split (no preferred diagonal); the staircase keeps the report's
+    tets = cell_tets(np.stack([ci, cj, ck], axis=1), strides, mirrored=warp)
     if warp:
         from jellysim.geometry.snap import warp_to_surface
 
@@ -131,7 +114,7 @@ def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
         "h": h,
         "grid_origin": [float(x) for x in origin],
         "grid_cells": [int(c) for c in ncell],
-        "split": "kuhn6",
+        "split": "kuhn6-mirrored" if warp else "kuhn6",
         "warped": bool(warp),
         "surface_vertices": int(v.shape[0]),
         "surface_faces": nf,

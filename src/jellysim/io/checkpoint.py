@@ -71,9 +71,11 @@ class Checkpoint:
     scene_sha256: str
     model_sha256: str
     version: str
+    total_steps: int | None = None
+    """The run's step count (its scene's, or ``--steps``), so a resume finishes that run."""
 
 
-def write_checkpoint(path, sim, *, frames: int, scene, model) -> Path:
+def write_checkpoint(path, sim, *, frames: int, scene, model, total: int | None = None) -> Path:
     s = sim.state
     arrays = {"state.x": s.x, "state.v": s.v, "state.a": s.a,
               "state.t": np.array(float(s.t)), "state.step": np.array(int(s.step)),
@@ -81,6 +83,8 @@ def write_checkpoint(path, sim, *, frames: int, scene, model) -> Path:
               "scene_sha256": np.array(scene_hash(scene)),
               "model_sha256": np.array(model_hash(model)),
               "version": np.array(_version())}
+    if total is not None:
+        arrays["total_steps"] = np.array(int(total))
     for k, v in sim.internal_state().items():
         arrays[f"sim.{k}"] = v
     buf = io.BytesIO()
@@ -104,7 +108,8 @@ def read_checkpoint(path, *, scene=None, model=None) -> Checkpoint:
             step=int(d["state.step"]), frames=int(d["frames"]),
             internal={k[4:]: v for k, v in d.items() if k.startswith("sim.")},
             scene_sha256=str(d["scene_sha256"]), model_sha256=str(d["model_sha256"]),
-            version=str(d["version"]))
+            version=str(d["version"]),
+            total_steps=int(d["total_steps"]) if "total_steps" in d else None)
     except (OSError, ValueError, KeyError, EOFError) as exc:
         raise CheckpointError(f"{path}: damaged checkpoint ({exc}); start the run afresh "
                               "(without --resume)") from None

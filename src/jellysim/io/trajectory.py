@@ -144,6 +144,10 @@ class Trajectory:
         frames (``frame=None``); ``None`` when the trajectory has no skin."""
         if self.skin is None:
             return None
+        n = len(self.positions)
+        if isinstance(frame, (int, np.integer)) and not -n <= frame < n:
+            raise IndexError(f"frame {frame} out of range: the trajectory has {n} frames "
+                             f"(0 .. {n - 1}, or -1 for the last)")
         x = self.positions if frame is None else self.positions[frame]
         return self.skin.deform(x)
 

@@ -104,6 +104,10 @@ def pack_obstacles(obstacles) -> tuple[np.ndarray, np.ndarray]:
     data, shape (m, 9), float64: 6 geometry numbers [m] then restitution, mu_s, mu_k [-] (columns
     :data:`~jellysim.kernels.records.OBSTACLE_E`, ``OBSTACLE_MU_S``, ``OBSTACLE_MU_K``)."""
     rows = [o.row() for o in obstacles]
+    for o, (_, values) in zip(obstacles, rows):
+        if not np.all(np.isfinite(values)):
+            raise ValueError(f"{o!r}: every number of an obstacle must be finite (m, and its "
+                             "restitution and friction)")
     kind = np.array([r[0] for r in rows], dtype=np.int32)
     data = np.array([r[1] for r in rows], dtype=np.float64).reshape(len(rows), 9)
     return kind, np.ascontiguousarray(data)

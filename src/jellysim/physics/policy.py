@@ -20,7 +20,7 @@ import numpy as np
 
 from ..params import GRAVITY, Material, MaterialModel
 from ..model import finalize
-from .fem import fem_arrays
+from .fem import fem_arrays, scale_light_masses
 
 __all__ = ["physical_model", "scene_material", "scene_fem_model"]
 
@@ -72,6 +72,7 @@ def physical_model(body, material: Material = Material(), *, gravity=GRAVITY,
             warnings.warn(f"{int(lonely.sum())} of {len(mass)} points belong to no tet; they "
                           "get the mean point mass and no elastic force", stacklevel=2)
             mass[lonely] = mass[~lonely].mean()
+        mass = scale_light_masses(mass, fem, material.mass_scaling)
         body = dataclasses.replace(body, masses=mass,
                                    stiffness=np.zeros(len(body.springs)))
         model = finalize(body, gravity=gravity, damping=damping)
@@ -97,7 +98,8 @@ def scene_material(params: dict):
     return Material(density=density, youngs_modulus=mat["youngs_modulus"],
                     poisson_ratio=mat["poisson_ratio"], damping_ratio=mat["damping_ratio"],
                     damping_frequency=mat["damping_frequency"],
-                    model="springs" if mat["model"] == "springs" else "fem")
+                    model="springs" if mat["model"] == "springs" else "fem",
+                    mass_scaling=mat["mass_scaling"])
 
 
 def springs_reason(params: dict, body) -> str | None:
