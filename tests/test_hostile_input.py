@@ -525,15 +525,17 @@ box = [[-1.0, -1.0, -1.0], [1.0, 0.002, 1.0]]
 
 
 def test_handles_on_a_springs_body_say_why_it_is_not_on_the_physical_path(tmp_path):
-    """A gelatin mesh scene without [springs] connect gets the report's radius builder
-    (springs only): pinning then says that, and the fix, instead of asking for the gelatin
-    preset it already has; with connect = 'marching' the same pin works (FEM path)."""
-    scene = _mesh_handle_scene(tmp_path, "[integrator]\nsteps = 2")
+    """A gelatin mesh scene without [springs] connect gets a marching body (the physical path:
+    the pin works); with the report's radius builder asked for (connect = 'radius': springs
+    only) pinning says why and the fix, instead of asking for the gelatin preset it already
+    has."""
+    sim = _mesh_handle_scene(tmp_path, "[integrator]\nsteps = 2").simulator()
+    assert sim.physical and int(sim.handles.pinned.sum()) > 0
+    assert sim.model.body.meta["connect"] == "marching"
+    scene = _mesh_handle_scene(tmp_path, '[springs]\nconnect = "radius"\n[integrator]\n'
+                               'steps = 2')
     with pytest.raises(SceneError, match=r"runs on springs: it is a radius body.*connect = 'marching'"):
         scene.simulator()
-    sim = _mesh_handle_scene(tmp_path, '[springs]\nconnect = "marching"\n[integrator]\n'
-                             'steps = 2').simulator()
-    assert sim.physical and int(sim.handles.pinned.sum()) > 0
 
 
 def test_an_integrator_that_takes_a_tet_body_off_the_physical_path_is_said(tmp_path):

@@ -11,8 +11,8 @@ own values win).  :data:`PRESETS` maps the name to that partial scene.
   chosen there rather than at the soft end because a spring network softer than about 5 kPa
   at 10 cm scale does not survive a 5 mm drop without a permanent set (docs/physics.md,
   limits).  Poisson's ratio 0.48 (gelatin is nearly incompressible, ~0.5; 0.48 is the lowest value
-  at which a 5 kPa ball dropped 50 cm inverts no tet, and linear tets lock only ~5 % there,
-  docs/physics.md), material damping
+  at which a 5 kPa ball dropped 50 cm inverts no tet at a frame's end; the cube's sag locks
+  9 % below nu = 0.3's with the mirrored split, docs/physics.md), material damping
   ratio 0.02 at 5 Hz (loss factor tan d = 0.04: set gelatin gels are "true gels", storage
   modulus far above the loss modulus and both nearly independent of frequency; the figure is
   our estimate for a dessert gel, not a measurement of ours), physical ground (restitution

@@ -149,7 +149,7 @@ class Trajectory:
             raise IndexError(f"frame {frame} out of range: the trajectory has {n} frames "
                              f"(0 .. {n - 1}, or -1 for the last)")
         x = self.positions if frame is None else self.positions[frame]
-        return self.skin.deform(x)
+        return self.skin.deform(x, floor=skin_floor(self.params))
 
 
 def resolve_trajectory(path) -> Path:
@@ -212,3 +212,13 @@ def load_trajectory(path, *, mmap: bool = False) -> Trajectory:
 
 def _skin(d):
     return Skin.from_arrays(d)
+
+
+def skin_floor(params: dict) -> float | None:
+    """The height [m] of a run's ground (its scene ``params``), below which a skin vertex is
+    not drawn or exported (:meth:`jellysim.skin.Skin.deform`), or ``None`` without one."""
+    ground = (params or {}).get("ground") or {}
+    if not ground.get("enabled", False):
+        return None
+    return float(ground.get("height", 0.0))
+
