@@ -362,3 +362,53 @@ def test_doubled_substeps_relax_after_two_calm_seconds():
     sim.advance(Simulator.RELAX_AFTER_FRAMES + 10)
     assert sim.substeps == start  # never below the start
     assert sim.min_tet_volume_ratio > 0 and np.abs(sim.state.v).max() < 0.05
+
+
+def test_a_cube_dropped_flat_lands_where_it_fell():
+    """A 5 cm gelatin cube (Body.from_mesh, marching) dropped flat from 10 cm onto the
+    contact ground with friction: by symmetry nothing pushes it sideways.  With the report's
+    plain Kuhn split (every cell's diagonal one way) it slid 34.5 mm along (-1, 0, -1);
+    the mirrored split keeps it where it fell (session 8, docs/physics.md section 0)."""
+    import jellysim as js
+
+    body = js.Body.from_mesh(DATA / "cube.obj", size=0.05, points=800, connect="marching",
+                             base=(0.0, 0.10, 0.0))
+    model = js.physical_model(body, js.material("gelatin"))
+    sim = js.Simulator(model, dt=1 / 60, ground=_ground())
+    m = model.point_mass
+    c0 = m @ sim.state.x / m.sum()
+    sim.advance(90)
+    c = m @ sim.state.x / m.sum()
+    assert c[1] < c0[1] - 0.09  # it fell and landed
+    assert np.hypot(c[0] - c0[0], c[2] - c0[2]) < 1e-4  # and did not slide (0.1 mm)
+
+
+def test_mass_scaling_keeps_the_weight_and_the_wobble_and_shortens_the_substep():
+    """Selective mass scaling (Material.mass_scaling, 0.5 %): the total mass is kept, the
+    largest frequency (what sets the substep) drops, and the body's lowest wobble frequency
+    moves by less than 1 % (free wobble of a marching ball, gravity off, FFT of 2 s)."""
+    from jellysim.physics.stability_fem import fem_omega_max
+
+    body = _ball(points=600)
+    out = {}
+    for ms in (0.0, 0.005):
+        model = physical_model(body, gelatin(damping_ratio=0.0, mass_scaling=ms),
+                               gravity=(0.0, 0.0, 0.0))
+        sim = Simulator(model, dt=1 / 60)
+        x0, m = model.point_x0, model.point_mass
+        r = x0 - (m @ x0) / m.sum()
+        shape = np.zeros_like(x0)
+        shape[:, 0], shape[:, 1] = r[:, 0], -r[:, 1]
+        sim.state.v[:] = 0.5 * shape
+        u = []
+        for _ in range(120):
+            sim.advance(1)
+            u.append(float(np.sum(m[:, None] * (sim.state.x - x0) * shape)))
+        u = np.array(u) - np.mean(u)
+        spec = np.abs(np.fft.rfft(u * np.hanning(len(u)), 64 * len(u)))
+        freq = np.fft.rfftfreq(64 * len(u), 1 / 60)[np.argmax(spec)]
+        out[ms] = (m.sum(), fem_omega_max(model), freq)
+    assert out[0.005][0] == pytest.approx(out[0.0][0], rel=1e-12)
+    assert out[0.005][1] < 0.95 * out[0.0][1]
+    assert out[0.005][2] == pytest.approx(out[0.0][2], rel=0.01)
+
