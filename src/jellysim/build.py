@@ -305,7 +305,7 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
     lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)
     volume, exact = enclosed_volume(m, query, seed=seed)
     if not exact and not m.defects.watertight:  # (closed, overlapping shells: warned above)
-        warnings.warn(f"{name}: the surface is open, so its enclosed volume {volume:.6g} is a "
+        warnings.warn(f"{name}: the surface is open, so its enclosed volume {volume:.6g} m^3 is a "
                       f"Monte-Carlo estimate ({VOLUME_SAMPLES} samples) with the "
                       f"{query.rule} rule", UserWarning, stacklevel=3)
     if volume <= 0:

@@ -385,7 +385,9 @@ def plot(trajectory, output):
     """Plot energies, centre-of-mass height and largest spring strain of TRAJECTORY."""
 
     try:
-        path = plot_trajectory(_load(trajectory), output, title=Path(trajectory).parent.name)
+        where = Path(trajectory)  # a run folder, or its trajectory.npz / .stream
+        name = (where if where.is_dir() and where.suffix != ".stream" else where.parent).name
+        path = plot_trajectory(_load(trajectory), output, title=name)
     except JellysimError as exc:
         _fail(str(exc))
     click.echo(f"wrote {path}")
