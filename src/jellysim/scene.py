@@ -166,7 +166,8 @@ class Scene:
         if raw.get("body", {}).get("relax") and (kind != "mesh" or sp["connect"] != "delaunay"):
             raise SceneError(f"{name}: [body] relax is used only by type = 'mesh' with "
                              "[springs] connect = 'delaunay'; remove it")
-        if raw.get("springs", {}).get("snap") is not None and (kind != "mesh" or sp["connect"] != "marching"):
+        if raw.get("springs", {}).get("snap") is not None and (
+                kind != "mesh" or sp["connect"] != "marching"):
             raise SceneError(f"{name}: [springs] snap is used only by type = 'mesh' with "
                              "connect = 'marching'; remove it")
         if kind == "box" and sp["radius"] is None and b["distribution"] == "grid":

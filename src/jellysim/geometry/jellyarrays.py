@@ -46,7 +46,8 @@ def validate_arrays(src: str, points, springs, rest_length=None, stiffness=None,
         s = np.sort(a, axis=1)
         rep = np.flatnonzero((s[:, 1:] == s[:, :-1]).any(axis=1))
         if rep.size:
-            what = "self-spring" if name == "springs" else "repeated point index"
+            what = ("self-spring" if name == "springs" else "repeated vertex index"
+                    if name == "skin_faces" else "repeated point index")
             raise err(name, f"row {rep[0]} is a {what} ({a[rep[0]].tolist()})")
         return np.ascontiguousarray(a)
 

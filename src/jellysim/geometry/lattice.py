@@ -71,8 +71,8 @@ def cell_tets(cells: np.ndarray, strides, *, mirrored: bool = True) -> np.ndarra
     face's diagonal, so the triangulation stays conforming, and the mesh has no preferred
     diagonal.  The plain split (every cell around the same diagonal, ``mirrored=False``, the
     report's) is anisotropic: a 5 cm gelatin cube dropped flat 10 cm slid 34 mm along
-    (-1, 0, -1) and a 6 cm ball rolled 9 cm away after landing; mirrored, 0.0 mm and 1.3-16 mm
-    (docs/physics.md section 0, session 8).
+    (-1, 0, -1) and a 6 cm ball rolled 9 cm away after landing; mirrored, 0.0 mm and 6-8 mm
+    (a ball rolls on any asymmetry left; docs/physics.md section 0, session 8).
     """
     cells = np.asarray(cells, dtype=np.int64).reshape(-1, 3)
     loc = kuhn_offsets()[None]  # (1, 6, 4, 3)
