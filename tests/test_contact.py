@@ -249,3 +249,54 @@ def test_implicit_friction_spec_and_numba_agree():
     b = _sliding_gelatin_block("implicit", backend="numba", frames=6)
     assert np.allclose(a[3].state.x, b[3].state.x, rtol=0, atol=1e-12)
     assert np.allclose(a[3].state.v, b[3].state.v, rtol=0, atol=1e-12)
+
+
+def test_a_no_slip_plate_holds_what_coulomb_friction_lets_slide():
+    """A gelatin block (FEM tets) on a plate tilted 30 deg (gravity tilted: tan 30 = 0.58 >
+    mu = 0.3): with Coulomb friction it slides down at about g (sin - mu cos) (> 20 cm in
+    0.5 s); on a no-slip plate (a wet plate's adhesion) it stays, leaning over its base (centre
+    of mass < 2 mm, base points < 0.5 mm: a touching point never moves along the plate, the
+    upslope edge may lift and land again).  The numpy spec and the numba
+    kernel agree on the no-slip rule; the implicit integrator refuses it."""
+    from bodies import kuhn_box
+    from jellysim.errors import SceneError
+    from jellysim.params import GroundModel, GroundParams
+    from jellysim.physics.policy import physical_model
+    from jellysim.presets import gelatin
+
+    t = np.radians(30.0)
+    body = kuhn_box((3, 2, 3), upper=(0.03, 0.02, 0.03))
+    model = physical_model(body, gelatin(), gravity=(G * np.sin(t), -G * np.cos(t), 0.0))
+    m = model.point_mass / model.point_mass.sum()
+    moved = {}
+    for no_slip in (False, True):
+        ground = GroundParams(model=GroundModel.CONTACT, friction=0.3, no_slip=no_slip)
+        sim = Simulator(model, dt=1 / 60, ground=ground)
+        sim.advance(30)
+        moved[no_slip] = float(m @ sim.state.x[:, 0] - m @ model.point_x0[:, 0])
+        base = model.point_x0[:, 1] < 1e-9
+        if no_slip:  # the base stays put (the upslope edge may lift and land again nearby)
+            assert np.abs(sim.state.x[base][:, [0, 2]] - model.point_x0[base][:, [0, 2]]).max() \
+                < 5e-4
+    assert moved[False] > 0.2 and abs(moved[True]) < 2e-3
+    rng = np.random.default_rng(1)
+    x, v = rng.uniform(-1, 1, (400, 3)), rng.standard_normal((400, 3))
+    kind, data = pack_obstacles([Plane(point=(0, 0, 0), normal=(0.2, 1, 0), no_slip=True),
+                                 Sphere(center=(0.3, 0.2, 0.1), radius=0.4, friction=0.5)])
+    out = []
+    for k in (npk, nbk):
+        xx, vv = x.copy(), v.copy()
+        k.contact(xx, vv, kind, data, 0.05, 1e-3)
+        out.append((xx, vv))
+    assert np.allclose(out[0][0], out[1][0], rtol=0, atol=1e-13)
+    assert np.allclose(out[0][1], out[1][1], rtol=0, atol=1e-13)
+    with pytest.raises(SceneError, match="no_slip .* explicit integrators"):
+        Simulator(finalize_springs(), dt=1e-3, integrator="implicit",
+                  ground=GroundParams(model=GroundModel.CONTACT, no_slip=True))
+
+
+def finalize_springs():
+    from jellysim.model import finalize
+    from bodies import kuhn_box
+
+    return finalize(kuhn_box((2, 2, 2), upper=(0.02, 0.02, 0.02)), stiffness=50.0)

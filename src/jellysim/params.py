@@ -137,6 +137,10 @@ class GroundParams:
     """Contact model: kinetic Coulomb friction coefficient [-]."""
     static_friction: float | None = None
     """Contact model: static Coulomb friction coefficient [-] (default: ``friction``)."""
+    no_slip: bool = False
+    """Contact model: a point in contact never moves along the plane, whatever its normal
+    force (a wet plate holding a gel by adhesion: Coulomb's bound vanishes at the base's edge,
+    where the pressure does; the point can still lift off).  Explicit integrators only."""
 
 
 class ImplicitScheme(str, Enum):

@@ -379,7 +379,8 @@ class Scene:
         g = self.params["ground"]
         return GroundParams(enabled=g["enabled"], mu=g["mu"], nu=g["nu"], height=g["height"],
                             model=g["model"], restitution=g["restitution"],
-                            friction=g["friction"], static_friction=g["static_friction"])
+                            friction=g["friction"], static_friction=g["static_friction"],
+                            no_slip=g["no_slip"])
 
     def with_backend(self, backend: str | None = None, device: str | None = None,
                      precision: str | None = None) -> "Scene":

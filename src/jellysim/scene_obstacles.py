@@ -26,6 +26,8 @@ OBSTACLE_SCHEMA: dict[str, Spec] = {
                      "a number >= 0"),
     "static_friction": Spec("float", None, "Static Coulomb coefficient (default: friction).",
                             lambda v: v >= 0, "a number >= 0"),
+    "no_slip": Spec("bool", False, "A point touching it never moves along it (adhesion); "
+                    "explicit integrators only."),
 }
 """``[[obstacle]]`` tables: static obstacles with restitution and Coulomb friction (contact
 model; used with every integrator)."""
@@ -61,7 +63,7 @@ def validate_obstacles(entries, name: str) -> list[dict]:
     return out
 
 def make_obstacle(values: dict):
-    material = {k: values[k] for k in ("restitution", "friction", "static_friction")}
+    material = {k: values[k] for k in ("restitution", "friction", "static_friction", "no_slip")}
     kind = values["kind"]
     if kind == "plane":
         return Plane(point=tuple(values["point"]), normal=tuple(values["normal"]),

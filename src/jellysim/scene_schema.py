@@ -177,6 +177,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "friction": _nonneg("Contact: kinetic Coulomb friction coefficient.", _G.friction),
         "static_friction": Spec("float", None, "Contact: static Coulomb coefficient "
                                 "(default: friction).", lambda v: v >= 0, "a number >= 0"),
+        "no_slip": Spec("bool", False, "Contact: a point touching the ground never moves "
+                        "along it (a wet plate holding a gel by adhesion; it can still lift "
+                        "off); explicit integrators only."),
     },
     "output": {
         "every": Spec("int", None, "Steps between saved frames (default: about 100 frames).",

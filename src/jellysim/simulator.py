@@ -240,13 +240,17 @@ class Simulator(HandleMethods, PhysicalStepping):
 
             self.obstacles = (Plane(point=(0.0, ground.height, 0.0), normal=(0.0, 1.0, 0.0),
                                     restitution=ground.restitution, friction=ground.friction,
-                                    static_friction=ground.static_friction),) + self.obstacles
+                                    static_friction=ground.static_friction,
+                                    no_slip=ground.no_slip),) + self.obstacles
         from .physics.contact import pack_obstacles
 
         try:
             self._obstacle_kind, self._obstacle_data = pack_obstacles(self.obstacles)
         except ValueError as exc:
             raise SceneError(str(exc)) from None
+        if self.integrator is Integrator.IMPLICIT and np.isinf(self._obstacle_data[:, 7]).any():
+            raise SceneError("no_slip is for the explicit integrators (the implicit one's "
+                             "contact is Coulomb only): remove it or choose another integrator")
         self.dt_step = self.dt / self.substeps
         """The kernels' step [s]: ``dt / substeps``."""
         if rest_speed is None:

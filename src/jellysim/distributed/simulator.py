@@ -305,7 +305,8 @@ class DistributedSimulator(PhysicalMethods):
         if ground.enabled and GroundModel(ground.model) is GroundModel.CONTACT:
             obstacles = (Plane(point=(0.0, ground.height, 0.0), normal=(0.0, 1.0, 0.0),
                                restitution=ground.restitution, friction=ground.friction,
-                               static_friction=ground.static_friction),) + obstacles
+                               static_friction=ground.static_friction,
+                               no_slip=ground.no_slip),) + obstacles
         try:
             self._obstacle_kind, self._obstacle_data = pack_obstacles(obstacles)
         except ValueError as exc:

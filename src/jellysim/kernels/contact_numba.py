@@ -8,7 +8,7 @@ from numba import njit, prange
 from ._numba_opts import OPTS as _opts
 from .records import OBSTACLE_E, OBSTACLE_MU_K, OBSTACLE_MU_S
 from . import STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY
-from .contact_numpy import FRICTION_REL_TOL
+from .contact_numpy import FRICTION_REL_TOL, NO_SLIP
 
 
 @njit(cache=True, inline="always")
@@ -117,6 +117,8 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
                     scale = 0.0
                 elif speed > 0.0:
                     scale = max(1.0 - g[OBSTACLE_MU_K] * dvn / speed, 0.0)
+            if g[OBSTACLE_MU_S] > NO_SLIP:  # no slip: held along the surface while touching
+                scale = 0.0
             x[p, 0] += (scale - 1.0) * tx * dt
             x[p, 1] += (scale - 1.0) * ty * dt
             x[p, 2] += (scale - 1.0) * tz * dt

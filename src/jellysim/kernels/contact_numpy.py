@@ -66,7 +66,8 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
     per mass ``dv_n`` buys friction: the tangential velocity ``v_t`` is removed when
     ``|v_t| <= mu_s dv_n`` (sticking), else reduced by ``mu_k dv_n`` (sliding).  The position
     is moved tangentially by ``(v_t' - v_t) dt`` so that it follows the corrected velocity
-    (a sticking point does not creep).
+    (a sticking point does not creep).  An infinite mu_s (above :data:`NO_SLIP`: a no-slip
+    surface) holds every touching point, approaching or not.
     """
     for o in range(obstacle_kind.shape[0]):
         geom = obstacle_data[o]
@@ -84,7 +85,10 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
         vn_new = np.where(app, np.where(-vn > rest_speed, -e * vn, 0.0), vn)
         dvn = vn_new - vn
         speed = np.sqrt(np.einsum("ij,ij->i", vt, vt))
-        stick = app & (speed <= mu_s * dvn)
+        if mu_s > NO_SLIP:
+            stick = np.ones(len(vn), dtype=bool)
+        else:
+            stick = app & (speed <= mu_s * dvn)
         scale = np.where(stick, 0.0, np.where(
             app & (speed > 0.0), 1.0 - mu_k * dvn / np.where(speed > 0.0, speed, 1.0), 1.0))
         scale = np.maximum(scale, 0.0)
@@ -92,6 +96,9 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
         x[hit] = xh + (vt_new - vt) * dt
         v[hit] = vt_new + vn_new[:, None] * nh
 
+
+NO_SLIP = 1.0e30
+"""A static coefficient above this is a no-slip surface (stored as infinity)."""
 
 MAX_CONE_PASSES = 4
 """Solves per implicit step at most: the first, and again while the contact active set changes

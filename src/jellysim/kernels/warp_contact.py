@@ -133,6 +133,8 @@ def k_contact(x: _A2, v: _A2, kind: _I32, g: _A2, rest_speed: Any, dt: Any, ctl:
                 scale = zero
             elif speed > zero:
                 scale = wp.max(one - g[o, 8] * dvn / speed, zero)
+        if g[o, 7] > 1.0e30:  # no slip (contact_numpy.NO_SLIP): held along the surface
+            scale = zero
         x[p, 0] = x[p, 0] + (scale - one) * tx * dt
         x[p, 1] = x[p, 1] + (scale - one) * ty * dt
         x[p, 2] = x[p, 2] + (scale - one) * tz * dt

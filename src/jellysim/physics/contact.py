@@ -31,6 +31,8 @@ from ..params import CONTACT_FRICTION, CONTACT_RESTITUTION
 __all__ = ["Plane", "Sphere", "Box", "pack_obstacles", "OBSTACLE_KINDS"]
 
 OBSTACLE_KINDS = {"plane": 0, "sphere": 1, "box": 2}
+OBSTACLE_MU_S_COLUMN = 7
+"""The data column of the static coefficient (infinite: no slip)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -41,9 +43,14 @@ class _Surface:
     """Kinetic Coulomb coefficient mu_k >= 0."""
     static_friction: float | None = None
     """Static Coulomb coefficient mu_s >= mu_k (default: ``friction``)."""
+    no_slip: bool = False
+    """A point in contact never moves along the surface (adhesion: a wet plate); it can still
+    lift off.  Stored as an infinite static coefficient; explicit integrators only."""
 
     def _material(self):
         mu_s = self.friction if self.static_friction is None else self.static_friction
+        if self.no_slip:
+            mu_s = np.inf
         if not 0.0 <= self.restitution <= 1.0:
             raise ValueError(f"restitution must lie in [0, 1], got {self.restitution}")
         if not self.friction >= 0.0:
@@ -105,7 +112,7 @@ def pack_obstacles(obstacles) -> tuple[np.ndarray, np.ndarray]:
     :data:`~jellysim.kernels.records.OBSTACLE_E`, ``OBSTACLE_MU_S``, ``OBSTACLE_MU_K``)."""
     rows = [o.row() for o in obstacles]
     for o, (_, values) in zip(obstacles, rows):
-        if not np.all(np.isfinite(values)):
+        if not np.all(np.isfinite(np.delete(np.asarray(values, float), OBSTACLE_MU_S_COLUMN))):
             raise ValueError(f"{o!r}: every number of an obstacle must be finite (m, and its "
                              "restitution and friction)")
     kind = np.array([r[0] for r in rows], dtype=np.int32)
