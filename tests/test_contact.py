@@ -128,6 +128,12 @@ def test_contact_kernels_agree():
               static_friction=0.5),
         Sphere(center=(0.3, 0.2, 0.1), radius=0.4, restitution=0.1, friction=0.8),
         Box(lower=(-0.9, 0.0, -0.5), upper=(-0.2, 0.7, 0.5), restitution=0.0, friction=0.2)])
+    _kernels_agree(x, v, kind, data)
+
+
+def _kernels_agree(x, v, kind, data):
+    """The numpy spec's and the numba kernel's contact on the same points agree to 1e-13 and
+    change the velocities."""
     out = []
     for k in (npk, nbk):
         xx, vv = x.copy(), v.copy()
@@ -283,13 +289,7 @@ def test_a_no_slip_plate_holds_what_coulomb_friction_lets_slide():
     x, v = rng.uniform(-1, 1, (400, 3)), rng.standard_normal((400, 3))
     kind, data = pack_obstacles([Plane(point=(0, 0, 0), normal=(0.2, 1, 0), no_slip=True),
                                  Sphere(center=(0.3, 0.2, 0.1), radius=0.4, friction=0.5)])
-    out = []
-    for k in (npk, nbk):
-        xx, vv = x.copy(), v.copy()
-        k.contact(xx, vv, kind, data, 0.05, 1e-3)
-        out.append((xx, vv))
-    assert np.allclose(out[0][0], out[1][0], rtol=0, atol=1e-13)
-    assert np.allclose(out[0][1], out[1][1], rtol=0, atol=1e-13)
+    _kernels_agree(x, v, kind, data)
     with pytest.raises(SceneError, match="no_slip .* explicit integrators"):
         Simulator(finalize_springs(), dt=1e-3, integrator="implicit",
                   ground=GroundParams(model=GroundModel.CONTACT, no_slip=True))
