@@ -557,3 +557,44 @@ def test_a_box_body_refuses_base():
     with pytest.raises(SceneError, match=r"base is not used for \[body\] type = 'box'"):
         Scene.load(example, overrides=["body.base=[0, 0, 0]"])
     assert Scene.load(example).params["body"]["base"] is None
+
+
+def test_session_8_trial_mistakes_are_said(tmp_path):
+    """From session 8's new-user trial: a mesh in millimetres (read as metres: a 50 m body)
+    warns with the fix; `sampling` with the marching builder (which places its own grid) is
+    refused instead of ignored; an inside-out closed mesh's negative volume is explained by
+    inspect; a body file's own masses replaced by the gelatin material are said."""
+    import warnings
+
+    from click.testing import CliRunner
+    from conftest import mesh_path
+
+    from jellysim.build import build_body
+    from jellysim.cli import cli
+    from jellysim.errors import BuildError
+    from jellysim.geometry import load_mesh
+    from jellysim.geometry.jellyfile import write_body
+    from jellysim.geometry.mesh import Mesh
+
+    cube = load_mesh(mesh_path("cube.obj"))  # [-1, 1]^3: 2 units
+    in_mm = Mesh.from_arrays(cube.vertices * 25.0, cube.faces, name="cube_mm")
+    with pytest.warns(UserWarning, match=r"50 m across .* millimetres .*size"):
+        build_body(in_mm, points=50, connect="radius")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the same mesh scaled is quiet
+        build_body(in_mm, points=50, connect="radius", size=0.05)
+    with pytest.raises(BuildError, match=r"sampling='edge' applies to connect='radius' or "
+                                         r"'delaunay'"):
+        build_body(mesh_path("cube.obj"), points=100, connect="marching", sampling="edge")
+    flipped = tmp_path / "inside_out.obj"
+    flipped.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in cube.vertices)
+                       + "".join(f"f {a + 1} {c + 1} {b + 1}\n" for a, b, c in cube.faces))
+    res = CliRunner().invoke(cli, ["inspect", str(flipped)])
+    assert res.exit_code == 0 and "wound inward" in res.output
+    body = build_body(mesh_path("cube.obj"), points=100, connect="marching", size=0.05)
+    assert body.masses is not None
+    write_body(tmp_path / "cube.jello", body)
+    (tmp_path / "s.toml").write_text('[material]\npreset = "gelatin"\n[body]\ntype = "file"\n'
+                                     'path = "cube.jello"\n[integrator]\nsteps = 1\n')
+    with pytest.warns(UserWarning, match=r"body file's own masses .* replaced by the material"):
+        Scene.load(tmp_path / "s.toml").build_model()

@@ -156,8 +156,8 @@ def _warn_defects(m, name: str) -> None:
 MARCHING_FILL_WARNING = 0.8
 """A marching body whose tets hold less than this fraction of its mesh's volume warns (parts
 thinner than about a cell are lost).  Warped onto the surface (the default), a 10 cm sphere
-fills 88 % at 400 points, 90 % at 1,000, 95 % at 3,000; Spot 84 % at 800, 91 % at 3,000
-(the report's staircase, ``snap=False``: 63-81 % and 60-74 %; measured session 7)."""
+fills 86 % at 400 points, 93 % at 1,000, 97 % at 3,000; Spot 88 % at 800, 94 % at 3,000
+(session 8; the report's staircase, ``snap=False``: 63-81 % and 60-74 %, session 7)."""
 
 
 def _rescale_masses(body: Body, density: float, volume: float) -> Body:
@@ -274,6 +274,10 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
                              f"'{connect.value}'); remove it")
     if points < 4:
         raise BuildError(f"points must be >= 4, got {points}")
+    if sampling is not Sampling.UNIFORM and connect in (Connect.MARCHING, Connect.TETGEN):
+        raise BuildError(f"sampling={sampling.value!r} applies to connect='radius' or "
+                         f"'delaunay' (their sampled points); connect='{connect.value}' places "
+                         "its own (a grid / TetGen's): remove sampling")
 
     check_body_memory(points, neighbours=neighbours, tets=connect is not Connect.RADIUS,
                       what=f"build_body(points={points})")
@@ -284,6 +288,11 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
         keep["mesh"] = m
     name = str(m.path) if getattr(m, "path", None) else "mesh"
     _warn_defects(m, name)
+    extent = float(np.ptp(m.vertices, axis=0).max())
+    if size is None and not 1e-3 <= extent <= 10.0:
+        warnings.warn(f"{name}: the mesh is {extent:.4g} m across (its coordinates are read as "
+                      "metres): if it is in millimetres or another unit, scale it (size= in "
+                      "Python, --size, [body] size = 0.1 for 10 cm)", UserWarning, stacklevel=3)
     if connect is Connect.TETGEN:
         from .geometry.tetra import tetgen_body
 

@@ -336,6 +336,13 @@ class Scene:
         try:
             model = self._material_model(body)
             if model is not None:
+                if self.params["body"]["type"] == "file" and body.masses is not None:
+                    import warnings
+
+                    own, new = body.masses.sum(), model.point_mass.sum()
+                    warnings.warn(f"{self.name}: the body file's own masses ({own:.4g} kg) "
+                                  f"are replaced by the material's: density x the tets' "
+                                  f"volume ({new:.4g} kg)", UserWarning, stacklevel=2)
                 return model
             if mat["youngs_modulus"] is not None:
                 from dataclasses import replace

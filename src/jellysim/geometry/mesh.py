@@ -114,7 +114,10 @@ class MeshDefects:
             f"volume (signed) [m^3]:   {self.volume:.6g}" + (
                 "" if self.watertight else "  (an open surface encloses no volume: the "
                 "divergence-theorem figure depends on where it is open; jellysim build "
-                "estimates the inside by Monte Carlo)"),
+                "estimates the inside by Monte Carlo)") + (
+                "  (negative: the faces are wound inward, the mesh is inside out; the "
+                "inside test does not mind, TetGen does)"
+                if self.watertight and self.volume < 0 else ""),
             f"boundary edges:          {self.boundary_edges}",
             f"non-manifold edges:      {self.non_manifold_edges}",
             f"inconsistent edges:      {self.inconsistent_edges}",
