@@ -61,9 +61,9 @@ DEMO_SCENE = {
     # Coulomb friction 0.6), symplectic substeps chosen from the stability estimate
     "material": {"preset": "gelatin"},
     # a wet plate: set gelatin sticks to it (no slip: a touching point does not move along
-    # the plate; with Coulomb friction alone, 1.5, the base's edges slip and re-land each
-    # sway and the sway dies in ~0.5 s; held, it sways -5.0, 4.0, -2.0, -0.8 mm at frames
-    # 15-30, BENCHMARKS.md "Session 8")
+    # the plate; with Coulomb friction alone, 1.5, the tossed jelly's base slides and
+    # re-lands as it lands and the sway dies in ~0.5 s; held, it sways -5.0, 4.0, -2.0,
+    # -0.8 mm at frames 15-30, BENCHMARKS.md "Session 8")
     "ground": {"friction": 1.5, "no_slip": True},
     "integrator": {"dt": 1.0 / 60.0, "steps": 180},
     "output": {"every": 1, "vtu": False},
