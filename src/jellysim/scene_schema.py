@@ -5,12 +5,13 @@ a scene is :mod:`jellysim.scene`, ``docs/scene.md`` is generated from this table
 """
 from __future__ import annotations
 
-from .params import GRAVITY, REPORT_DENSITY, GroundParams, ImplicitParams, ProvotParams
+from .params import (GRAVITY, REPORT_DENSITY, GroundParams, ImplicitParams, Material,
+                     ProvotParams)
 from .scene_spec import REQUIRED, Spec, _nonneg, _pos
 
 __all__ = ["SCHEMA"]
 
-_P, _G, _I = ProvotParams(), GroundParams(), ImplicitParams()
+_P, _G, _I, _M = ProvotParams(), GroundParams(), ImplicitParams(), Material()
 """Defaults come from the option dataclasses (:mod:`jellysim.params`), the one source."""
 
 SCHEMA: dict[str, dict[str, Spec]] = {
@@ -86,16 +87,17 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                       "inversion and keep volume; needs a tet body), 'springs' (the report's "
                       "springs, each k derived from E) or 'auto' (fem when the body has tets).",
                       choices=("auto", "fem", "springs")),
-        "poisson_ratio": Spec("float", 0.48, "Poisson's ratio nu of the fem model (gelatin: "
-                              "nearly incompressible).", lambda v: -0.5 < v < 0.5,
+        "poisson_ratio": Spec("float", _M.poisson_ratio, "Poisson's ratio nu of the fem model "
+                              "(gelatin: nearly incompressible).", lambda v: -0.5 < v < 0.5,
                               "a number in (-0.5, 0.5)"),
-        "damping_ratio": Spec("float", 0.0, "Fem model: fraction of critical damping zeta of a "
-                              "vibration at damping_frequency (a standard linear solid).",
+        "damping_ratio": Spec("float", _M.damping_ratio, "Fem model: fraction of critical "
+                              "damping zeta of a vibration at damping_frequency (a standard "
+                              "linear solid; the default is jellysim.Material()'s, gelatin's).",
                               lambda v: 0 <= v < 1, "a number in [0, 1)"),
         "damping_frequency": _pos("Fem model: frequency [Hz] at which the damping ratio "
-                                  "holds (the loss peak).", 5.0, " (Hz)"),
-        "mass_scaling": Spec("float", 0.005, "Fem model: fraction of the body's mass moved "
-                             "onto the points lightest for their stiffness (selective mass "
+                                  "holds (the loss peak).", _M.damping_frequency, " (Hz)"),
+        "mass_scaling": Spec("float", _M.mass_scaling, "Fem model: fraction of the body's mass "
+                             "moved onto the points lightest for their stiffness (selective mass "
                              "scaling: fewer substeps; 0 keeps the tets' lumped masses).",
                              lambda v: 0 <= v <= 0.05, "a number in [0, 0.05]"),
     },
