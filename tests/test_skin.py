@@ -1,4 +1,6 @@
 """Skins: binding a surface to the body and deforming it with the points."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -138,3 +140,41 @@ def test_no_skin_vertex_is_drawn_below_the_ground(tmp_path):
     assert np.array_equal(drawn[above], raw[above])  # only the vertices below are moved
     last = sorted((tmp_path / "cube").glob("skin_*.vtu"))[-1]
     assert meshio.read(last).points[:, 1].min() >= 0.0
+
+
+def test_no_skin_vertex_is_drawn_inside_an_obstacle(tmp_path):
+    """A gelatin ball dropped onto a sphere obstacle: its points stay out of the sphere (the
+    contact), and so does every skin vertex a run, a render or an export reads (extrapolated
+    vertices are moved out along the sphere's normal)."""
+    from jellysim.runner import run_scene
+    from jellysim.scene import Scene
+
+    (tmp_path / "ball.obj").write_bytes(
+        (Path(__file__).parent / "data" / "sphere.obj").read_bytes())
+    (tmp_path / "s.toml").write_text("""
+[material]
+preset = "gelatin"
+[body]
+type = "mesh"
+path = "ball.obj"
+points = 300
+size = 0.05
+base = [0.01, 0.06, 0.0]
+[[obstacle]]
+kind = "sphere"
+center = [0.0, 0.0, 0.0]
+radius = 0.05
+[integrator]
+steps = 30
+[output]
+every = 3
+""")
+    traj = load_trajectory(run_scene(Scene.load(tmp_path / "s.toml"), tmp_path / "o",
+                                     progress=False).trajectory)
+    r = np.linalg.norm(traj.positions, axis=2)
+    assert r.min() >= 0.05 - 1e-12 and r[0].min() > 0.055  # fell onto it, never inside
+    raw = np.linalg.norm(traj.skin.deform(traj.positions), axis=2)
+    drawn = np.linalg.norm(traj.skin_positions(), axis=2)
+    print(f"skin: raw {raw.min():.5f} m, drawn {drawn.min():.5f} m from the sphere's centre")
+    assert drawn.min() >= 0.05 - 1e-12
+    assert np.isclose(drawn.min(), 0.05, atol=1e-3)  # it touched

@@ -63,7 +63,8 @@ def validate_obstacles(entries, name: str) -> list[dict]:
     return out
 
 def make_obstacle(values: dict):
-    material = {k: values[k] for k in ("restitution", "friction", "static_friction", "no_slip")}
+    material = {k: values[k] for k in ("restitution", "friction", "static_friction")}
+    material["no_slip"] = bool(values.get("no_slip", False))  # (not in older trajectories)
     kind = values["kind"]
     if kind == "plane":
         return Plane(point=tuple(values["point"]), normal=tuple(values["normal"]),

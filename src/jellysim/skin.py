@@ -71,21 +71,34 @@ class Skin:
     def vertex_count(self) -> int:
         return int(self.rest_vertices.shape[0])
 
-    def deform(self, positions: np.ndarray, *, floor: float | None = None) -> np.ndarray:
+    def deform(self, positions: np.ndarray, *, floor: float | None = None,
+               obstacles=None) -> np.ndarray:
         """Skin vertex positions [m] from point positions [m].
 
         ``positions`` of shape (n, 3) gives (m, 3); shape (F, n, 3) gives (F, m, 3).
-        ``floor``: the ground's height [m]: vertices below it are lifted onto it.  A vertex
-        bound by extrapolation (outside every tet) follows its tet's motion beyond the points,
-        so it can dip below a ground the points rest on (measured: 0.05-0.5 mm at rest, 1.5 mm
-        on a landing, a spring body's flattened box skin 30 cm); the points themselves never
-        do.  Runs, renders and exports pass their ground; obstacles are not handled.
+        ``floor``: the ground's height [m]: vertices below it are lifted onto it;
+        ``obstacles``: ``(kind, data)`` of :func:`jellysim.physics.contact.pack_obstacles`:
+        vertices inside one are moved out along its normal.  A vertex bound by extrapolation
+        (outside every tet) follows its tet's motion beyond the points, so it can dip below a
+        ground or into an obstacle the points touch (measured: 0.05-0.5 mm at rest, 1.5 mm on
+        a landing, a spring body's flattened box skin 30 cm; 7 % of a sphere's radius); the
+        points themselves never do.  Runs, renders and exports pass their ground and
+        obstacles.
         """
         positions = np.asarray(positions, dtype=np.float64)
         gathered = positions[..., self.point_index, :]          # (..., m, 4, 3)
         out = np.einsum("...mcd,mc->...md", gathered, self.weights)
         if floor is not None:
             out[..., 1] = np.maximum(out[..., 1], floor)
+        if obstacles is not None and len(obstacles[0]):
+            from .kernels.contact_numpy import _contact_geometry
+
+            flat = np.ascontiguousarray(out).reshape(-1, 3)
+            for kind, geom in zip(*obstacles):
+                phi, nrm = _contact_geometry(int(kind), geom, flat)
+                inside = phi < 0.0
+                flat[inside] -= phi[inside, None] * nrm[inside]
+            out = flat.reshape(out.shape)
         return out
 
     def arrays(self) -> dict[str, np.ndarray]:

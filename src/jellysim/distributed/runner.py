@@ -19,7 +19,7 @@ from pathlib import Path
 from ..errors import BuildError, JellysimError, SceneError, SimulationError
 from ..runner import RunResult
 from ..io.lock import claim
-from ..io.trajectory import Recorder, skin_floor
+from ..io.trajectory import Recorder, skin_floor, skin_obstacles
 from ..io.vtk import PVDSeries
 from .simulator import DistributedSimulator, on_root, world
 from ..handles import apply_handle_tables
@@ -101,8 +101,9 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
             series.add(state.t, state.x, model.spring_ij, velocities=state.v,
                        triangles=model.body.triangles)
         if skin_series is not None:
-            skin_series.add_surface(state.t, skin.deform(state.x, floor=skin_floor(scene.params)),
-                                    skin.faces)
+            skin_series.add_surface(state.t, skin.deform(
+                state.x, floor=skin_floor(scene.params), obstacles=skin_obstacles(scene.params)),
+                skin.faces)
 
     emit()
     bar = None

@@ -149,7 +149,8 @@ class Trajectory:
             raise IndexError(f"frame {frame} out of range: the trajectory has {n} frames "
                              f"(0 .. {n - 1}, or -1 for the last)")
         x = self.positions if frame is None else self.positions[frame]
-        return self.skin.deform(x, floor=skin_floor(self.params))
+        return self.skin.deform(x, floor=skin_floor(self.params),
+                                obstacles=skin_obstacles(self.params))
 
 
 def resolve_trajectory(path) -> Path:
@@ -221,4 +222,16 @@ def skin_floor(params: dict) -> float | None:
     if not ground.get("enabled", False):
         return None
     return float(ground.get("height", 0.0))
+
+
+def skin_obstacles(params: dict):
+    """The ``[[obstacle]]`` tables of a run's scene ``params`` packed for
+    :meth:`jellysim.skin.Skin.deform` (``(kind, data)``), or ``None`` without any."""
+    tables = (params or {}).get("obstacle") or []
+    if not tables:
+        return None
+    from ..physics.contact import pack_obstacles
+    from ..scene_obstacles import make_obstacle
+
+    return pack_obstacles([make_obstacle(t) for t in tables])
 
