@@ -257,7 +257,6 @@ class Material:
                   ("mass_scaling", 0 <= self.mass_scaling <= 0.05, "in [0, 0.05]"))
         for name, ok, allowed in checks:
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and not isinstance(value, bool)
-                    and math.isfinite(value) and ok):
+            if not (math.isfinite(value) and ok):  # (numbers: checked above)
                 raise ValueError(f"material {name} must be {allowed}, got {value!r}")
         object.__setattr__(self, "model", MaterialModel(self.model))

@@ -29,7 +29,7 @@ from .errors import (BuildError, CheckpointError, JellysimError, ResourceError, 
 from .io.checkpoint import CHECKPOINT, read_checkpoint, write_checkpoint
 from .io.lock import claim
 from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream
-from .io.trajectory import skin_floor, skin_obstacles, trajectory_meta
+from .io.trajectory import skin_bounds, trajectory_meta
 from .io.vtk import PVDSeries
 from .skin import default_skin
 
@@ -226,7 +226,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
     series = PVDSeries(out_dir, keep=keep) if write_vtu else None
     skin_series = (PVDSeries(out_dir, "skin", keep=keep)
                    if write_vtu and skin is not None else None)
-    floor, solids = skin_floor(scene.params), skin_obstacles(scene.params)
+    bounds = skin_bounds(scene.params)  # the ground and obstacles the skin is kept out of
 
     def emit():
         stream.record(sim.state)
@@ -234,8 +234,8 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             series.add(sim.state.t, sim.state.x, model.spring_ij, velocities=sim.state.v,
                        triangles=body.triangles)
         if skin_series is not None:
-            skin_series.add_surface(sim.state.t, skin.deform(sim.state.x, floor=floor,
-                                                             obstacles=solids), skin.faces)
+            skin_series.add_surface(sim.state.t, skin.deform(sim.state.x, **bounds),
+                                    skin.faces)
 
     def checkpoint():
         write_checkpoint(ckpt_path, sim, frames=stream.frames, scene=scene, model=model,

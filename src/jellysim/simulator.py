@@ -248,7 +248,7 @@ class Simulator(HandleMethods, PhysicalStepping):
             self._obstacle_kind, self._obstacle_data = pack_obstacles(self.obstacles)
         except ValueError as exc:
             raise SceneError(str(exc)) from None
-        if self.integrator is Integrator.IMPLICIT and np.isinf(self._obstacle_data[:, 7]).any():
+        if self.integrator is Integrator.IMPLICIT and np.isinf(self._obstacle_data).any():
             raise SceneError("no_slip is for the explicit integrators (the implicit one's "
                              "contact is Coulomb only): remove it or choose another integrator")
         self.dt_step = self.dt / self.substeps

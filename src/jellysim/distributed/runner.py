@@ -19,7 +19,7 @@ from pathlib import Path
 from ..errors import BuildError, JellysimError, SceneError, SimulationError
 from ..runner import RunResult
 from ..io.lock import claim
-from ..io.trajectory import Recorder, skin_floor, skin_obstacles
+from ..io.trajectory import Recorder, skin_bounds
 from ..io.vtk import PVDSeries
 from .simulator import DistributedSimulator, on_root, world
 from ..handles import apply_handle_tables
@@ -91,6 +91,7 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
         write_vtu = scene.params["output"]["vtu"] if vtu is None else vtu
         series = PVDSeries(out_dir) if write_vtu else None
         skin_series = PVDSeries(out_dir, "skin") if write_vtu and skin is not None else None
+        bounds = skin_bounds(scene.params)  # the ground and obstacles the skin is kept out of
 
     def emit():
         state = sim.gather(0)
@@ -101,9 +102,7 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
             series.add(state.t, state.x, model.spring_ij, velocities=state.v,
                        triangles=model.body.triangles)
         if skin_series is not None:
-            skin_series.add_surface(state.t, skin.deform(
-                state.x, floor=skin_floor(scene.params), obstacles=skin_obstacles(scene.params)),
-                skin.faces)
+            skin_series.add_surface(state.t, skin.deform(state.x, **bounds), skin.faces)
 
     emit()
     bar = None

@@ -149,8 +149,7 @@ class Trajectory:
             raise IndexError(f"frame {frame} out of range: the trajectory has {n} frames "
                              f"(0 .. {n - 1}, or -1 for the last)")
         x = self.positions if frame is None else self.positions[frame]
-        return self.skin.deform(x, floor=skin_floor(self.params),
-                                obstacles=skin_obstacles(self.params))
+        return self.skin.deform(x, **skin_bounds(self.params))
 
 
 def resolve_trajectory(path) -> Path:
@@ -215,23 +214,18 @@ def _skin(d):
     return Skin.from_arrays(d)
 
 
-def skin_floor(params: dict) -> float | None:
-    """The height [m] of a run's ground (its scene ``params``), below which a skin vertex is
-    not drawn or exported (:meth:`jellysim.skin.Skin.deform`), or ``None`` without one."""
-    ground = (params or {}).get("ground") or {}
-    if not ground.get("enabled", False):
-        return None
-    return float(ground.get("height", 0.0))
-
-
-def skin_obstacles(params: dict):
-    """The ``[[obstacle]]`` tables of a run's scene ``params`` packed for
-    :meth:`jellysim.skin.Skin.deform` (``(kind, data)``), or ``None`` without any."""
-    tables = (params or {}).get("obstacle") or []
+def skin_bounds(params: dict) -> dict:
+    """What a run's skin is kept out of, from its scene ``params``: the keywords ``floor``
+    (the ground's height [m], or ``None``) and ``obstacles`` (its ``[[obstacle]]`` tables
+    packed, ``(kind, data)``, or ``None``) of :meth:`jellysim.skin.Skin.deform`."""
+    params = params or {}
+    ground = params.get("ground") or {}
+    floor = float(ground.get("height", 0.0)) if ground.get("enabled", False) else None
+    tables = params.get("obstacle") or []
     if not tables:
-        return None
+        return {"floor": floor, "obstacles": None}
     from ..physics.contact import pack_obstacles
     from ..scene_obstacles import make_obstacle
 
-    return pack_obstacles([make_obstacle(t) for t in tables])
+    return {"floor": floor, "obstacles": pack_obstacles([make_obstacle(t) for t in tables])}
 

@@ -26,13 +26,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..kernels.records import OBSTACLE_MU_S  # the static coefficient's column (inf: no slip)
 from ..params import CONTACT_FRICTION, CONTACT_RESTITUTION
 
 __all__ = ["Plane", "Sphere", "Box", "pack_obstacles", "OBSTACLE_KINDS"]
 
 OBSTACLE_KINDS = {"plane": 0, "sphere": 1, "box": 2}
-OBSTACLE_MU_S_COLUMN = 7
-"""The data column of the static coefficient (infinite: no slip)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -112,7 +111,7 @@ def pack_obstacles(obstacles) -> tuple[np.ndarray, np.ndarray]:
     :data:`~jellysim.kernels.records.OBSTACLE_E`, ``OBSTACLE_MU_S``, ``OBSTACLE_MU_K``)."""
     rows = [o.row() for o in obstacles]
     for o, (_, values) in zip(obstacles, rows):
-        if not np.all(np.isfinite(np.delete(np.asarray(values, float), OBSTACLE_MU_S_COLUMN))):
+        if not np.all(np.isfinite(np.delete(np.asarray(values, float), OBSTACLE_MU_S))):
             raise ValueError(f"{o!r}: every number of an obstacle must be finite (m, and its "
                              "restitution and friction)")
     kind = np.array([r[0] for r in rows], dtype=np.int32)
