@@ -48,11 +48,11 @@ SURFACE_GAP = 0.5
 """Delaunay with surface samples: sampled points closer to the surface than this many spacings
 are dropped (they would make flat tets with the surface points)."""
 
-FITTED_GRID_GAIN = 1.25
+FITTED_GRID_GAIN = (1.25, 1.05, 1.25)
 """``marching`` (``h`` not given): the grid fitted to the mesh's height replaces the centred
-one when it is no shorter and its tets hold this many times the volume (a box: 1.95x), or
-1.05x with at most 1.25x the points (a 5 cm cube at 200 points: 1.11x, same points; the
-torus's fitted grid: 1.08x with 1.7x the points, not taken)."""
+one when it is no shorter and its tets hold ``[0]`` times the volume (a box: 1.95x), or
+``[1]`` times with at most ``[2]`` times the points (a 5 cm cube at 200 points: 1.11x, same
+points; the torus's fitted grid: 1.08x with 1.7x the points, not taken)."""
 
 RELAX_PASSES = 10
 """Default Lloyd passes of a ``delaunay`` body's interior points (with surface samples)."""
@@ -338,8 +338,9 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
             fitted = _marching(m, query, _fit_height(h, float(hi[1] - lo[1])), density, snap,
                                name)
             gain = fitted.volume / body.volume
-            if ((gain > FITTED_GRID_GAIN or (gain > 1.05 and fitted.point_count
-                                             <= 1.25 * body.point_count))
+            big, small, more_points = FITTED_GRID_GAIN
+            if ((gain > big or (gain > small and fitted.point_count
+                                <= more_points * body.point_count))
                     and np.ptp(fitted.points[:, 1]) >= (1 - 1e-4) * np.ptp(body.points[:, 1])):
                 body = fitted
         if body.volume < MARCHING_FILL_WARNING * volume:
