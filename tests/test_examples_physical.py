@@ -80,6 +80,32 @@ def test_gelatin_scene_settles_at_the_continuum_height():
     assert np.abs(sim.state.v).max() < 0.05  # at rest
 
 
+def test_a_bare_gelatin_box_is_a_dessert_cube_on_the_physical_path():
+    """``preset = "gelatin"`` with ``type = "box"`` and nothing else about the body: a 10 cm
+    grid cube carrying its tets (not the report's 1 m random field, which needs a radius),
+    so it rests like the example above: between half the slender-column sag and that sag.
+    A radius named in the scene keeps the report's random field."""
+    scene = Scene.from_text("[material]\npreset = 'gelatin'\n[body]\ntype = 'box'\n"
+                            "points = 500\n[integrator]\nsteps = 90\n")
+    b = scene.params["body"]
+    assert b["distribution"] == "grid"
+    assert (b["lower"], b["upper"]) == ([0.0, 0.0, 0.0], [0.1, 0.1, 0.1])
+    scene.params["material"]["damping_ratio"] = 0.3
+    model = scene.build_model()
+    assert model.fem is not None
+    assert np.ptp(model.point_x0, axis=0) == pytest.approx([0.1, 0.1, 0.1], rel=1e-12)
+    assert model.total_mass == pytest.approx(RHO * 0.1**3, rel=1e-9)
+    sim = scene.simulator(model)
+    sim.advance(90)
+    s = RHO * G * 0.1**2 / (2 * scene.params["material"]["youngs_modulus"])
+    sag = 0.1 - sim.state.x[:, 1].max()
+    assert 0.5 * s <= sag <= 1.05 * s
+    named = Scene.from_text("[material]\npreset = 'gelatin'\n[body]\ntype = 'box'\n"
+                            "points = 500\n[springs]\nradius = 0.3\n[integrator]\nsteps = 9\n")
+    assert named.params["body"]["distribution"] == "edge"
+    assert named.params["body"]["upper"] == [1.0, 1.0, 1.0]
+
+
 BASE = """
 [body]
 points = 30
