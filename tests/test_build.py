@@ -190,6 +190,32 @@ def test_cli_build_and_inspect(tmp_path):
     assert read_body(out).point_count == body.point_count  # the old file is intact
 
 
+def test_cli_inspect_a_scene_says_what_it_will_run(tmp_path):
+    """``jellysim inspect scene.toml``: the body the scene builds (a 10 cm gelatin grid cube
+    of 11^3 points: 1.141 kg), its path and its substeps, which are the simulator's own
+    (the stability estimate), and nothing is written."""
+    from jellysim.scene import Scene
+
+    text = ("[material]\npreset = 'gelatin'\n[body]\ntype = 'box'\npoints = 1000\n"
+            "[integrator]\nsteps = 120\n")
+    path = tmp_path / "cube.toml"
+    path.write_text(text)
+    res = CliRunner().invoke(cli, ["inspect", str(path)])
+    assert res.exit_code == 0, res.output
+    rows = dict(line.split(None, 1) if " " in line.strip() else (line.strip(), "")
+                for line in res.output.splitlines()[1:])
+    assert rows["points"].strip() == "1331"
+    assert float(rows["mass"].split()[-1]) == pytest.approx(1141.0 * 0.1**3, rel=1e-5)
+    assert rows["path"].startswith("physical")
+    scene = Scene.from_text(text)
+    substeps = scene.simulator().substeps
+    assert f"; {substeps} substeps per step" in rows["step"]
+    assert "120 steps = 2 s simulated" in rows["step"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cube.toml"]
+    res = CliRunner().invoke(cli, ["inspect", str(tmp_path / "missing.toml")])
+    assert res.exit_code != 0 and "missing.toml" in res.output and "Traceback" not in res.output
+
+
 def test_marching_box_fills_its_mesh_and_sits_on_its_base():
     """A 5 cm cube built by the marching grid is the whole cube (a grid centred on the box has
     its outer nodes on the faces, where they count as outside: the body came out a cell

@@ -263,12 +263,21 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
 @cli.command()
 @click.argument("path", type=click.Path(dir_okay=False))
 def inspect(path) -> None:
-    """Describe a surface mesh (defects) or a body file (.jello/.npz: counts and stats)."""
+    """Describe a surface mesh (defects), a body file (.jello/.npz: counts and stats) or a
+    scene (.toml: the body it builds, its path, substeps, ground; nothing is run)."""
     from pathlib import Path
 
     suffix = Path(path).suffix.lower()
     try:
-        if suffix in (".jello", ".npz"):
+        if suffix == ".toml":
+            from .scene import Scene
+            from .scene_summary import scene_summary
+
+            rows = scene_summary(Scene.load(path))
+            click.echo(f"{path}: scene")
+            for k, v in rows:
+                click.echo(f"  {k:<12} {v}")
+        elif suffix in (".jello", ".npz"):
             from .build import body_stats
             from .geometry.jellyfile import read_body
 

@@ -1,0 +1,63 @@
+"""What a scene will run, before running it (``jellysim inspect scene.toml``).
+
+The body it builds (counts, mass, bounds), the path it takes (the physical path's tets or the
+springs, and why), the step (integrator, dt, substeps per step where they are automatic, the
+simulated time) and what touches the body (ground, obstacles, handles).  Building the model
+and the simulator is all it does: nothing is stepped or written.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["scene_summary"]
+
+
+def _corners(x) -> str:
+    return " .. ".join("[" + ", ".join(f"{c:.4g}" for c in corner) + "]"
+                       for corner in (x.min(axis=0), x.max(axis=0)))
+
+
+def _name(option) -> str:
+    return str(getattr(option, "value", option))
+
+
+def scene_summary(scene) -> list[tuple[str, str]]:
+    """Rows ``(label, text)`` describing :class:`~jellysim.scene.Scene` ``scene``."""
+    p = scene.params
+    model = scene.build_model()
+    sim = scene.simulator(model)
+    x = np.asarray(model.point_x0)
+    b, it, g = p["body"], p["integrator"], p["ground"]
+    tets = model.fem.tets if model.fem is not None else model.body.tets
+    rows = [
+        ("body", f"type {b['type']!r}" + (f", {b['path']}" if b["path"] else "")
+         + (f", distribution {b['distribution']!r}" if b["type"] == "box" else "")),
+        ("points", f"{model.point_count}"), ("springs", f"{model.spring_count}"),
+        ("tets", "none" if tets is None else f"{len(tets)}"),
+        ("mass [kg]", f"{model.total_mass:.6g}"),
+        ("bounds [m]", _corners(x)),
+        ("size [m]", " x ".join(f"{e:.4g}" for e in np.ptp(x, axis=0))),
+    ]
+    if model.fem is not None:
+        mat = scene.material()
+        rows.append(("path", f"physical: Stable Neo-Hookean tets, E = {mat.youngs_modulus:g} "
+                             f"Pa, nu = {mat.poisson_ratio:g}, damping ratio "
+                             f"{mat.damping_ratio:g} at {mat.damping_frequency:g} Hz"))
+    else:
+        why = getattr(scene, "_springs_reason", None)
+        rows.append(("path", "springs" + (f" ({why})" if why else "")))
+    steps, dt = scene.steps, float(it["dt"])
+    step = f"{_name(sim.integrator)}, dt = {dt:g} s, {steps} steps = {steps * dt:g} s simulated"
+    if sim.physical:
+        step += (f"; {sim.substeps} substeps per step from the stability estimate "
+                 f"({dt / sim.substeps * 1e6:.3g} us each)")
+    rows.append(("step", step))
+    rows.append(("backend", f"{_name(sim.backend)}, {sim.threads} thread(s)"))
+    ground = "off" if not g["enabled"] else (
+        f"{g['model']}" + (f", restitution {g['restitution']:g}, friction {g['friction']:g}"
+                           + (", no slip" if g["no_slip"] else "")
+                           if g["model"] == "contact" else f", mu {g['mu']:g}, nu {g['nu']:g}"))
+    rows.append(("ground", ground))
+    rows.append(("obstacles", f"{len(scene.obstacles())}"))
+    rows.append(("handles", f"{len(p.get('handle') or [])}"))
+    return rows
