@@ -193,3 +193,32 @@ def test_a_body_density_the_material_overrides_is_said():
         warnings.simplefilter("error")
         same = jellysim.physical_model(body, jellysim.material("gelatin", density=500.0))
     assert same.point_mass.sum() == pytest.approx(500.0 * tet_volume, rel=1e-9)
+
+
+def test_body_box_is_the_scene_box_and_a_ten_centimetre_grid_by_default():
+    """``Body.box()``: a 10 cm cube on the ground as an 11^3 lattice whose mirrored Kuhn tets
+    fill it exactly and whose springs reach the 26 nearest points (an interior point has
+    26); the same body a scene's ``[body] type = "box"`` builds; bad corners are refused."""
+    from jellysim.geometry.tetra import tet_signed_volumes
+    from jellysim.scene import Scene
+
+    js = jellysim
+    body = js.Body.box()
+    assert body.point_count == 11**3
+    assert np.allclose(body.points.min(axis=0), 0.0) and np.allclose(body.points.max(axis=0), 0.1)
+    vol = tet_signed_volumes(body.points, body.tets)
+    assert np.all(vol > 0) and np.sum(vol) == pytest.approx(1e-3, rel=1e-12)
+    degree = np.bincount(body.springs.ravel(), minlength=body.point_count)
+    inner = np.all((body.points > 1e-9) & (body.points < 0.1 - 1e-9), axis=1)
+    assert np.all(degree[inner] == 26)
+    scene = Scene.from_text("[body]\ntype = 'box'\npoints = 1000\ndistribution = 'grid'\n"
+                            "upper = [0.1, 0.1, 0.1]\n[springs]\nstiffness = 1.0\n"
+                            "[integrator]\ndt = 0.01\nsteps = 1\n")
+    other = scene.build_body()
+    assert np.array_equal(other.points, body.points)
+    assert np.array_equal(other.springs, body.springs)
+    assert np.array_equal(other.tets, body.tets)
+    with pytest.raises(ValueError, match="upper > lower"):
+        js.Body.box((0, 0, 0), (0.1, 0.0, 0.1))
+    with pytest.raises(ValueError, match="radius"):
+        js.Body.box(distribution="uniform")

@@ -103,6 +103,54 @@ class Body:
             body.meta["density_given"] = float(density)
         return body
 
+    @classmethod
+    def box(cls, lower=(0.0, 0.0, 0.0), upper=(0.1, 0.1, 0.1), *, points: int = 1000,
+            distribution: str = "grid", radius: float | None = None, seed: int = 0,
+            name: str = "box") -> "Body":
+        """A box of jello between corners ``lower`` and ``upper`` [m] (default: a 10 cm cube
+        on the ground), as a scene's ``[body] type = "box"`` builds it.
+
+        ``distribution = "grid"`` (default): a cubic lattice of about ``points`` cells,
+        corners included (1000: 11^3 points), with its mirrored Kuhn tets (6 per cell: the
+        physical path's best-shaped tets) and springs to every point within ``radius``
+        (default 1.8 spacings: the 26 nearest).  ``"uniform"`` or ``"edge"`` (the report's
+        random fields, ``seed``): ``points`` random points joined within ``radius``
+        (required), with the Delaunay tets of the points for ``Material(model="fem")``.
+        Masses come from the material (``physical_model``) or ``finalize``'s density.
+        """
+        from .build import _radius_tets
+        from .geometry.connect import radius_springs
+        from .geometry.sampling import box_field
+
+        lo = np.asarray(lower, dtype=np.float64).reshape(3)
+        hi = np.asarray(upper, dtype=np.float64).reshape(3)
+        if not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)) or not np.all(hi > lo):
+            raise ValueError(f"{name}: the box needs upper > lower in x, y and z [m], got "
+                             f"lower = {lo.tolist()}, upper = {hi.tolist()}")
+        if distribution not in ("grid", "uniform", "edge"):
+            raise ValueError(f"{name}: distribution must be 'grid', 'uniform' or 'edge', got "
+                             f"{distribution!r}")
+        if distribution == "grid":
+            from .geometry.lattice import grid_points, grid_radius, grid_tets
+
+            pts = grid_points(points, lo, hi)
+            radius = grid_radius(points, lo, hi) if radius is None else radius
+            tets, info = grid_tets(pts), None
+        else:
+            if radius is None:
+                raise ValueError(f"{name}: a random box ({distribution!r}) needs a spring "
+                                 "radius [m] (radius=...), or distribution='grid'")
+            pts = box_field(points, lo, hi, distribution=distribution, seed=seed)
+            # Delaunay tets of the points (a box is convex: nothing to carve), for
+            # Material(model='fem'); the springs stay the radius springs
+            pts, tets, info = _radius_tets(pts, None, seed=seed, name=name)
+        meta = {"builder": "box", "distribution": distribution, "seed": seed,
+                "connect": "radius", "radius": radius}
+        if info is not None:
+            meta.update(tet_volume=info["tet_volume"], cloud_tets=info)
+        return cls(points=pts, springs=radius_springs(pts, radius), tets=tets,
+                   volume=float(np.prod(hi - lo)), meta=meta)
+
     def __repr__(self) -> str:
         """One line: counts and size, not the arrays (``body.points`` etc. hold them)."""
         tets = 0 if self.tets is None else len(self.tets)

@@ -247,9 +247,6 @@ class Scene:
                               tets=s["connect"] != "radius", what=f"{self.name}: [body] points")
 
     def build_body(self):
-        from .geometry.connect import radius_springs
-        from .geometry.sampling import box_field
-
         b, s = self.params["body"], self.params["springs"]
         self._guard()
         if b["type"] == "file":
@@ -293,29 +290,12 @@ class Scene:
                               seed=b["seed"],
                               surface_samples=b["surface_samples"], relax=b["relax"],
                               snap=s["snap"] is not False)
-        if b["distribution"] == "grid":
-            from .geometry.lattice import grid_points
-
-            points = grid_points(b["points"], b["lower"], b["upper"])
-        else:
-            points = box_field(b["points"], b["lower"], b["upper"],
-                               distribution=b["distribution"], seed=b["seed"])
-        meta = {"builder": "box", "distribution": b["distribution"], "seed": b["seed"],
-                "connect": "radius", "radius": s["radius"]}
-        if b["distribution"] == "grid":  # the lattice's own Kuhn tets (well shaped)
-            from .geometry.lattice import grid_tets
-
-            tets = grid_tets(points)
-        else:
-            from .build import _radius_tets
-
-            # Delaunay tets of the points (a box is convex: nothing to carve), for
-            # [material] model = 'fem'; the springs stay the radius springs
-            points, tets, tet_info = _radius_tets(points, None, seed=b["seed"], name=self.name)
-            meta.update(tet_volume=tet_info["tet_volume"], cloud_tets=tet_info)
-        springs = radius_springs(points, s["radius"])
-        volume = float(np.prod(np.subtract(b["upper"], b["lower"])))
-        return Body(points=points, springs=springs, tets=tets, volume=volume, meta=meta)
+        try:
+            return Body.box(b["lower"], b["upper"], points=b["points"],
+                            distribution=b["distribution"], radius=s["radius"], seed=b["seed"],
+                            name=self.name)
+        except ValueError as exc:
+            raise SceneError(str(exc)) from None
 
     def build_model(self, body=None):
         body = self.build_body() if body is None else body

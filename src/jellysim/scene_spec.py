@@ -195,12 +195,12 @@ def grid_radius(points, lower, upper) -> float | None:
     """1.8 spacings [m] of the grid :func:`jellysim.geometry.lattice.grid_points` lays in the
     box (its nearest, face-diagonal and body-diagonal neighbours), or ``None`` when the box or
     the count is not valid (its own checks say why)."""
+    from .geometry.lattice import grid_radius as radius
+
     lo, hi = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
     if points is None or points < 8 or lo.shape != (3,) or not np.all(hi > lo):
         return None
-    size = hi - lo
-    h = (np.prod(size) / points) ** (1.0 / 3.0)
-    return float(1.8 * np.max(size / np.maximum(1, np.round(size / h))))
+    return radius(points, lo, hi)
 
 
 UNUSED_BY_TYPE = {

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["grid_points", "grid_point_volumes", "grid_tets", "cell_tets", "kuhn_offsets"]
+__all__ = ["grid_points", "grid_point_volumes", "grid_radius", "grid_tets", "cell_tets",
+           "kuhn_offsets"]
 
 
 def grid_points(count: int, lower, upper) -> np.ndarray:
@@ -29,6 +30,15 @@ def grid_points(count: int, lower, upper) -> np.ndarray:
     cells = np.maximum(1, np.round(size / h).astype(int))
     axes = [np.linspace(lo, hi, c + 1) for lo, hi, c in zip(lower, upper, cells)]
     return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+
+
+def grid_radius(count: int, lower, upper) -> float:
+    """1.8 spacings [m] of the grid :func:`grid_points` lays in the box: a spring radius
+    reaching each point's nearest, face-diagonal and body-diagonal neighbours (26)."""
+    size = np.asarray(upper, dtype=np.float64).reshape(3) - np.asarray(
+        lower, dtype=np.float64).reshape(3)
+    h = (np.prod(size) / count) ** (1.0 / 3.0)
+    return float(1.8 * np.max(size / np.maximum(1, np.round(size / h))))
 
 
 def grid_point_volumes(points: np.ndarray) -> np.ndarray:
