@@ -405,3 +405,27 @@ def test_one_run_per_output_folder(tmp_path):
     lock.write_text(f"{gone.pid} {__import__('socket').gethostname()}\n")  # a killed run's
     res = run_scene(scene, out, progress=False)
     assert res.steps == scene.steps and not lock.exists() and not partial.exists()
+
+
+def test_python_run_into_an_earlier_run_is_refused_unless_overwrite(tmp_path):
+    """``run_scene`` into a folder holding an earlier run: refused, nothing touched; with
+    ``overwrite=True`` the earlier run's files go first (no stale frame survives, the
+    ParaView series lists exactly the new frames) and the user's own files stay."""
+    from jellysim.errors import OutputError
+
+    sets = ("output.vtu=true", "output.every=10")
+    long = Scene.from_text(EXPLICIT, overrides=sets + ("integrator.steps=60",))
+    short = Scene.from_text(EXPLICIT, overrides=sets + ("integrator.steps=20",))
+    out = tmp_path / "run"
+    run_scene(long, out, progress=False)
+    (out / "notes.txt").write_text("mine")
+    before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    with pytest.raises(OutputError, match="earlier run.*overwrite=True"):
+        run_scene(short, out, progress=False)
+    assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()} == before
+    res = run_scene(short, out, progress=False, overwrite=True)
+    frames = load_trajectory(res.trajectory).frame_count
+    vtus = sorted(out.glob("body_*.vtu"))
+    assert len(vtus) == frames < len([n for n in before if n.startswith("body_")])
+    assert (out / "body.pvd").read_text().count("<DataSet") == frames
+    assert (out / "notes.txt").read_text() == "mine"

@@ -24,8 +24,8 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import (BuildError, CheckpointError, JellysimError, ResourceError, RunInterrupted,
-                     SimulationError)
+from .errors import (BuildError, CheckpointError, JellysimError, OutputError, ResourceError,
+                     RunInterrupted, SimulationError)
 from .io.checkpoint import CHECKPOINT, read_checkpoint, write_checkpoint
 from .io.lock import claim
 from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream
@@ -104,6 +104,13 @@ class RunResult:
         return max(0.0, seconds - steps * later_seconds / later_steps)
 
 
+def _earlier_run(out_dir: Path) -> list[str]:
+    """Names of an earlier run's files in ``out_dir`` (:data:`RUN_FILES`, its frame stream)."""
+    return sorted(p.name for p in out_dir.iterdir()
+                  if (p.is_file() and any(fnmatch.fnmatchcase(p.name, pat) for pat in RUN_FILES))
+                  or (p.is_dir() and p.name == STREAM_DIR))
+
+
 def _clean(out_dir: Path) -> None:
     """Remove what an earlier killed run may have left half-written: ``*.partial`` files
     and the hidden temporaries of atomic writes of the run's own outputs."""
@@ -139,7 +146,7 @@ def _check_disk(out_dir: Path, total: int, every: int, n: int, messages: list) -
 def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
               steps: int | None = None, skin="auto", body=None, resume: bool = False,
               checkpoint_every: int | None = None, stop_after: int | None = None,
-              handle_signals: bool = True) -> RunResult:
+              handle_signals: bool = True, overwrite: bool = False) -> RunResult:
     """Simulate ``scene`` (a :class:`~jellysim.scene.Scene`) and write its outputs.
 
     ``skin``: a :class:`~jellysim.skin.Skin` to carry, ``None`` for none, or ``"auto"``
@@ -151,13 +158,26 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     ``stop_after``: stop (checkpoint, :class:`RunInterrupted`) at the first frame once this
     many steps are done, e.g. to split a long run into jobs.
     ``handle_signals``: catch SIGINT/SIGTERM (main thread only) to stop cleanly.
+    ``overwrite``: an earlier run's files in ``out_dir`` (:data:`RUN_FILES`) are refused
+    (:class:`~jellysim.errors.OutputError`: nothing is touched) unless this is true, and then
+    deleted first so none of its frames survives; other files there are kept.
     A live run already writing ``out_dir`` (its lock file, :mod:`jellysim.io.lock`) makes this
     an :class:`~jellysim.errors.OutputError`."""
     out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise OutputError(f"{out_dir}: exists and is not a folder; choose another output folder")
     created = not out_dir.exists()
     out_dir.mkdir(parents=True, exist_ok=True)
     lock = claim(out_dir)  # before anything there is touched: one run per folder
     try:
+        if not resume:
+            earlier = _earlier_run(out_dir)
+            if earlier and not overwrite:
+                names = ", ".join(earlier[:3]) + (", ..." if len(earlier) > 3 else "")
+                raise OutputError(f"{out_dir}: holds an earlier run ({names}); pass "
+                                  "overwrite=True to replace it, resume=True to continue it, "
+                                  "or choose another folder")
+            prepare_out_dir(out_dir, overwrite=True)
         return _run(scene, out_dir, progress=progress, vtu=vtu, steps=steps, skin=skin,
                     body=body, resume=resume, checkpoint_every=checkpoint_every,
                     stop_after=stop_after, handle_signals=handle_signals)
