@@ -378,6 +378,19 @@ def test_cli_run_with_video_and_usd(tmp_path):
     assert stage.GetEndTimeCode() == 2
 
 
+def test_cli_run_refuses_an_unwritable_video_folder_before_simulating(tmp_path):
+    """A --video where no file can be created (a read-only or special file system: /proc,
+    where even root cannot write) is refused before the run: no output folder is made."""
+    if not Path("/proc").is_dir():
+        pytest.skip("needs Linux's /proc (a folder no one can create files in)")
+    scene = tmp_path / "s.toml"
+    scene.write_text(SCENE)
+    r = CliRunner().invoke(cli, ["run", str(scene), "--out", str(tmp_path / "o"), "--quiet",
+                                 "--video", "/proc/o.mp4"])
+    assert r.exit_code != 0 and "cannot write /proc/o.mp4" in r.output
+    assert not (tmp_path / "o").exists()
+
+
 def test_cli_demo_reduced_frames_makes_a_valid_video(tmp_path):
     r = CliRunner().invoke(cli, ["demo", "--out", str(tmp_path), "--frames", "4",
                                  "--size", "128x72", "--quiet"])

@@ -111,10 +111,23 @@ def check_run_outputs(*, video=None, usd=None, glb=None, overwrite=False) -> Non
         folder = Path(path).absolute().parent
         while not folder.exists() and folder != folder.parent:
             folder = folder.parent
-        if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
+        if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK) or not _can_write(
+                folder):
             raise JellysimError(f"cannot write {path}: {folder} is not a folder you can "
                                 "write to")
         guard_output(path, overwrite)
+
+
+def _can_write(folder) -> bool:
+    """Whether a file can really be created in ``folder`` (permission bits do not say so for
+    root, nor on special or read-only file systems): a probe file, removed at once."""
+    import tempfile
+
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".jellysim-probe-"):
+            return True
+    except OSError:
+        return False
 
 
 def echo_run_outputs(result, fail, *, video=None, usd=None, glb=None, quiet=False) -> None:
