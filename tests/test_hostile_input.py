@@ -598,3 +598,33 @@ def test_session_8_trial_mistakes_are_said(tmp_path):
                                      'path = "cube.jello"\n[integrator]\nsteps = 1\n')
     with pytest.warns(UserWarning, match=r"body file's own masses .* replaced by the material"):
         Scene.load(tmp_path / "s.toml").build_model()
+
+
+def test_session_9_a_run_says_the_build_warnings_first_and_names_the_file(tmp_path):
+    """From session 9's new-user trial: `jellysim run` said a mesh's unit warning only after
+    simulating (and named it "mesh"); when the build then refused the body (far below the
+    ground) the warning that explains why was lost.  Now it comes first, names the file, and
+    also precedes the refusal."""
+    from click.testing import CliRunner
+    from conftest import mesh_path
+
+    from jellysim.cli import cli
+    from jellysim.geometry import load_mesh
+
+    cube = load_mesh(mesh_path("cube.obj"))  # [-1, 1]^3: 2 units, read as 2 m... x 25
+    (tmp_path / "cube_mm.obj").write_text(
+        "".join(f"v {x * 25} {y * 25} {z * 25}\n" for x, y, z in cube.vertices)
+        + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in cube.faces))
+    scene = ('[body]\ntype = "mesh"\npath = "cube_mm.obj"\npoints = 30\n{base}[springs]\n'
+             'stiffness = 1.0\n[integrator]\ndt = 0.01\nsteps = 2\n')
+    (tmp_path / "s.toml").write_text(scene.format(base="base = [0, 0, 0]\n"))
+    res = CliRunner().invoke(cli, ["run", str(tmp_path / "s.toml"), "--out",
+                                   str(tmp_path / "o"), "--quiet", "--no-vtu"])
+    assert res.exit_code == 0, res.output
+    said = res.output.index(f"warning: {tmp_path / 'cube_mm.obj'}: the mesh is 50 m across")
+    assert said < res.output.index("2 steps, ")
+    (tmp_path / "t.toml").write_text(scene.format(base=""))  # centred on 0: half below
+    res = CliRunner().invoke(cli, ["run", str(tmp_path / "t.toml"), "--out",
+                                   str(tmp_path / "p"), "--quiet"])
+    assert res.exit_code != 0
+    assert res.output.index("50 m across") < res.output.index("below the ground")

@@ -115,7 +115,7 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     from .scene import Scene
 
     _set_max_memory(max_memory)
-    out, fresh = None, False
+    out, fresh, say = None, False, _sayer()
     try:
         scene = Scene.load(scene_file, overrides=settings).with_backend(backend, device,
                                                                         precision)
@@ -136,7 +136,7 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
             return
         result = run_scene(scene, out, progress=not quiet, vtu=False if no_vtu else None,
                            steps=steps, resume=resume_dir is not None,
-                           checkpoint_every=checkpoint_every)
+                           checkpoint_every=checkpoint_every, notify=say)
     except RunInterrupted as exc:
         # the printed resume command ends the message: it keeps this run's --no-vtu and
         # outputs (the step count is in the checkpoint)
@@ -149,13 +149,13 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     except JellysimError as exc:
         if fresh and out.is_dir() and not any(out.iterdir()):
             out.rmdir()  # refused before anything was written: leave no empty folder
-        for w in dict.fromkeys(getattr(exc, "run_warnings", ())):
-            click.secho(f"warning: {w}", fg="yellow", err=True)
+        for w in getattr(exc, "run_warnings", ()):
+            say(w)
         _fail(str(exc))
     if result.resumed_from is not None:
         click.echo(f"resumed from the checkpoint at step {result.resumed_from}")
     for w in result.warnings:
-        click.secho(f"warning: {w}", fg="yellow", err=True)
+        say(w)
     taken = result.steps - (result.resumed_from or 0)
     rate = taken / result.seconds if result.seconds > 0 else float("inf")
     realtime = (f", {result.simulated / result.seconds:.2g}x real time"
@@ -172,6 +172,19 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     from .cli_visual import echo_run_outputs
 
     echo_run_outputs(result, _fail, video=video, usd=usd, glb=glb, quiet=quiet)
+
+
+def _sayer():
+    """A function saying a run's warning on stderr once per run (the build's are said
+    before the stepping starts, and come back in the run's result)."""
+    said = set()
+
+    def say(message: str) -> None:
+        if message not in said:
+            said.add(message)
+            click.secho(f"warning: {message}", fg="yellow", err=True)
+
+    return say
 
 
 @cli.command()

@@ -146,7 +146,8 @@ def _check_disk(out_dir: Path, total: int, every: int, n: int, messages: list) -
 def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
               steps: int | None = None, skin="auto", body=None, resume: bool = False,
               checkpoint_every: int | None = None, stop_after: int | None = None,
-              handle_signals: bool = True, overwrite: bool = False) -> RunResult:
+              handle_signals: bool = True, overwrite: bool = False,
+              notify=None) -> RunResult:
     """Simulate ``scene`` (a :class:`~jellysim.scene.Scene`) and write its outputs.
 
     ``skin``: a :class:`~jellysim.skin.Skin` to carry, ``None`` for none, or ``"auto"``
@@ -158,6 +159,8 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     ``stop_after``: stop (checkpoint, :class:`RunInterrupted`) at the first frame once this
     many steps are done, e.g. to split a long run into jobs.
     ``handle_signals``: catch SIGINT/SIGTERM (main thread only) to stop cleanly.
+    ``notify``: called with each warning of the build (mesh units, open surfaces, the
+    trajectory's size) before the stepping starts; they are also in ``RunResult.warnings``.
     ``overwrite``: an earlier run's files in ``out_dir`` (:data:`RUN_FILES`) are refused
     (:class:`~jellysim.errors.OutputError`: nothing is touched) unless this is true, and then
     deleted first so none of its frames survives; other files there are kept.
@@ -180,7 +183,7 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
             prepare_out_dir(out_dir, overwrite=True)
         return _run(scene, out_dir, progress=progress, vtu=vtu, steps=steps, skin=skin,
                     body=body, resume=resume, checkpoint_every=checkpoint_every,
-                    stop_after=stop_after, handle_signals=handle_signals)
+                    stop_after=stop_after, handle_signals=handle_signals, notify=notify)
     finally:
         lock.unlink(missing_ok=True)
         if created and not any(out_dir.iterdir()):  # refused before anything was written
@@ -188,13 +191,17 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
 
 
 def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, checkpoint_every,
-         stop_after, handle_signals) -> RunResult:
+         stop_after, handle_signals, notify=None) -> RunResult:
     """:func:`run_scene` in a folder this process holds."""
     _clean(out_dir)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        model = scene.build_model(body)
-        sim = scene.simulator(model)
+        try:
+            model = scene.build_model(body)
+            sim = scene.simulator(model)
+        except JellysimError as exc:  # what the build said may explain it (mesh units)
+            exc.run_warnings = [str(w.message) for w in caught]
+            raise
     messages = [str(w.message) for w in caught]
     if isinstance(skin, str) and skin == "auto":
         try:
@@ -208,6 +215,8 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
         checkpoint_every = scene.params["output"].get("checkpoint_every")
     write_vtu = scene.params["output"]["vtu"] if vtu is None else vtu
     _check_disk(out_dir, total, every, model.point_count, messages)
+    for m in dict.fromkeys(messages) if notify is not None else ():
+        notify(m)
     stream_dir = out_dir / STREAM_DIR
     ckpt_path = out_dir / CHECKPOINT
     npz_path = out_dir / "trajectory.npz"

@@ -265,6 +265,8 @@ class Scene:
             self._surface = (skin, body.skin_faces)
             return replace(body, points=placed, skin_vertices=skin)
         if b["type"] == "mesh":
+            from dataclasses import replace
+
             from .build import build_body
             from .geometry.mesh import Mesh, load_mesh
 
@@ -279,7 +281,7 @@ class Scene:
             if b["size"] is not None:
                 v = v * (b["size"] / float(np.ptp(v, axis=0).max()))
             v = self._place(v)
-            placed = Mesh.from_arrays(v, mesh.faces, name=str(path))
+            placed = replace(Mesh.from_arrays(v, mesh.faces, name=str(path)), path=path)
             self._surface = (v, np.asarray(mesh.faces))
             mat = self.params["material"]
             density = mat["density"] if mat["density"] is not None else (
