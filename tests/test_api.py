@@ -222,3 +222,20 @@ def test_body_box_is_the_scene_box_and_a_ten_centimetre_grid_by_default():
         js.Body.box((0, 0, 0), (0.1, 0.0, 0.1))
     with pytest.raises(ValueError, match="radius"):
         js.Body.box(distribution="uniform")
+
+
+def test_cli_build_defaults_to_the_python_body(tmp_path):
+    """`jellysim build MESH --size S --points N` and `Body.from_mesh(MESH, size=S, points=N)`
+    make the same body (both marching: the trial's teapot came out mangled from the CLI's
+    former radius default and sound from Python)."""
+    from jellysim.cli import cli
+    from jellysim.geometry.jellyfile import read_body
+
+    out = tmp_path / "s.jello"
+    res = CliRunner().invoke(cli, ["build", str(mesh_path("sphere.obj")), "--size", "0.05",
+                                   "--points", "300", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    cli_body = read_body(out)
+    py_body = jellysim.Body.from_mesh(mesh_path("sphere.obj"), size=0.05, points=300)
+    assert np.allclose(cli_body.points, py_body.points, rtol=0, atol=1e-12)
+    assert np.array_equal(cli_body.tets, py_body.tets)

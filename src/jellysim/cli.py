@@ -194,7 +194,10 @@ def _sayer():
 @click.option("--points", type=click.IntRange(min=4), default=5000, show_default=True,
               help="Points to sample inside (a target for marching/tetgen).")
 @click.option("--connect", type=click.Choice(["radius", "marching", "delaunay", "tetgen"]),
-              default="radius", show_default=True, help="Spring builder.")
+              default="marching", show_default=True,
+              help="Builder: marching (a grid warped onto the surface, with tets: the "
+                   "physical path's best-shaped body, as Body.from_mesh), delaunay, tetgen, "
+                   "or radius (the report's random points and radius springs).")
 @click.option("--sampling", type=click.Choice(["uniform", "edge", "grid", "poisson"]),
               default="uniform", show_default=True, help="How points are placed inside.")
 @click.option("--radius", type=click.FloatRange(min=0, min_open=True), default=None,
