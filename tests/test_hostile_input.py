@@ -628,3 +628,20 @@ def test_session_9_a_run_says_the_build_warnings_first_and_names_the_file(tmp_pa
                                    str(tmp_path / "p"), "--quiet"])
     assert res.exit_code != 0
     assert res.output.index("50 m across") < res.output.index("below the ground")
+
+
+@pytest.mark.parametrize("text, said", [
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n", r":4: face vertex 7 does not exist \(the file has 3"),
+    ("v 0 0 0\nv 1 0 x\nv 0 1 0\nf 1 2 3\n", r":2: a vertex needs three numbers"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 two 3\n", r":4: 'two' is not a vertex number"),
+])
+def test_a_broken_obj_is_blamed_on_its_line(tmp_path, text, said):
+    """Session 9's trial: a broken OBJ said "could not parse the file (IndexError: index 6
+    ...)", a 0-based number for a 1-based format and no line.  Now: file:line, what, fix."""
+    from jellysim.errors import MeshError
+    from jellysim.geometry import load_mesh
+
+    path = tmp_path / "broken.obj"
+    path.write_text(text)
+    with pytest.raises(MeshError, match=said):
+        load_mesh(path)

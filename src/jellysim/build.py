@@ -138,7 +138,10 @@ def enclosed_volume(mesh, query=None, *, seed: int = 0) -> tuple[float, bool]:
             return abs(float(mesh.defects.volume)), True
         warnings.warn(f"{getattr(mesh, 'path', None) or 'mesh'}: its {mesh.defects.shells} "
                       f"shells overlap or nest: the inside rule encloses {over[1]:.6g}, the "
-                      f"signed volume says {over[2]:.6g}; the mass follows the inside rule",
+                      f"signed volume says {over[2]:.6g}; the mass follows the inside rule, "
+                      "which counts a point inside an odd number of shells (where two shells "
+                      "overlap the body is hollow: merge the parts into one closed surface, "
+                      "e.g. a boolean union in Blender, for a solid body)",
                       UserWarning, stacklevel=2)
         return over[1], False
     from .geometry.inside import InsideQuery

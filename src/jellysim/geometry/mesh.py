@@ -225,12 +225,49 @@ def _read_trimesh(p: Path, name: str):
         kwargs = {"maintain_order": True} if p.suffix.lower() == ".obj" else {}
         loaded = trimesh.load(str(p), force="mesh", process=False, **kwargs)
     except Exception as exc:  # trimesh raises many different types
+        where = _obj_problem(p) if p.suffix.lower() == ".obj" else None
+        if where is not None:
+            raise MeshError(f"{name}:{where}") from None
         raise MeshError(f"{name}: could not parse the file ({type(exc).__name__}: {exc})") from exc
     if not isinstance(loaded, trimesh.Trimesh):
         raise MeshError(f"{name}: the file holds no triangle mesh (got {type(loaded).__name__})")
     v = np.asarray(loaded.vertices, dtype=np.float64)
     f = np.asarray(loaded.faces, dtype=np.int64)
     return v, f
+
+
+def _obj_problem(p: Path) -> str | None:
+    """The first line of an OBJ file that cannot be read, as ``"LINE: what, fix"`` (1-based
+    line and vertex numbers, as the format counts them), or ``None``."""
+    count = 0
+    try:
+        lines = p.read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError:
+        return None
+    for k, line in enumerate(lines, start=1):
+        words = line.split("#", 1)[0].split()
+        if not words:
+            continue
+        if words[0] == "v":
+            try:
+                xyz = [float(w) for w in words[1:4]]
+            except ValueError:
+                xyz = []
+            if len(xyz) != 3:
+                return (f"{k}: a vertex needs three numbers (v x y z), got {line.strip()!r}")
+            count += 1
+        elif words[0] == "f":
+            if len(words) < 4:
+                return f"{k}: a face needs at least three vertices, got {line.strip()!r}"
+            for w in words[1:]:
+                try:
+                    i = int(w.split("/")[0])
+                except ValueError:
+                    return f"{k}: {w!r} is not a vertex number (f 1 2 3, or f 1/1/1 ...)"
+                if not (1 <= i <= count or -count <= i <= -1):
+                    return (f"{k}: face vertex {i} does not exist (the file has {count} "
+                            f"vertices before this line; OBJ numbers them from 1)")
+    return None
 
 
 def _read_meshio(p: Path, name: str):
