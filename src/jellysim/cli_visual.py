@@ -208,8 +208,8 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
 @click.option("--quiet", is_flag=True, help="No progress bars.")
 @click.option("--scene", type=click.Choice(["jelly", "cow"]), default="jelly",
               show_default=True,
-              help="jelly: a fluted gelatin mould tossed onto a plate; cow: Spot (firm gelatin) set down on it "
-                   "(writes demo_cow.*).")
+              help="jelly: a fluted gelatin mould slid onto a plate (0.7 m/s from 1 cm); "
+                   "cow: Spot (firm gelatin) set down on it (writes demo_cow.*).")
 @click.option("--backend", type=click.Choice(["numba", "numpy", "warp"]), default=None,
               help="Kernels (default: the demo scene's, numba).")
 @click.option("--device", default=None, help="Warp device: auto, cpu, cuda, cuda:N.")
@@ -236,6 +236,9 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
     click.echo(f"{r['points']} points, {r['springs']} springs, {r['frames']} frames: "
                f"simulated in {s['simulate']:.1f} s, rendered in {s['render']:.1f} s, "
                f"total {s['total']:.1f} s")
+    if s.get("startup", 0.0) > 1.0:
+        click.echo(f"  ({s['startup']:.1f} s of the simulating were numba compiling its kernels "
+                   "on a first run; cached for the next)")
     for key in ("video", "usd", "trajectory"):
         if key in r:
             click.echo(f"wrote {r[key]}")

@@ -1,5 +1,5 @@
-"""``jellysim demo``: a fluted gelatin jelly tossed onto a plate (``--scene cow``: Spot the
-cow, shipped in ``jellysim/data``, dropped on it).
+"""``jellysim demo``: a fluted gelatin jelly slid onto a plate at 0.7 m/s from 1 cm
+(``--scene cow``: Spot the cow, shipped in ``jellysim/data``, dropped on it).
 
 Everything physical about the demo lives in :data:`DEMO_SCENE` (a scene dictionary in the
 format of :mod:`jellysim.scene`; its ``[body]`` table is unused because the body comes from
@@ -121,8 +121,8 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
              backend: str | None = None, device: str | None = None,
              precision: str | None = None, threads: int | None = None,
              overwrite: bool = False, points: int | None = None) -> dict:
-    """Simulate a demo scene (``"jelly"``: a fluted gelatin mould tossed onto a plate; ``"cow"``:
-    Spot, in firm gelatin, set down on it) and write ``<out_dir>/demo.mp4`` (+
+    """Simulate a demo scene (``"jelly"``: a fluted gelatin mould slid onto a plate at 0.7 m/s
+    from 1 cm; ``"cow"``: Spot, in firm gelatin, set down on it) and write ``<out_dir>/demo.mp4`` (+
     ``demo.usdc``; the cow: ``demo_cow.*``); the run itself goes to ``<out_dir>/demo/``
     (``demo_cow/``).  ``frames`` limits the number of saved frames (CI).
     ``backend``/``device``/``precision`` override the scene's (refused with a
@@ -172,7 +172,8 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     if usd:
         written["usd"] = export_usd(traj, out_dir / f"{stem}.usdc")
     written["seconds"] = {"simulate": t_sim - t0, "render": t_render - t_sim,
-                          "total": time.perf_counter() - t0}
+                          "total": time.perf_counter() - t0,
+                          "startup": result.startup_seconds()}
     written["points"] = body.point_count
     written["springs"] = body.spring_count
     written["frames"] = traj.frame_count
