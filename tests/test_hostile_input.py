@@ -645,3 +645,33 @@ def test_a_broken_obj_is_blamed_on_its_line(tmp_path, text, said):
     path.write_text(text)
     with pytest.raises(MeshError, match=said):
         load_mesh(path)
+
+
+def test_a_body_meant_to_travel_far_is_not_a_blow_up_when_said(tmp_path):
+    """Session 9's trial: a block sliding at 60 m/s on a frictionless plate was stopped as
+    "unstable" once 100 m from its start.  The error says how to allow it
+    ([integrator] runaway_distance), and with it the block slides on at 60 m/s (frictionless:
+    its centre of mass moves at exactly its speed)."""
+    from jellysim.errors import SimulationError
+
+    text = ('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 27\n'
+            'velocity = [60.0, 0.0, 0.0]\n[ground]\nfriction = 0.0\n[integrator]\nsteps = 120\n')
+    import warnings
+
+    from jellysim.simulator import StabilityWarning
+
+    scene = Scene.from_text(text)
+    sim = scene.simulator()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", StabilityWarning)  # no retakes: it did not blow up
+        with pytest.raises(SimulationError, match=r"more than 100 m .*\[integrator\] "
+                                                  r"runaway_distance"):
+            sim.advance(scene.steps)
+    assert sim.substeps == scene.simulator().substeps
+    far = Scene.from_text(text.replace("steps = 120", "steps = 120\nrunaway_distance = 1e4"))
+    sim = far.simulator()
+    m = sim.model.point_mass
+    x0 = m @ sim.state.x / m.sum()
+    sim.advance(far.steps)
+    travelled = (m @ sim.state.x / m.sum() - x0)[0]
+    assert travelled == pytest.approx(60.0 * 2.0, rel=1e-9)

@@ -9,7 +9,7 @@ import warnings
 import numpy as np
 
 from .errors import StabilityWarning
-from .kernels import STATUS_OK, Backend
+from .kernels import STATUS_OK, STATUS_RUNAWAY, Backend
 from .physics.stability_fem import fem_omega_max
 from .physics.fem import FemArrays
 
@@ -128,7 +128,7 @@ class PhysicalStepping:
                 self._min_j[0] = self._agreed_min_j(self._min_j[0])
                 compressed = status == STATUS_OK and self._min_j[0] < self.RETAKE_BELOW_J
                 if (status == STATUS_OK and (squeezed or not compressed)) or (
-                        attempt == self.MAX_SUBSTEP_DOUBLINGS + 1):
+                        attempt == self.MAX_SUBSTEP_DOUBLINGS + 1) or self._travelled(status):
                     break
                 for dst, src in zip((s.x, s.v, s.a, self._q), saved):
                     dst[:] = src
@@ -172,6 +172,15 @@ class PhysicalStepping:
         s = self.state
         return kern.physical_steps(nsteps, dt, s.x, s.v, s.a, model_arrays, ft,
                                    self.handles.tuple(), contact, scratch)
+
+    def _travelled(self, status) -> bool:
+        """A runaway of an intact body (every point within half the runaway distance of its
+        centre of mass): it travelled, it did not blow up, so more substeps will not help."""
+        if status != STATUS_RUNAWAY:
+            return False
+        x = self.state.x
+        spread2 = float(np.max(np.sum((x - x.mean(axis=0)) ** 2, axis=1)))
+        return self._agreed_min_j(float(spread2 < 0.25 * self.runaway_distance**2)) == 1.0
 
     def _agreed_min_j(self, value) -> float:
         """The frame's smallest J [-] (one process: its own)."""

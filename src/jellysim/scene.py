@@ -422,7 +422,7 @@ class Scene:
                   implicit=ImplicitParams(scheme=it["scheme"], theta=it["theta"],
                                           cg_tolerance=it["cg_tolerance"],
                                           max_iterations=it["cg_max_iterations"]),
-                  obstacles=self.obstacles())
+                  obstacles=self.obstacles(), runaway_distance=it["runaway_distance"])
         if getattr(model, "fem", None) is not None:
             if it["name"] != "symplectic":
                 raise SceneError(

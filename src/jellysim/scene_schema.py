@@ -137,6 +137,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "substeps": Spec("int", None, "Steps of dt / substeps per step (default: what the "
                          "stability estimate needs for 'symplectic'; 1 otherwise).",
                          lambda v: v >= 1, "an integer >= 1"),
+        "runaway_distance": _pos("A point farther than this [m] from the body's starting "
+                                 "centre stops the run as a blow-up (default: 100 x the "
+                                 "body's size, at least 100 m).", None, unit=" (m)"),
         "start_acceleration": Spec("str", "forces", "Accelerations at t = 0: 'forces' (from "
                                    "the forces at rest: gravity) or 'zero' (the report's "
                                    "code: a = 0 until the first force evaluation).",

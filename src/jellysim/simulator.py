@@ -571,7 +571,9 @@ class Simulator(HandleMethods, PhysicalStepping):
         failed = s.step
         what = ("a position, velocity or acceleration became NaN/infinite"
                 if status == STATUS_NONFINITE else
-                f"a point flew more than {self.runaway_distance:g} m from the start")
+                f"a point flew more than {self.runaway_distance:g} m from the start (a body "
+                "meant to travel that far: [integrator] runaway_distance, "
+                "Simulator(runaway_distance=...))")
         est = self.stability or estimate_stability(m, self.integrator, self.dt_step,
                                                    theta=self.implicit.theta,
                                                    scheme=self.implicit.scheme)
@@ -590,10 +592,8 @@ class Simulator(HandleMethods, PhysicalStepping):
                 "times after a blow-up); a force, drag or pin path too strong for the material, "
                 "or a body squashed inside out, does that: gentler handles or a stiffer "
                 "material help", step=failed, status=int(status))
-        if est.dt_max > 0:
-            hint = f"try dt <= {0.5 * min(self.dt_step, est.dt_max):.3g} s"
-        else:
-            hint = "add damping or use integrator = 'symplectic'"
+        hint = (f"try dt <= {0.5 * min(self.dt_step, est.dt_max):.3g} s" if est.dt_max > 0
+                else "add damping or use integrator = 'symplectic'")
         raise SimulationError(
             f"simulation went unstable at step {failed} (t = {s.t:.6g} s): {what}; "
             f"{hint} (estimated stable limit {est.dt_max:.3g} s)", step=failed,
