@@ -137,6 +137,9 @@ def test_python_api_misuse_gets_one_clear_error():
     model = jellysim.physical_model(body, jellysim.material("gelatin"))
     with pytest.raises(SceneError, match=r"integrator must be one of \[.*'symplectic'"):
         jellysim.Simulator(model, dt=1 / 60, integrator="simplectic")
+    for dt in ("a", None, True, 0.0):  # was a numpy TypeError for a string
+        with pytest.raises(SceneError, match=r"dt must be a positive number of seconds"):
+            jellysim.Simulator(model, dt=dt)
     sim = jellysim.Simulator(model, dt=1 / 60)
     x0 = sim.state.x.copy()
     for bad in (-1, 1.5, True):

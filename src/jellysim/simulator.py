@@ -178,8 +178,9 @@ class Simulator(HandleMethods, PhysicalStepping):
                  implicit: ImplicitParams = ImplicitParams(), obstacles=(),
                  rest_speed: float | None = None, device: str | None = None,
                  precision: str = "float64"):
-        if not (np.isfinite(dt) and dt > 0):
-            raise SceneError(f"time step dt must be a positive number of seconds, got {dt}")
+        if isinstance(dt, bool) or not isinstance(dt, (int, float, np.number)) or not (
+                np.isfinite(dt) and dt > 0):
+            raise SceneError(f"time step dt must be a positive number of seconds, got {dt!r}")
         self.model = model
         self.dt = float(dt)
         try:
@@ -187,14 +188,13 @@ class Simulator(HandleMethods, PhysicalStepping):
         except ValueError:
             raise SceneError(f"integrator must be one of {[i.value for i in Integrator]}, got "
                              f"{integrator!r}") from None
-        provot = ProvotParams(enabled=False) if provot is None else provot
-        ground = GroundParams(enabled=False) if ground is None else ground
+        provot, ground = (ProvotParams(enabled=False) if provot is None else provot,
+                          GroundParams(enabled=False) if ground is None else ground)
         if not isinstance(ground, GroundParams):
             raise TypeError(f"ground must be a jellysim.GroundParams (e.g. GroundParams(model="
                             f"GroundModel.CONTACT), the physical contact ground) or None, got "
                             f"{ground!r}")
-        self.provot = provot
-        self.ground = ground
+        self.provot, self.ground = provot, ground
         if ground.enabled and (state is None or getattr(state, "step", 0) == 0):
             # a fresh start (a resumed run may rest on the ground with round-off below it)
             _check_above_ground(model.point_x0 if state is None else state.x,
