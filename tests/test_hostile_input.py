@@ -675,3 +675,15 @@ def test_a_body_meant_to_travel_far_is_not_a_blow_up_when_said(tmp_path):
     sim.advance(far.steps)
     travelled = (m @ sim.state.x / m.sum() - x0)[0]
     assert travelled == pytest.approx(60.0 * 2.0, rel=1e-9)
+
+
+def test_a_misspelt_handle_key_gets_a_did_you_mean(tmp_path):
+    """Session 9's trial: `forc = ...` in a [[handle]] named the key but offered no
+    suggestion, unlike the other sections."""
+    p = tmp_path / "h.toml"
+    p.write_text('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 27\n'
+                 '[integrator]\nsteps = 2\n[[handle]]\nkind = "force"\nindices = [0]\n'
+                 'forc = [0.0, 1.0, 0.0]\n')
+    with pytest.raises(SceneError, match=r"\[\[handle\]\] #1: unknown key 'forc' \(did you "
+                                         r"mean 'force'\?\)"):
+        Scene.load(p).simulator()

@@ -179,7 +179,11 @@ def validate_handle_tables(entries, name: str) -> list[dict]:
         where = f"{name}: [[handle]] #{k}"
         extra = sorted(set(entry) - _HANDLE_KEYS)
         if extra:
-            raise SceneError(f"{where}: unknown key '{extra[0]}'; allowed: "
+            import difflib
+
+            near = difflib.get_close_matches(extra[0], sorted(_HANDLE_KEYS), n=1)
+            hint = f" (did you mean '{near[0]}'?)" if near else ""
+            raise SceneError(f"{where}: unknown key '{extra[0]}'{hint}; allowed: "
                              + ", ".join(sorted(_HANDLE_KEYS)))
         kind = entry.get("kind")
         if kind not in HANDLE_KINDS:
