@@ -687,3 +687,26 @@ def test_a_misspelt_handle_key_gets_a_did_you_mean(tmp_path):
     with pytest.raises(SceneError, match=r"\[\[handle\]\] #1: unknown key 'forc' \(did you "
                                          r"mean 'force'\?\)"):
         Scene.load(p).simulator()
+
+
+def test_rendering_a_body_file_or_scene_says_to_run_it_first(tmp_path):
+    """Session 9's trial: `jellysim render teapot.jello` said "not a jellysim trajectory (File
+    is not a zip file)"; a body file, a scene or a mesh is now named as such, with the fix."""
+    from click.testing import CliRunner
+
+    from jellysim.cli import cli
+
+    for name in ("t.jello", "t.toml", "t.obj"):
+        (tmp_path / name).write_text("x\n")
+        res = CliRunner().invoke(cli, ["render", str(tmp_path / name), "-o",
+                                       str(tmp_path / "x.png")])
+        assert res.exit_code != 0 and "not a trajectory: run it first" in res.output
+        assert not (tmp_path / "x.png").exists()
+
+
+def test_a_grid_box_of_too_few_points_says_so():
+    """Session 9's trial: `points = 3` with `distribution = "grid"` asked for a spring radius
+    (which 8 or more points do not need); it now says a grid needs its 8 corners."""
+    with pytest.raises(SceneError, match=r"points = 3: a grid box needs at least 8"):
+        Scene.from_text('[body]\ntype = "box"\npoints = 3\ndistribution = "grid"\n'
+                        '[springs]\nstiffness = 1.0\n[integrator]\ndt = 0.01\nsteps = 1\n')

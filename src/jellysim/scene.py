@@ -170,6 +170,9 @@ class Scene:
                 kind != "mesh" or sp["connect"] != "marching"):
             raise SceneError(f"{name}: [springs] snap is used only by type = 'mesh' with "
                              "connect = 'marching'; remove it")
+        if kind == "box" and b["distribution"] == "grid" and (b["points"] or 8) < 8:
+            raise SceneError(f"{name}: [body] points = {b['points']}: a grid box needs at "
+                             "least 8 (its corners; 1000 gives 11^3 points)")
         if kind == "box" and sp["radius"] is None and b["distribution"] == "grid":
             sp["radius"] = grid_radius(b["points"], b["lower"], b["upper"])  # 1.8 spacings
         if kind == "box":

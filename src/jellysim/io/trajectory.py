@@ -175,6 +175,10 @@ def resolve_trajectory(path) -> Path:
     return path
 
 
+MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
+"""Surface-mesh file names, refused as trajectories with a pointer to running them first."""
+
+
 def load_trajectory(path, *, mmap: bool = False) -> Trajectory:
     """Read a trajectory written by :class:`Recorder`, by a run (``trajectory.npz``) or a run's
     stream of frames (interrupted or killed runs), see :func:`resolve_trajectory`.
@@ -183,6 +187,12 @@ def load_trajectory(path, *, mmap: bool = False) -> Trajectory:
     reading them (memory independent of the frame count)."""
 
     path = resolve_trajectory(path)
+    if path.suffix.lower() in (".jello", ".toml") or path.suffix.lower() in MESH_SUFFIXES:
+        what = {".jello": "a body file", ".toml": "a scene"}.get(path.suffix.lower(), "a mesh")
+        raise JellysimError(f"{path}: {what}, not a trajectory: run it first (jellysim run "
+                            "SCENE --out DIR; a scene takes a body file as [body] type = "
+                            "'file', a mesh as type = 'mesh') and give DIR or its "
+                            "trajectory.npz")
     try:
         if path.is_dir():
             d = read_stream(path, mmap=mmap)
