@@ -173,14 +173,24 @@ class PhysicalStepping:
         return kern.physical_steps(nsteps, dt, s.x, s.v, s.a, model_arrays, ft,
                                    self.handles.tuple(), contact, scratch)
 
+    @staticmethod
+    def _thinness(x) -> float:
+        """The body's smallest principal standard deviation [m] (its thinnest direction; the
+        collapse check of every path)."""
+        c = np.cov(x, rowvar=False)
+        return float(np.sqrt(max(np.linalg.eigvalsh(c)[0], 0.0)))
+
     def _travelled(self, status) -> bool:
-        """A runaway of an intact body (every point within half the runaway distance of its
-        centre of mass): it travelled, it did not blow up, so more substeps will not help."""
-        if status != STATUS_RUNAWAY:
-            return False
-        x = self.state.x
-        spread2 = float(np.max(np.sum((x - x.mean(axis=0)) ** 2, axis=1)))
-        return self._agreed_min_j(float(spread2 < 0.25 * self.runaway_distance**2)) == 1.0
+        """A runaway of an intact body (every point within half the runaway distance of the
+        points' mean): it travelled, it did not blow up, so more substeps will not help.
+        Kept in ``self.travelled`` for the error (:func:`travel_error`)."""
+        self.travelled = False
+        if status == STATUS_RUNAWAY:
+            x = self.state.x
+            spread2 = float(np.max(np.sum((x - x.mean(axis=0)) ** 2, axis=1)))
+            ok = float(spread2 < 0.25 * self.runaway_distance**2)
+            self.travelled = self._agreed_min_j(ok) == 1.0
+        return self.travelled
 
     def _agreed_min_j(self, value) -> float:
         """The frame's smallest J [-] (one process: its own)."""
@@ -199,3 +209,16 @@ class PhysicalStepping:
             self.substeps = max(int(self._relax[1]), self.substeps // 2)
             self.dt_step = self.dt / self.substeps
             self._relax[0] = 0
+
+
+def travel_error(sim, failed: int):
+    """The :class:`~jellysim.errors.SimulationError` of a body that travelled past
+    ``sim.runaway_distance`` intact (not a blow-up: no advice about dt or stiffness)."""
+    from .errors import SimulationError
+
+    return SimulationError(
+        f"the body travelled more than {sim.runaway_distance:g} m from its start by step "
+        f"{failed} (t = {sim.state.t:.6g} s), intact: nothing went unstable, but the run stops "
+        "there as a guard against blow-ups; a body meant to travel that far: [integrator] "
+        "runaway_distance in a scene, Simulator(runaway_distance=...) in Python",
+        step=failed, status=int(STATUS_RUNAWAY))

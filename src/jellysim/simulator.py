@@ -16,12 +16,13 @@ import warnings
 import numpy as np
 
 from .errors import SceneError, SimulationError, SolverWarning, StabilityWarning
-from .kernels import INTEGRATOR_CODES, STATUS_NONFINITE, STATUS_OK, Backend, get_backend
+from .kernels import (INTEGRATOR_CODES, STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY, Backend,
+                      get_backend)
 from .params import (MAX_ALL_PAIRS_POINTS, GroundModel, GroundParams, ImplicitParams,
                      ImplicitScheme,
                      Integrator, ProvotOrder, ProvotPairs, ProvotParams)
 from .handles import HandleMethods
-from .physical_stepping import PhysicalStepping
+from .physical_stepping import PhysicalStepping, travel_error
 from .stability import StabilityEstimate, estimate_stability, implicit_accuracy
 
 __all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads",
@@ -480,12 +481,6 @@ class Simulator(HandleMethods, PhysicalStepping):
         if self.integrator is Integrator.IMPLICIT:
             self._check_solves()
 
-    @staticmethod
-    def _thinness(x) -> float:
-        """The body's smallest principal standard deviation [m] (its thinnest direction)."""
-        c = np.cov(x, rowvar=False)
-        return float(np.sqrt(max(np.linalg.eigvalsh(c)[0], 0.0)))
-
     def _check_collapse(self, before, steps) -> None:
         """A 3D body (>= COLLAPSE_MIN_POINTS points, not thin at rest) whose thinnest
         direction shrinks below COLLAPSE_FRACTION of its rest value within one call, having
@@ -569,11 +564,12 @@ class Simulator(HandleMethods, PhysicalStepping):
     def _raise(self, status):
         m, s = self.model, self.state
         failed = s.step
+        if status == STATUS_RUNAWAY and (getattr(self, "travelled", False) or not self.physical
+                                         and getattr(self, "_travelled", lambda _: 0)(status)):
+            raise travel_error(self, failed)  # intact, far: not a blow-up
         what = ("a position, velocity or acceleration became NaN/infinite"
                 if status == STATUS_NONFINITE else
-                f"a point flew more than {self.runaway_distance:g} m from the start (a body "
-                "meant to travel that far: [integrator] runaway_distance, "
-                "Simulator(runaway_distance=...))")
+                f"a point flew more than {self.runaway_distance:g} m from the start")
         est = self.stability or estimate_stability(m, self.integrator, self.dt_step,
                                                    theta=self.implicit.theta,
                                                    scheme=self.implicit.scheme)
