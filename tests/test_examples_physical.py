@@ -100,6 +100,12 @@ def test_a_bare_gelatin_box_is_a_dessert_cube_on_the_physical_path():
     s = RHO * G * 0.1**2 / (2 * scene.params["material"]["youngs_modulus"])
     sag = 0.1 - sim.state.x[:, 1].max()
     assert 0.5 * s <= sag <= 1.05 * s
+    for text in ("[body]\npoints = 500\n", "[body]\ndistribution = 'grid'\npoints = 500\n",
+                 "[body]\ntype = 'box'\n"):  # type box is the default; so are 1000 points
+        b = Scene.from_text("[material]\npreset = 'gelatin'\n" + text
+                            + "[integrator]\nsteps = 1\n").params["body"]
+        assert (b["distribution"], b["upper"]) == ("grid", [0.1, 0.1, 0.1])
+        assert b["points"] == (1000 if "points" not in text else 500)
     named = Scene.from_text("[material]\npreset = 'gelatin'\n[body]\ntype = 'box'\n"
                             "points = 500\n[springs]\nradius = 0.3\n[integrator]\nsteps = 9\n")
     assert named.params["body"]["distribution"] == "edge"

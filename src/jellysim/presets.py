@@ -18,9 +18,10 @@ own values win).  :data:`PRESETS` maps the name to that partial scene.
   our estimate for a dessert gel, not a measurement of ours), physical ground (restitution
   0.3, Coulomb friction 0.6), the physical path: Stable Neo-Hookean tets for tet bodies,
   symplectic substeps at dt = 1/60 s per frame, no Provot, no report damping.  A mesh body
-  gets ``connect = "marching"`` and a box ``distribution = "grid"`` (a 10 cm cube,
-  :data:`GELATIN_BOX`, unless its corners are given), both carrying tets, unless the scene
-  names its springs (``connect``, ``radius`` or ``neighbours``).
+  gets ``connect = "marching"`` and a box (the default type) ``distribution = "grid"`` (a
+  10 cm cube of 1000 cells, :data:`GELATIN_BOX`, unless its corners or points are given),
+  both carrying tets, unless the scene names its springs (``connect``, ``radius`` or
+  ``neighbours``) or a random distribution.
 * ``paper-2010``: the report's section 5.1 run: k = 2 N/m, delta = 0.8 kg/s, tau = 0.1 %, one
   all-pairs Provot loop (the report's hack of section 4.1/5.2), the mu/nu ground (mu = 0.1,
   nu = 0.2), the report's integrator at dt = 0.01 s, and the report's step exactly (section
@@ -38,7 +39,8 @@ import copy
 from .params import CONTACT_FRICTION, CONTACT_RESTITUTION, REPORT_DENSITY, Material
 
 __all__ = ["PRESETS", "GELATIN_DENSITY", "GELATIN_YOUNGS_MODULUS", "GELATIN_POISSON_RATIO",
-           "GELATIN_DAMPING_RATIO", "GELATIN_BOX", "apply_preset", "gelatin", "material"]
+           "GELATIN_DAMPING_RATIO", "GELATIN_BOX", "GELATIN_BOX_POINTS", "apply_preset",
+           "gelatin", "material"]
 
 GELATIN_DENSITY = REPORT_DENSITY
 """Density of jello [kg/m^3] (report section 6.4): :data:`jellysim.params.REPORT_DENSITY`."""
@@ -50,8 +52,11 @@ GELATIN_POISSON_RATIO = 0.48
 GELATIN_DAMPING_RATIO = 0.02
 """Damping ratio of the gelatin preset at 5 Hz [-] (loss factor 0.04)."""
 GELATIN_BOX = ((0.0, 0.0, 0.0), (0.1, 0.1, 0.1))
-"""Corners [m] of a ``[body] type = "box"`` under the gelatin preset when the scene gives
-neither ``lower`` nor ``upper`` (nor ``distribution`` or springs): a 10 cm grid cube."""
+"""Corners [m] of a ``[body] type = "box"`` (the default type) under the gelatin preset when
+the scene gives neither ``lower`` nor ``upper`` (nor springs, nor a random distribution): a
+10 cm grid cube."""
+GELATIN_BOX_POINTS = 1000
+"""Its default ``points`` (cells: 11^3 points), as :meth:`jellysim.Body.box`."""
 
 PRESETS: dict[str, dict] = {
     "gelatin": {
@@ -91,11 +96,12 @@ def apply_preset(raw: dict, name: str) -> dict:
     if body.get("type") == "mesh":
         # a gelatin mesh body gets tets (the physical path), not the report's radius springs
         out.setdefault("springs", {})["connect"] = "marching"
-    elif body.get("type") == "box" and "distribution" not in body:
+    elif body.get("type", "box") == "box" and body.get("distribution", "grid") == "grid":
         # a gelatin box is a grid of cubic cells with its own tets (the physical path) and,
         # unless its corners are given, a dessert-sized 10 cm cube on the ground (the
         # report's unit cube [0, 1]^3 m of gelatin would slump by half its height)
         body["distribution"] = "grid"
+        body.setdefault("points", GELATIN_BOX_POINTS)
         if "lower" not in body and "upper" not in body:
             body["lower"], body["upper"] = list(GELATIN_BOX[0]), list(GELATIN_BOX[1])
     return out

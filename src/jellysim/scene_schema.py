@@ -46,8 +46,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                              "edge-favouring (1 + cos(2 pi u)) / 2; or 'grid': a cubic lattice "
                              "of about that many cells, corners included (216: 7^3 points); "
                              "a box under the gelatin preset gets 'grid' and, without lower "
-                             "and upper, the 10 cm cube [0, 0.1]^3 m, unless connect, radius "
-                             "or neighbours is given.",
+                             "and upper, the 10 cm cube [0, 0.1]^3 m (points 1000 unless "
+                             "given), unless connect, radius or neighbours is given.",
                              choices=("uniform", "edge", "grid")),
         "lower": Spec("vec3", [0.0, 0.0, 0.0], "Lower box corner [m]."),
         "upper": Spec("vec3", [1.0, 1.0, 1.0], "Upper box corner [m]."),
