@@ -263,6 +263,10 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
     sampling = _choice(Sampling, sampling, "sampling")
     if surface_samples and connect not in (Connect.DELAUNAY, Connect.RADIUS):
         raise BuildError("surface_samples applies to connect='delaunay' or 'radius' only")
+    if radius is not None and connect is not Connect.RADIUS:
+        raise BuildError(f"radius (of the radius springs) applies to connect='radius' only, "
+                         f"not {connect.value!r} (its springs are its tets' edges); remove it "
+                         "or use connect='radius'")
     if h is not None and connect is not Connect.MARCHING:
         raise BuildError(f"h (the cube edge) applies to connect='marching' only, not "
                          f"{connect.value!r}; remove it")

@@ -194,10 +194,11 @@ def _sayer():
 @click.option("--points", type=click.IntRange(min=4), default=5000, show_default=True,
               help="Points to sample inside (a target for marching/tetgen).")
 @click.option("--connect", type=click.Choice(["radius", "marching", "delaunay", "tetgen"]),
-              default="marching", show_default=True,
-              help="Builder: marching (a grid warped onto the surface, with tets: the "
-                   "physical path's best-shaped body, as Body.from_mesh), delaunay, tetgen, "
-                   "or radius (the report's random points and radius springs).")
+              default=None,
+              help="Builder: marching (the default: a grid warped onto the surface, with "
+                   "tets: the physical path's best-shaped body, as Body.from_mesh), delaunay, "
+                   "tetgen, or radius (the report's random points and radius springs; the "
+                   "default when --radius is given).")
 @click.option("--sampling", type=click.Choice(["uniform", "edge", "grid", "poisson"]),
               default="uniform", show_default=True, help="How points are placed inside.")
 @click.option("--radius", type=click.FloatRange(min=0, min_open=True), default=None,
@@ -248,6 +249,8 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
             guard_file(out_file, overwrite)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
+            if connect is None:
+                connect = "radius" if radius is not None else "marching"
             body = build_body(mesh_file, points=points, connect=connect, sampling=sampling,
                               radius=radius, neighbours=neighbours, h=h,
                               surface_vertices=surface_vertices,
