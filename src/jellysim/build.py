@@ -342,14 +342,21 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
             # box-like shape that the centred grid misses by a cell per face (a 5 cm cube came
             # out 4 cm tall, its base 5 mm up): keep it where it fills far more of the mesh
             # and is no shorter (on Spot it is 5 % shorter: its hooves' tips are lost)
-            fitted = _marching(m, query, _fit_height(h, float(hi[1] - lo[1])), density, snap,
-                               name)
-            gain = fitted.volume / body.volume
             big, small, more_points = FITTED_GRID_GAIN
-            if ((gain > big or (gain > small and fitted.point_count
-                                <= more_points * body.point_count))
-                    and np.ptp(fitted.points[:, 1]) >= (1 - 1e-4) * np.ptp(body.points[:, 1])):
-                body = fitted
+            edge = h
+            for _ in range(2):  # a fitted grid of too many points: once more at its count
+                fitted = _marching(m, query, _fit_height(edge, float(hi[1] - lo[1])), density,
+                                   snap, name)
+                gain = fitted.volume / body.volume
+                if ((gain > big or (gain > small and fitted.point_count
+                                    <= more_points * body.point_count))
+                        and np.ptp(fitted.points[:, 1]) >= (1 - 1e-4) * np.ptp(
+                            body.points[:, 1])):
+                    body = fitted
+                    break
+                if not gain > small or fitted.point_count <= more_points * body.point_count:
+                    break
+                edge = h * (fitted.point_count / body.point_count) ** (1.0 / 3.0)
         if body.volume < MARCHING_FILL_WARNING * volume:
             warnings.warn(
                 f"{name}: the marching grid (h = {h:.3g} m) fills only "
