@@ -410,3 +410,22 @@ def test_mpiexec_run_refuses_a_folder_a_live_run_holds(tmp_path):
     proc, _ = _mpirun(2, *args)
     assert proc.returncode == 0, proc.stderr
     assert (out / "trajectory.npz").exists() and not lock.exists()
+
+
+@needs_mpi
+def test_mpiexec_run_refuses_an_earlier_run_unless_overwrite(tmp_path):
+    """As a serial run: under mpiexec a folder holding an earlier run is refused (one error,
+    nothing touched); with --overwrite that run's files go first."""
+    out = tmp_path / "o"
+    args = ("-m", "jellysim.cli", "run", str(DATA / "paper_springs.toml"), "--out", str(out),
+            "--quiet", "--steps", "{}")
+    proc, _ = _mpirun(2, *[a.format(8) for a in args])
+    assert proc.returncode == 0, proc.stderr
+    before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    proc, _ = _mpirun(2, *[a.format(4) for a in args])
+    assert proc.returncode != 0 and proc.stderr.count("error:") == 1
+    assert "holds an earlier run" in proc.stderr and "--overwrite" in proc.stderr
+    assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()} == before
+    proc, _ = _mpirun(2, *[a.format(4) for a in args], "--overwrite")
+    assert proc.returncode == 0, proc.stderr
+    assert load_trajectory(out / "trajectory.npz").steps[-1] == 4  # the new run's

@@ -110,7 +110,8 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         _fail(str(exc))
     if launched_under_mpi():
         return cli_run(scene_file, out_dir, steps=steps, no_vtu=no_vtu, quiet=quiet,
-                       partition=partition, video=video, usd=usd, glb=glb)
+                       partition=partition, video=video, usd=usd, glb=glb,
+                       overwrite=overwrite, say=_sayer())
 
     from .scene import Scene
 

@@ -104,6 +104,20 @@ class RunResult:
         return max(0.0, seconds - steps * later_seconds / later_steps)
 
 
+def refuse_earlier_run(out_dir: Path, overwrite: bool, option: str = "overwrite=True") -> None:
+    """An earlier run's files in ``out_dir`` (:data:`RUN_FILES`): an
+    :class:`~jellysim.errors.OutputError` unless ``overwrite``, and then they are deleted
+    (no stale frame survives); other files are kept."""
+    earlier = _earlier_run(out_dir)
+    if earlier and not overwrite:
+        names = ", ".join(earlier[:3]) + (", ..." if len(earlier) > 3 else "")
+        raise OutputError(f"{out_dir}: holds an earlier run ({names}); pass {option} to "
+                          "replace it" + (", resume=True to continue it" if option ==
+                                          "overwrite=True" else "") + ", or choose another "
+                          "folder")
+    prepare_out_dir(out_dir, overwrite=True)
+
+
 def _earlier_run(out_dir: Path) -> list[str]:
     """Names of an earlier run's files in ``out_dir`` (:data:`RUN_FILES`, its frame stream)."""
     return sorted(p.name for p in out_dir.iterdir()
@@ -174,13 +188,7 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     lock = claim(out_dir)  # before anything there is touched: one run per folder
     try:
         if not resume:
-            earlier = _earlier_run(out_dir)
-            if earlier and not overwrite:
-                names = ", ".join(earlier[:3]) + (", ..." if len(earlier) > 3 else "")
-                raise OutputError(f"{out_dir}: holds an earlier run ({names}); pass "
-                                  "overwrite=True to replace it, resume=True to continue it, "
-                                  "or choose another folder")
-            prepare_out_dir(out_dir, overwrite=True)
+            refuse_earlier_run(out_dir, overwrite)
         return _run(scene, out_dir, progress=progress, vtu=vtu, steps=steps, skin=skin,
                     body=body, resume=resume, checkpoint_every=checkpoint_every,
                     stop_after=stop_after, handle_signals=handle_signals, notify=notify)

@@ -17,7 +17,7 @@ import warnings
 from pathlib import Path
 
 from ..errors import BuildError, JellysimError, SceneError, SimulationError
-from ..runner import RunResult
+from ..runner import RunResult, refuse_earlier_run
 from ..io.lock import claim
 from ..io.trajectory import Recorder, skin_bounds
 from ..io.vtk import PVDSeries
@@ -30,35 +30,48 @@ __all__ = ["run_scene_distributed", "cli_run"]
 
 def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
                           vtu: bool | None = None, steps: int | None = None,
-                          partition: str = "morton", skin="auto") -> RunResult | None:
+                          partition: str = "morton", skin="auto", overwrite: bool = False,
+                          notify=None) -> RunResult | None:
     """:func:`jellysim.runner.run_scene` over the ranks of ``comm``; a collective call.
     Returns the :class:`~jellysim.runner.RunResult` on rank 0, ``None`` elsewhere.  Rank 0,
-    which writes, holds the output folder's lock (:mod:`jellysim.io.lock`) while it runs."""
-
+    which writes, holds the output folder's lock (:mod:`jellysim.io.lock`) while it runs;
+    an earlier run there is refused unless ``overwrite`` (then its files go first), and
+    ``notify`` (rank 0) hears the build's warnings before the stepping, as in a serial run."""
     comm = world() if comm is None else comm
     out_dir = Path(out_dir)
 
     def claim_folder():
         out_dir.mkdir(parents=True, exist_ok=True)
-        return claim(out_dir)
+        lock = claim(out_dir)
+        try:
+            refuse_earlier_run(out_dir, overwrite, "--overwrite")
+        except JellysimError:
+            lock.unlink(missing_ok=True)
+            raise
+        return lock
 
     lock = on_root(comm, claim_folder, share=False)  # a refusal is raised on every rank
     try:
         return _run_distributed(scene, out_dir, comm, progress=progress, vtu=vtu, steps=steps,
-                                partition=partition, skin=skin)
+                                partition=partition, skin=skin, notify=notify)
     finally:
         if lock is not None:
             lock.unlink(missing_ok=True)
 
 
-def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partition, skin):
+def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partition, skin,
+                     notify=None):
     """:func:`run_scene_distributed` once rank 0 holds the folder."""
     rank, size = comm.Get_rank(), comm.Get_size()
 
     def build():
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            model = scene.build_model()
+            try:
+                model = scene.build_model()
+            except JellysimError as exc:  # what the build said may explain it (mesh units)
+                exc.run_warnings = [str(w.message) for w in caught]
+                raise
         return model, [str(w.message) for w in caught]
 
     # rank 0 alone holds the global model: it sends every rank its part (DistributedSimulator)
@@ -76,6 +89,8 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
         if sim.replicated:
             messages.append(f"every rank runs the whole body ({sim.replicated}): the run "
                             "is correct but not faster than one process")
+    for m in dict.fromkeys(messages) if rank == 0 and notify is not None else ():
+        notify(m)
     total = scene.steps if steps is None else int(steps)
     every = scene.frame_every
     recorder = series = skin_series = None
@@ -183,7 +198,8 @@ def prepare(scene, sim) -> None:
 
 
 def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
-            partition="morton", video=None, usd=None, glb=None) -> None:
+            partition="morton", video=None, usd=None, glb=None, overwrite=False,
+            say=None) -> None:
     """The body of ``jellysim run`` under ``mpiexec``: errors agreed by all ranks (bad scene,
     blow-up) are printed once by rank 0; any other error is printed as ``rank R: ...`` by the
     rank that hit it, which then aborts the whole job."""
@@ -208,8 +224,10 @@ def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
         out = Path(out_dir) if out_dir else Path("out") / Path(scene_file).stem
         result = run_scene_distributed(scene, out, comm=comm, progress=not quiet,
                                        vtu=False if no_vtu else None, steps=steps,
-                                       partition=partition)
+                                       partition=partition, overwrite=overwrite, notify=say)
     except JellysimError as exc:
+        for w in getattr(exc, "run_warnings", ()) if rank == 0 and say is not None else ():
+            say(w)
         fail(str(exc))
     except Exception as exc:  # one rank only: say which, and do not leave the others waiting
         sys.stderr.write(f"error: rank {rank} of {comm.Get_size()}: {type(exc).__name__}: "
@@ -219,7 +237,7 @@ def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
     if rank != 0:
         return
     for w in result.warnings:
-        click.secho(f"warning: {w}", fg="yellow", err=True)
+        (say or (lambda m: click.secho(f"warning: {m}", fg="yellow", err=True)))(w)
     rate = result.steps / result.seconds if result.seconds > 0 else float("inf")
     click.echo(f"{result.steps} steps, {result.frames} frames in {result.seconds:.3g} s "
                f"({rate:,.0f} steps/s, {result.simulated / max(result.seconds, 1e-300):.2g}x "
