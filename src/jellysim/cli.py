@@ -293,7 +293,10 @@ def inspect(path) -> None:
             from .scene import Scene
             from .scene_summary import scene_summary
 
-            rows = scene_summary(Scene.load(path))
+            said: list = []
+            rows = scene_summary(Scene.load(path), said)
+            for w in said:
+                click.secho(f"warning: {w}", fg="yellow", err=True)
             click.echo(f"{path}: scene")
             for k, v in rows:
                 click.echo(f"  {k:<12} {v}")

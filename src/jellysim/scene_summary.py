@@ -17,15 +17,26 @@ def _corners(x) -> str:
                        for corner in (x.min(axis=0), x.max(axis=0)))
 
 
+def _seconds(t: float) -> str:
+    return f"{t * 1e6:.3g} us" if t < 1e-3 else f"{t * 1e3:.3g} ms"
+
+
 def _name(option) -> str:
     return str(getattr(option, "value", option))
 
 
-def scene_summary(scene) -> list[tuple[str, str]]:
-    """Rows ``(label, text)`` describing :class:`~jellysim.scene.Scene` ``scene``."""
+def scene_summary(scene, said: list | None = None) -> list[tuple[str, str]]:
+    """Rows ``(label, text)`` describing :class:`~jellysim.scene.Scene` ``scene``; the
+    warnings of the build (mesh units, the stability estimate) go to ``said`` if given."""
+    import warnings
+
     p = scene.params
-    model = scene.build_model()
-    sim = scene.simulator(model)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = scene.build_model()
+        sim = scene.simulator(model)
+    if said is not None:
+        said.extend(dict.fromkeys(str(w.message) for w in caught))
     x = np.asarray(model.point_x0)
     b, it, g = p["body"], p["integrator"], p["ground"]
     tets = model.fem.tets if model.fem is not None else model.body.tets
@@ -48,9 +59,11 @@ def scene_summary(scene) -> list[tuple[str, str]]:
         rows.append(("path", "springs" + (f" ({why})" if why else "")))
     steps, dt = scene.steps, float(it["dt"])
     step = f"{_name(sim.integrator)}, dt = {dt:g} s, {steps} steps = {steps * dt:g} s simulated"
-    if sim.physical:
-        step += (f"; {sim.substeps} substeps per step from the stability estimate "
-                 f"({dt / sim.substeps * 1e6:.3g} us each)")
+    given = it["substeps"] is not None
+    if sim.physical or sim.substeps > 1 or given:
+        step += (f"; {sim.substeps} substeps per step "
+                 + ("(set in the scene)" if given else "from the stability estimate")
+                 + f" ({_seconds(dt / sim.substeps)} each)")
     rows.append(("step", step))
     rows.append(("backend", f"{_name(sim.backend)}, {sim.threads} thread(s)"))
     ground = "off" if not g["enabled"] else (
