@@ -703,8 +703,12 @@ def test_rendering_a_body_file_or_scene_says_to_run_it_first(tmp_path):
 
     from jellysim.cli import cli
 
-    for name in ("t.jello", "t.toml", "t.obj"):
-        (tmp_path / name).write_text("x\n")
+    import numpy as np
+
+    np.savez(tmp_path / "b.npz", points=np.zeros((4, 3)), springs=np.zeros((1, 2), int))
+    for name in ("t.jello", "t.toml", "t.obj", "t.vtp", "b.npz"):
+        if not name.endswith(".npz"):
+            (tmp_path / name).write_text("x\n")
         res = CliRunner().invoke(cli, ["render", str(tmp_path / name), "-o",
                                        str(tmp_path / "x.png")])
         assert res.exit_code != 0 and "not a trajectory: run it first" in res.output

@@ -27,10 +27,12 @@ import numpy as np
 
 from jellysim.errors import MeshError
 
-__all__ = ["Mesh", "MeshDefects", "load_mesh"]
+__all__ = ["Mesh", "MeshDefects", "MESH_SUFFIXES", "load_mesh"]
 
 _TRIMESH_SUFFIXES = {".obj", ".ply", ".stl", ".off", ".glb", ".gltf"}
 _MESHIO_SUFFIXES = {".vtk", ".vtu", ".vtp"}
+MESH_SUFFIXES = frozenset(_TRIMESH_SUFFIXES | _MESHIO_SUFFIXES)
+"""The file name endings :func:`load_mesh` reads."""
 
 WELD_REL = 1e-10
 """Default weld distance, relative to the bounding-box diagonal."""

@@ -175,8 +175,10 @@ def resolve_trajectory(path) -> Path:
     return path
 
 
-MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
-"""Surface-mesh file names, refused as trajectories with a pointer to running them first."""
+def _not_a_trajectory(path, what: str):
+    raise JellysimError(f"{path}: {what}, not a trajectory: run it first (jellysim run SCENE "
+                        "--out DIR; a scene takes a body file as [body] type = 'file', a mesh "
+                        "as type = 'mesh') and give DIR or its trajectory.npz")
 
 
 def load_trajectory(path, *, mmap: bool = False) -> Trajectory:
@@ -187,12 +189,12 @@ def load_trajectory(path, *, mmap: bool = False) -> Trajectory:
     reading them (memory independent of the frame count)."""
 
     path = resolve_trajectory(path)
-    if path.suffix.lower() in (".jello", ".toml") or path.suffix.lower() in MESH_SUFFIXES:
-        what = {".jello": "a body file", ".toml": "a scene"}.get(path.suffix.lower(), "a mesh")
-        raise JellysimError(f"{path}: {what}, not a trajectory: run it first (jellysim run "
-                            "SCENE --out DIR; a scene takes a body file as [body] type = "
-                            "'file', a mesh as type = 'mesh') and give DIR or its "
-                            "trajectory.npz")
+    from ..geometry.mesh import MESH_SUFFIXES
+
+    suffix = path.suffix.lower()
+    if suffix in (".jello", ".toml") or suffix in MESH_SUFFIXES - {".vtu"}:  # (.vtu: a frame)
+        _not_a_trajectory(path, {".jello": "a body file", ".toml": "a scene"}.get(suffix,
+                                                                                  "a mesh"))
     try:
         if path.is_dir():
             d = read_stream(path, mmap=mmap)
@@ -206,6 +208,8 @@ def load_trajectory(path, *, mmap: bool = False) -> Trajectory:
             NotImplementedError) as exc:
         raise JellysimError(f"{path}: not a jellysim trajectory ({exc})") from None
     missing = {"positions", "times", "springs", "params_json"} - set(d)
+    if missing and {"points", "springs"} <= set(d):
+        _not_a_trajectory(path, "a body file (.npz)")
     if missing:
         raise JellysimError(f"{path}: not a jellysim trajectory (missing {sorted(missing)})")
     if path.is_dir() and len(d["times"]) == 0:
