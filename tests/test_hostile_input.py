@@ -634,6 +634,9 @@ def test_session_9_a_run_says_the_build_warnings_first_and_names_the_file(tmp_pa
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n", r":4: face vertex 7 does not exist \(the file has 3"),
     ("v 0 0 0\nv 1 0 x\nv 0 1 0\nf 1 2 3\n", r":2: a vertex needs three numbers"),
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 two 3\n", r":4: 'two' is not a vertex number"),
+    # 0-based (the loader itself wraps index 0 around to the last vertex, silently)
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 0 1 2\nf 0 1 3\nf 1 2 3\nf 0 2 3\n",
+     r":5: face vertex 0 does not exist .* OBJ numbers them from 1"),
 ])
 def test_a_broken_obj_is_blamed_on_its_line(tmp_path, text, said):
     """Session 9's trial: a broken OBJ said "could not parse the file (IndexError: index 6

@@ -231,6 +231,9 @@ def _read_trimesh(p: Path, name: str):
         if where is not None:
             raise MeshError(f"{name}:{where}") from None
         raise MeshError(f"{name}: could not parse the file ({type(exc).__name__}: {exc})") from exc
+    where = _obj_problem(p) if p.suffix.lower() == ".obj" else None
+    if where is not None:  # e.g. 0-based face indices, which the loader wraps around silently
+        raise MeshError(f"{name}:{where}")
     if not isinstance(loaded, trimesh.Trimesh):
         raise MeshError(f"{name}: the file holds no triangle mesh (got {type(loaded).__name__})")
     v = np.asarray(loaded.vertices, dtype=np.float64)
