@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from .body import Body
-from .errors import BuildError
+from .errors import BuildError, did_you_mean
 from .geometry.sampling import Sampling
 from .params import REPORT_DENSITY
 from .resources import check_body_memory
@@ -448,13 +448,9 @@ def _choice(enum, value, what: str):
     try:
         return enum(value)
     except ValueError:
-        import difflib
-
         names = [e.value for e in enum]
-        near = difflib.get_close_matches(str(value), names, n=1)
-        hint = f" (did you mean {near[0]!r}?)" if near else ""
         raise BuildError(f"{what} must be one of {', '.join(repr(n) for n in names)}, got "
-                         f"{value!r}{hint}") from None
+                         f"{value!r}{did_you_mean(value, names, '{!r}')}") from None
 
 
 def _radius_tets(pts, inside_fn, vertices=None, faces=None, *, seed: int = 0,

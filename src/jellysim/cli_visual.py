@@ -237,8 +237,8 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
                f"simulated in {s['simulate']:.1f} s, rendered in {s['render']:.1f} s, "
                f"total {s['total']:.1f} s")
     if s.get("startup", 0.0) > 1.0:
-        click.echo(f"  ({s['startup']:.1f} s of the simulating were numba compiling its kernels "
-                   "on a first run; cached for the next)")
+        click.echo(f"  ({s['startup']:.1f} s of the simulating were the first steps' start-up: "
+                   "compiling the kernels on a first run, cached for the next)")
     for key in ("video", "usd", "trajectory"):
         if key in r:
             click.echo(f"wrote {r[key]}")

@@ -3,7 +3,16 @@ from __future__ import annotations
 
 __all__ = ["JellysimError", "SceneError", "SimulationError", "MeshError", "BuildError",
            "JelloFileError", "RunInterrupted", "CheckpointError", "ResourceError",
-           "StabilityWarning", "SolverWarning"]
+           "StabilityWarning", "SolverWarning", "did_you_mean"]
+
+
+def did_you_mean(word, choices, fmt: str = "'{}'") -> str:
+    """`` (did you mean 'x'?)`` for the choice closest to ``word`` (``fmt`` shapes it:
+    ``"[{}]"`` for a section, ``"{!r}"``), or ``""`` when none is close."""
+    import difflib
+
+    near = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
+    return f" (did you mean {fmt.format(near[0])}?)" if near else ""
 
 
 class JellysimError(Exception):

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import SceneError
+from .errors import SceneError, did_you_mean
 
 __all__ = ["Handles", "HandleMethods", "PinPath", "select_points"]
 
@@ -179,10 +179,7 @@ def validate_handle_tables(entries, name: str) -> list[dict]:
         where = f"{name}: [[handle]] #{k}"
         extra = sorted(set(entry) - _HANDLE_KEYS)
         if extra:
-            import difflib
-
-            near = difflib.get_close_matches(extra[0], sorted(_HANDLE_KEYS), n=1)
-            hint = f" (did you mean '{near[0]}'?)" if near else ""
+            hint = did_you_mean(extra[0], sorted(_HANDLE_KEYS))
             raise SceneError(f"{where}: unknown key '{extra[0]}'{hint}; allowed: "
                              + ", ".join(sorted(_HANDLE_KEYS)))
         kind = entry.get("kind")

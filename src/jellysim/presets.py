@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import copy
 
+from .errors import did_you_mean
 from .params import CONTACT_FRICTION, CONTACT_RESTITUTION, REPORT_DENSITY, Material
 
 __all__ = ["PRESETS", "GELATIN_DENSITY", "GELATIN_YOUNGS_MODULUS", "GELATIN_POISSON_RATIO",
@@ -118,12 +119,7 @@ def gelatin(**changes):
     known = {f.name for f in dataclasses.fields(Material)}
     unknown = sorted(set(changes) - known)
     if unknown:
-        import difflib
-
-        hints = []
-        for k in unknown:
-            near = difflib.get_close_matches(k, known, n=1)
-            hints.append(f"{k!r}" + (f" (did you mean {near[0]!r}?)" if near else ""))
+        hints = [f"{k!r}" + did_you_mean(k, sorted(known), "{!r}") for k in unknown]
         raise ValueError(f"unknown material parameter {', '.join(hints)}; the parameters are "
                          + ", ".join(sorted(known)))
     values.update(changes)

@@ -6,14 +6,13 @@ format (generated from the same schema: ``jellysim scene-help``).
 """
 from __future__ import annotations
 
-import difflib
 import math
 import tomllib
 from pathlib import Path
 
 import numpy as np
 
-from .errors import JellysimError, SceneError
+from .errors import JellysimError, SceneError, did_you_mean
 from .params import (MAX_ALL_PAIRS_POINTS, GroundParams, ImplicitParams, ProvotOrder, ProvotPairs,
                      ProvotParams)
 # Spec (one row of the schema) and the checks live in scene_spec, the table of keys in
@@ -128,8 +127,7 @@ class Scene:
         handles = validate_handle_tables(raw.pop("handle", []), name)
         for section in raw:
             if section not in SCHEMA:
-                near = difflib.get_close_matches(section, SCHEMA, n=1)
-                hint = f" (did you mean [{near[0]}]?)" if near else ""
+                hint = did_you_mean(section, SCHEMA, "[{}]")
                 raise SceneError(f"{name}: unknown section [{section}]{hint}; allowed: "
                                  + ", ".join(f"[{s}]" for s in SCHEMA)
                                  + ", [[handle]], [[obstacle]]")

@@ -6,7 +6,6 @@ The table of keys itself, ``SCHEMA``, lives in :mod:`jellysim.scene_schema`: a n
 """
 from __future__ import annotations
 
-import difflib
 import math
 import tomllib
 from dataclasses import dataclass
@@ -14,7 +13,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .errors import SceneError
+from .errors import SceneError, did_you_mean
 from .kernels import WARP_INTEGRATORS
 
 __all__ = ["REQUIRED", "Spec", "as_toml", "missing_path", "check_table", "check_value", "plain",
@@ -101,8 +100,7 @@ def check_table(name: str, label: str, given: dict, keys: dict[str, Spec]) -> di
     value (:func:`check_value`); defaults filled in.  ``label`` names it (``[section]``)."""
     for key in given:
         if key not in keys:
-            near = difflib.get_close_matches(key, keys, n=1)
-            hint = f" (did you mean '{near[0]}'?)" if near else ""
+            hint = did_you_mean(key, keys)
             raise SceneError(f"{name}: {label} unknown key '{key}'{hint}; allowed: "
                              + ", ".join(keys))
     values = {}
