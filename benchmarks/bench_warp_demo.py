@@ -1,6 +1,6 @@
 """Benchmark: ``jellysim demo`` on the Warp backend against the default (numba) backend.
 
-Runs the demo (the gelatin mould tossed onto a plate, 181 frames by default) with numba, then
+Runs the demo (the gelatin mould slid onto a plate, 181 frames by default) with numba, then
 with Warp in each ``--dtype``, and prints (JSON) per Warp run: the largest point distance over
 all frames relative to the jello's largest extent, the mean and largest absolute difference of
 the decoded video frames (0-255 per channel), and the simulate/render times of every run.
