@@ -383,6 +383,30 @@ def test_a_cube_dropped_flat_lands_where_it_fell():
     assert np.hypot(c[0] - c0[0], c[2] - c0[2]) < 1e-4  # and did not slide (0.1 mm)
 
 
+@pytest.mark.parametrize("mesh, size, points, drop, E, zeta, frames, tol", [
+    ("torus.obj", 0.08, 1500, 0.03, 8e3, 0.02, 60, 2e-4),
+    ("sphere.obj", 0.06, 400, 0.10, 1e4, 0.02, 120, 2e-3)])
+def test_a_symmetric_body_dropped_flat_lands_where_it_fell(mesh, size, points, drop, E, zeta,
+                                                            frames, tol):
+    """The same for bodies whose grid came out an odd number of cells across: the mirrored
+    split cannot make the middle column of cells symmetric, and they slid: the 8 cm torus
+    6.3 mm along (1, 0, 1) (session 9's trial saw 9.6 mm), the 6 cm ball (400 points,
+    dropped 10 cm) 7.95 / 6.20 mm.  The warped grid now takes an even count across x and z:
+    0.0 mm and 0.99 / 0.0 mm (the ball rolls a little on the sphere mesh's own asymmetry)."""
+    import jellysim as js
+
+    body = js.Body.from_mesh(DATA / mesh, size=size, points=points, base=(0, drop, 0))
+    model = js.physical_model(body, js.material("gelatin", youngs_modulus=E,
+                                                damping_ratio=zeta))
+    sim = js.Simulator(model, dt=1 / 60, ground=_ground(mu=0.6))
+    m = model.point_mass
+    c0 = m @ sim.state.x / m.sum()
+    sim.advance(frames)
+    c = m @ sim.state.x / m.sum()
+    assert c[1] < c0[1] - 0.8 * drop  # it fell and landed
+    assert np.hypot(c[0] - c0[0], c[2] - c0[2]) < tol  # and did not slide
+
+
 def test_mass_scaling_keeps_the_weight_and_the_wobble_and_shortens_the_substep():
     """Selective mass scaling (Material.mass_scaling, 0.5 %): the total mass is kept, the
     largest frequency (what sets the substep) drops, and the body's lowest wobble frequency

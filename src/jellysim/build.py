@@ -440,6 +440,7 @@ def _fit_height(h: float, height: float) -> float:
     if not height > 0:
         return h
     cells = max(1, math.ceil(height / h - 1e-9))
+    cells += cells % 2  # even, as the warped grid's horizontal counts (a cube then fits)
     return height * (1.0 - 2e-6) / cells
 
 

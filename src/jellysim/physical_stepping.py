@@ -121,6 +121,7 @@ class PhysicalStepping:
             saved = (s.x.copy(), s.v.copy(), s.a.copy(), self._q.copy())
             running_min_j = float(self._min_j[0])
             squeezed = bool(self._squeezed[0])
+            self.travelled = False
             for attempt in range(self.MAX_SUBSTEP_DOUBLINGS + 2):
                 sub = self.substeps * (2 if squeezed else 1)
                 self._min_j[0] = 1.0  # this frame's smallest J

@@ -452,7 +452,8 @@ class DistributedSimulator(PhysicalMethods):
             runaway_distance=self.runaway_distance, stability=self.stability,
             integrator=self.integrator, dt_step=self.dt_step, implicit=self.implicit,
             physical=self.physical, substeps=self.substeps,
-            MAX_SUBSTEP_DOUBLINGS=self.MAX_SUBSTEP_DOUBLINGS)
+            MAX_SUBSTEP_DOUBLINGS=self.MAX_SUBSTEP_DOUBLINGS,
+            travelled=getattr(self, "travelled", False))
         raise_agreed(self.comm, lambda: Simulator._raise(view, status))
 
     # -- output ---------------------------------------------------------------------------

@@ -79,6 +79,11 @@ def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
     # (an extent within 1e-5 of a whole number of cells is that many: build_body may fit
     # the grid to the box so that its outer nodes lie a hair inside it)
     ncell = np.maximum(1, np.ceil(ext / h * (1.0 - 1e-5)).astype(np.int64))
+    if warp:  # the mirrored split is symmetric under a reflection through the box's centre
+        # only across an even number of cells (an odd count puts one unmirrorable cell in the
+        # middle): so across x and z, the horizontal axes, the count is made even (a body
+        # dropped straight then has no preferred side to slide to)
+        ncell[[0, 2]] += ncell[[0, 2]] % 2
     if int(np.prod(ncell + 1)) > 50_000_000:
         raise BuildError(f"h={h} gives a {tuple(int(c) for c in ncell)} grid; too many nodes")
     origin = lo - (ncell * h - ext) / 2.0
