@@ -724,3 +724,16 @@ def test_a_grid_box_of_too_few_points_says_so():
     with pytest.raises(SceneError, match=r"points = 3: a grid box needs at least 8"):
         Scene.from_text('[body]\ntype = "box"\npoints = 3\ndistribution = "grid"\n'
                         '[springs]\nstiffness = 1.0\n[integrator]\ndt = 0.01\nsteps = 1\n')
+
+
+@pytest.mark.parametrize("points", [5, 30])
+def test_too_few_points_for_a_shape_is_one_clear_error(points):
+    """Session 9's second trial: a torus of 5 points crashed deep inside (IndexError in
+    tet_edges) where 50 points said the resolution is too coarse; now both say so."""
+    import jellysim as js
+    from jellysim.errors import BuildError
+
+    with pytest.raises(BuildError, match="no tetrahedron was kept - the resolution is too "
+                                         "coarse"):
+        js.Body.from_mesh(Path(__file__).parent / "data" / "torus.obj", size=0.08,
+                          points=points)
