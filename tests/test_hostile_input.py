@@ -628,6 +628,9 @@ def test_session_9_a_run_says_the_build_warnings_first_and_names_the_file(tmp_pa
                                    str(tmp_path / "p"), "--quiet"])
     assert res.exit_code != 0
     assert res.output.index("50 m across") < res.output.index("below the ground")
+    for target in ("t.toml", "cube_mm.obj"):  # inspect says it too, for a scene and a mesh
+        res = CliRunner().invoke(cli, ["inspect", str(tmp_path / target)])
+        assert "50 m across" in res.output, res.output
 
 
 @pytest.mark.parametrize("text, said", [

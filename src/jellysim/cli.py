@@ -294,9 +294,11 @@ def inspect(path) -> None:
             from .scene_summary import scene_summary
 
             said: list = []
-            rows = scene_summary(Scene.load(path), said)
-            for w in said:
-                click.secho(f"warning: {w}", fg="yellow", err=True)
+            try:
+                rows = scene_summary(Scene.load(path), said)
+            finally:
+                for w in said:
+                    click.secho(f"warning: {w}", fg="yellow", err=True)
             click.echo(f"{path}: scene")
             for k, v in rows:
                 click.echo(f"  {k:<12} {v}")
@@ -338,6 +340,10 @@ def inspect(path) -> None:
             click.echo(f"{path}: surface mesh; coordinates are read as metres (jellysim build "
                        "--size S scales its largest extent to S m)")
             click.echo(f"extent [m]:              {ext[0]:.6g} x {ext[1]:.6g} x {ext[2]:.6g}")
+            if not 1e-3 <= float(ext.max()) <= 10.0:
+                click.secho(f"warning: {float(ext.max()):.4g} m across: if the mesh is in "
+                            "millimetres or another unit, scale it (--size, [body] size = 0.1 "
+                            "for 10 cm, size= in Python)", fg="yellow", err=True)
             click.echo(mesh.defects.describe())
             if mesh.defects.watertight and mesh.defects.shells > 1:
                 from .build import shell_overlap

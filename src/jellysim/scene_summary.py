@@ -31,10 +31,17 @@ def scene_summary(scene, said: list | None = None) -> list[tuple[str, str]]:
     import warnings
 
     p = scene.params
+    from .errors import JellysimError
+
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        model = scene.build_model()
-        sim = scene.simulator(model)
+        try:
+            model = scene.build_model()
+            sim = scene.simulator(model)
+        except JellysimError:
+            if said is not None:  # what the build said may explain the refusal (mesh units)
+                said.extend(dict.fromkeys(str(w.message) for w in caught))
+            raise
     if said is not None:
         said.extend(dict.fromkeys(str(w.message) for w in caught))
     x = np.asarray(model.point_x0)
