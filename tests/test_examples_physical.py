@@ -106,6 +106,8 @@ def test_a_bare_gelatin_box_is_a_dessert_cube_on_the_physical_path():
                             + "[integrator]\nsteps = 1\n").params["body"]
         assert (b["distribution"], b["upper"]) == ("grid", [0.1, 0.1, 0.1])
         assert b["points"] == (1000 if "points" not in text else 500)
+    bare = Scene.from_text("[material]\npreset = 'gelatin'\n")  # a whole scene: 3 s
+    assert (bare.params["body"]["upper"], bare.steps) == ([0.1, 0.1, 0.1], 180)
     named = Scene.from_text("[material]\npreset = 'gelatin'\n[body]\ntype = 'box'\n"
                             "points = 500\n[springs]\nradius = 0.3\n[integrator]\nsteps = 9\n")
     assert named.params["body"]["distribution"] == "edge"

@@ -17,7 +17,9 @@ own values win).  :data:`PRESETS` maps the name to that partial scene.
   modulus far above the loss modulus and both nearly independent of frequency; the figure is
   our estimate for a dessert gel, not a measurement of ours), physical ground (restitution
   0.3, Coulomb friction 0.6), the physical path: Stable Neo-Hookean tets for tet bodies,
-  symplectic substeps at dt = 1/60 s per frame, no Provot, no report damping.  A mesh body
+  symplectic substeps at dt = 1/60 s per frame, 180 frames (3 s) unless ``steps`` is given,
+  no Provot, no report damping; ``[material] preset = "gelatin"`` alone is a whole scene (the
+  10 cm cube resting on the plate).  A mesh body
   gets ``connect = "marching"`` and a box (the default type) ``distribution = "grid"`` (a
   10 cm cube of 1000 cells, :data:`GELATIN_BOX`, unless its corners or points are given),
   both carrying tets, unless the scene names its springs (``connect``, ``radius`` or
@@ -65,10 +67,11 @@ PRESETS: dict[str, dict] = {
                      "poisson_ratio": GELATIN_POISSON_RATIO,
                      "damping_ratio": GELATIN_DAMPING_RATIO, "damping_frequency": 5.0},
         "physics": {"damping": 0.0},
-        "integrator": {"name": "symplectic", "dt": 1.0 / 60.0},
+        "integrator": {"name": "symplectic", "dt": 1.0 / 60.0, "steps": 180},
         "provot": {"enabled": False},
         "ground": {"model": "contact", "restitution": CONTACT_RESTITUTION,
                    "friction": CONTACT_FRICTION},
+        "body": {},
     },
     "paper-2010": {
         "springs": {"stiffness": 2.0},
