@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import JellysimError
+
 __all__ = ["scene_summary"]
 
 
@@ -31,8 +33,6 @@ def scene_summary(scene, said: list | None = None) -> list[tuple[str, str]]:
     import warnings
 
     p = scene.params
-    from .errors import JellysimError
-
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:

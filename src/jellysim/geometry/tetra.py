@@ -161,11 +161,9 @@ def tet_edges(tets: np.ndarray, n_points: int | None = None) -> np.ndarray:
     n = int(t.max()) + 1 if n_points is None and t.size else int(n_points or 0)
     a, b = t[:, _TET_EDGES[:, 0]].ravel(), t[:, _TET_EDGES[:, 1]].ravel()
     lo, hi = np.minimum(a, b), np.maximum(a, b)
-    if not len(t):
-        return np.zeros((0, 2), dtype=np.int64)
     if n > 0 and float(n) ** 2 < 2.0**62:
         key = np.sort(lo * n + hi)  # plain sort: faster than np.unique's argsort
-        key = key[np.concatenate(([True], key[1:] != key[:-1]))]
+        key = key[np.concatenate(([True], key[1:] != key[:-1]))[:len(key)]]  # (none: none)
         return np.stack([key // n, key % n], axis=1)
     return _unique_rows_sorted(np.stack([lo, hi], axis=1), n)[0]
 
