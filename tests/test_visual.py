@@ -431,3 +431,16 @@ def test_diagnostics_count_the_tets_energy_of_a_physical_run(tmp_path):
     assert d["tets"][0] == pytest.approx(0.0, abs=1e-12) and d["tets"].max() > 0.0
     assert d["total"].max() <= d["total"][0] * (1 + 1e-3)
     assert d["total"][-1] < d["total"][0]  # the landing took some out
+
+
+def test_the_plate_is_framed_whole(traj):
+    """The demo's plate (1.6x the body's width) lies inside the picture: no near-white plate
+    pixel on the border (session 9's trial: the cow's plate was cut off at the bottom); the
+    camera frames the plate's rim as well as the body's motion."""
+    from jellysim.render.offscreen import Renderer, RenderOptions
+
+    img = Renderer(traj, RenderOptions(size=(320, 180), plate=True)).render(traj.frame_count - 1)
+    plate = np.all(img.astype(int) >= (225, 220, 210), axis=2)  # the plate's near-white
+    assert plate.sum() > 0.02 * plate.size  # the plate is drawn
+    border = np.concatenate([plate[0], plate[-1], plate[:, 0], plate[:, -1]])
+    assert not border.any()

@@ -149,6 +149,10 @@ class Renderer:
                                     resolution=96)
                 p.add_mesh(plate, color="#fbfaf7", ambient=0.4, diffuse=0.7, specular=0.2,
                            name="plate")
+                rim = np.linspace(0.0, 2.0 * np.pi, 16, endpoint=False)  # framed whole
+                extra = np.vstack([extra, np.stack([mid[0] + radius * np.cos(rim),
+                                                    np.full(16, floor_y),
+                                                    mid[2] + radius * np.sin(rim)], axis=1)])
                 self._floor_y = floor_y + 0.0045 * ext
             else:
                 self._floor_y = floor_y + 0.0005 * ext
