@@ -52,7 +52,8 @@ FITTED_GRID_GAIN = (1.25, 1.05, 1.25)
 """``marching`` (``h`` not given): the grid fitted to the mesh's height replaces the centred
 one when it is no shorter and its tets hold ``[0]`` times the volume (a box: 1.95x), or
 ``[1]`` times with at most ``[2]`` times the points (a 5 cm cube at 200 points: 1.11x, same
-points; the torus's fitted grid: 1.08x with 1.7x the points, not taken)."""
+points).  One refused for too many points is built once more with its edge scaled to the
+asked count (a 10 cm cube at 5,000 points: 82 % -> 100 % of its volume)."""
 
 RELAX_PASSES = 10
 """Default Lloyd passes of a ``delaunay`` body's interior points (with surface samples)."""
