@@ -35,6 +35,8 @@ Optional skin (:mod:`jellysim.skin`; absent in older files, which load with ``sk
 """
 from __future__ import annotations
 
+import functools
+
 import json
 import zipfile
 from dataclasses import dataclass
@@ -149,7 +151,12 @@ class Trajectory:
             raise IndexError(f"frame {frame} out of range: the trajectory has {n} frames "
                              f"(0 .. {n - 1}, or -1 for the last)")
         x = self.positions if frame is None else self.positions[frame]
-        return self.skin.deform(x, **skin_bounds(self.params))
+        return self.skin.deform(x, **self._skin_bounds)
+
+    @functools.cached_property
+    def _skin_bounds(self) -> dict:
+        """:func:`skin_bounds` of the run, packed once (renders and exports ask per frame)."""
+        return skin_bounds(self.params)
 
 
 def resolve_trajectory(path) -> Path:
