@@ -146,6 +146,38 @@ def test_a_resume_finishes_the_steps_the_interrupted_run_asked(tmp_path):
     _same(traj, ref)
 
 
+@pytest.mark.parametrize("text", [EXPLICIT, IMPLICIT], ids=["explicit", "implicit-bdf2"])
+def test_a_finished_run_extended_is_bitwise_the_longer_run(tmp_path, text):
+    """A completed run continued for more steps (`jellysim run --resume DIR --set
+    integrator.steps=N`, or `--steps N`) is bitwise the run asked for N steps from the start:
+    the same frames, on the first run's frame schedule (the default `[output] every` follows
+    the step count; an extension keeps the schedule it started with), and its ParaView series
+    grows with it.  Asking a finished run for no more steps says how to extend it."""
+    text = text.replace("every = 20\n", "").replace("every = 4\n", "").replace(
+        "vtu = false", "vtu = true")
+    short = Scene.from_text(text, name="scene.toml", overrides=("integrator.steps=100",))
+    every = short.frame_every                      # 1 (100 steps: a frame every step)
+    ref = load_trajectory(run_scene(Scene.from_text(text.replace(
+        "[output]\n", f"[output]\nevery = {every}\n"), name="scene.toml",
+        overrides=("integrator.steps=150",)), tmp_path / "full", progress=False).trajectory)
+    out = tmp_path / "run"
+    first = run_scene(short, out, progress=False)
+    with pytest.raises(CheckpointError, match=r"finished at step 100 .*--steps N .*N > 100"):
+        run_scene(short, out, progress=False, resume=True)
+    longer = Scene.from_text(text, name="scene.toml", overrides=("integrator.steps=150",))
+    assert longer.frame_every != every             # so the schedule kept is the first run's
+    res = run_scene(longer, out, progress=False, resume=True)
+    assert res.resumed_from == 100 and first.frames == 101 and res.frames == 151
+    traj = load_trajectory(out)
+    assert traj.status == "complete" and traj.steps[-1] == 150
+    _same(traj, ref)
+    assert (out / "body.pvd").read_text().count("<DataSet ") == 151
+    assert not (out / STREAM_DIR).exists() and not (out / CHECKPOINT).exists()
+    # and once more through --steps, the scene unchanged
+    res = run_scene(longer, out, progress=False, resume=True, steps=170)
+    assert load_trajectory(out).steps[-1] == 170 and res.resumed_from == 150
+
+
 def test_internal_state_round_trip_continues_bitwise():
     """Two simulators: one runs 2n steps, the other takes over at n from the first one's
     state + internal_state and must end bitwise identical (implicit BDF2 with contact)."""

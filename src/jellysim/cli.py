@@ -5,7 +5,7 @@ import sys
 
 import click
 
-from .errors import JellysimError, RunInterrupted
+from .errors import JellysimError, NothingToResume, RunInterrupted
 from .params import REPORT_DENSITY
 
 
@@ -86,7 +86,8 @@ def cli() -> None:
                    "--set 'material.preset=\"gelatin\"'.  Repeatable.")
 @click.option("--resume", "resume_dir", type=click.Path(file_okay=False), default=None,
               help="Continue the interrupted run in this output directory from its last "
-                   "checkpoint (same scene file; bit-identical to an uninterrupted run).")
+                   "checkpoint (same scene file; bit-identical to an uninterrupted run), or "
+                   "extend a finished one given more steps (--steps N).")
 @click.option("--checkpoint-every", type=click.IntRange(min=0), default=None,
               help="Steps between checkpoints (0: only when interrupted; default: the "
                    "scene's [output] checkpoint_every, else about once a minute).")
@@ -130,14 +131,12 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         fresh = not out.exists()
         if not resume_dir:
             prepare_out_dir(out, overwrite=overwrite)
-        elif ((out / "trajectory.npz").exists() and not (out / "checkpoint.npz").exists()
-              and not (out / "trajectory.stream").exists()):
-            click.echo(f"{out}: the run has finished ({out / 'trajectory.npz'}); nothing to "
-                       "resume (run without --resume to start afresh)")
-            return
         result = run_scene(scene, out, progress=not quiet, vtu=False if no_vtu else None,
                            steps=steps, resume=resume_dir is not None,
                            checkpoint_every=checkpoint_every, notify=say)
+    except NothingToResume as exc:
+        click.echo(str(exc))  # a finished run and no more steps asked: not a failure
+        return
     except RunInterrupted as exc:
         # the printed resume command ends the message: it keeps this run's --no-vtu and
         # outputs (the step count is in the checkpoint)

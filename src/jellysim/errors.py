@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 __all__ = ["JellysimError", "SceneError", "SimulationError", "MeshError", "BuildError",
-           "JelloFileError", "RunInterrupted", "CheckpointError", "ResourceError",
-           "StabilityWarning", "SolverWarning", "did_you_mean"]
+           "JelloFileError", "RunInterrupted", "CheckpointError", "NothingToResume",
+           "ResourceError", "StabilityWarning", "SolverWarning", "did_you_mean"]
 
 
 def did_you_mean(word, choices, fmt: str = "'{}'") -> str:
@@ -57,6 +57,10 @@ class RunInterrupted(JellysimError):
 
 class CheckpointError(JellysimError, ValueError):
     """A checkpoint is missing, damaged or belongs to another scene or version."""
+
+
+class NothingToResume(CheckpointError):
+    """``resume`` on a run that has finished, and no more steps were asked to extend it."""
 
 
 class OutputError(JellysimError, OSError):

@@ -24,11 +24,11 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import (BuildError, CheckpointError, JellysimError, OutputError, ResourceError,
-                     RunInterrupted, SimulationError)
-from .io.checkpoint import CHECKPOINT, read_checkpoint, write_checkpoint
+from .errors import (BuildError, CheckpointError, JellysimError, NothingToResume, OutputError,
+                     ResourceError, RunInterrupted, SimulationError)
+from .io.checkpoint import CHECKPOINT, FINAL_CHECKPOINT, read_checkpoint, write_checkpoint
 from .io.lock import claim
-from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream
+from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream, reopen_stream
 from .io.trajectory import skin_bounds, trajectory_meta
 from .io.vtk import PVDSeries
 from .skin import default_skin
@@ -42,7 +42,7 @@ wall-clock time since the last one."""
 
 
 RUN_FILES = ("trajectory.npz", "body.pvd", "body_*.vtu", "skin.pvd", "skin_*.vtu",
-             ".trajectory.npz.*", ".body*", ".skin*", "checkpoint.npz")
+             ".trajectory.npz.*", ".body*", ".skin*", "checkpoint.npz", "checkpoint.final.npz")
 """Names (glob patterns) of the files a run writes into its folder: what ``--overwrite``
 removes before a new run (nothing else in the folder is touched)."""
 
@@ -167,7 +167,9 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     ``skin``: a :class:`~jellysim.skin.Skin` to carry, ``None`` for none, or ``"auto"``
     (:func:`jellysim.skin.default_skin`: the box surface for box scenes).
     ``body``: a :class:`~jellysim.body.Body` to simulate instead of the scene's own.
-    ``resume``: continue the run in ``out_dir`` from its checkpoint (same scene; validated).
+    ``resume``: continue the run in ``out_dir`` from its checkpoint (same scene; validated),
+    or extend a finished run from its end state when more ``steps`` are asked (else
+    :class:`~jellysim.errors.NothingToResume`).
     ``checkpoint_every``: steps between checkpoints (overrides ``[output] checkpoint_every``;
     0: only when interrupted).
     ``stop_after``: stop (checkpoint, :class:`RunInterrupted`) at the first frame once this
@@ -196,6 +198,14 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
         lock.unlink(missing_ok=True)
         if created and not any(out_dir.iterdir()):  # refused before anything was written
             out_dir.rmdir()
+
+
+def finished_run(out_dir) -> bool:
+    """Whether ``out_dir`` holds a completed (or failed) run: its ``trajectory.npz`` and
+    neither a stream nor a checkpoint of a run still to finish."""
+    out_dir = Path(out_dir)
+    return ((out_dir / "trajectory.npz").exists() and not (out_dir / CHECKPOINT).exists()
+            and not (out_dir / STREAM_DIR).exists())
 
 
 def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, checkpoint_every,
@@ -230,18 +240,33 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
     npz_path = out_dir / "trajectory.npz"
     body = model.body
     resumed_from = None
+    final_path = out_dir / FINAL_CHECKPOINT
     if resume:
-        if not ckpt_path.exists() and npz_path.exists() and not stream_dir.exists():
-            raise CheckpointError(f"{out_dir}: nothing to resume: the run has finished "
-                                  f"({npz_path}); run without --resume to start afresh")
-        ck = read_checkpoint(ckpt_path, scene=scene, model=model)
-        if steps is None and ck.total_steps is not None:
+        finished = finished_run(out_dir)
+        if finished and not final_path.exists():
+            raise NothingToResume(f"{out_dir}: nothing to resume: the run has finished "
+                                  f"({npz_path}) and kept no final state to extend it from "
+                                  "(it failed, or an older jellysim wrote it); run without "
+                                  "--resume to start afresh")
+        # an extension interrupted before its first checkpoint continues from the final state
+        ck = read_checkpoint(ckpt_path if ckpt_path.exists() or not final_path.exists()
+                             else final_path, scene=scene, model=model)
+        if steps is None and ck.total_steps is not None and scene.steps == ck.scene_steps:
             total = ck.total_steps  # finish the run that was asked (its --steps)
+        if finished and total <= ck.step:
+            raise NothingToResume(
+                f"{out_dir}: nothing to resume: the run has finished at step {ck.step} "
+                f"(t = {ck.t:.6g} s); to extend it ask for more steps: --steps N (Python: "
+                f"steps=N) or --set integrator.steps=N with N > {ck.step}")
         if total < ck.step:
             raise CheckpointError(f"{out_dir}: the checkpoint is at step {ck.step}, past the "
                                   f"{total} steps asked; resume with --steps {ck.step} or "
                                   "more (the interrupted run asked "
                                   f"{ck.total_steps if ck.total_steps is not None else '?'})")
+        if ck.frame_every is not None:
+            every = ck.frame_every  # frames keep the run's schedule, whatever its new length
+        if not stream_dir.exists() and npz_path.exists():
+            reopen_stream(npz_path, stream_dir)  # a finished run being extended
         s = sim.state
         s.x[:], s.v[:], s.a[:] = ck.x, ck.v, ck.a
         s.t, s.step = ck.t, ck.step
@@ -254,7 +279,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
         keep = ck.frames
         resumed_from = ck.step
     else:
-        for stale in (npz_path, ckpt_path):
+        for stale in (npz_path, ckpt_path, final_path):
             if stale.exists():
                 stale.unlink()
         meta = trajectory_meta(model, scene_text=scene.text, params=scene.params, skin=skin)
@@ -276,7 +301,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
 
     def checkpoint():
         write_checkpoint(ckpt_path, sim, frames=stream.frames, scene=scene, model=model,
-                         total=total)
+                         total=total, every=every)
 
     done = sim.state.step
     if not resume:
@@ -349,8 +374,9 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             emit()
             stream.close()
             finalize_stream(stream_dir, npz_path, status=f"failed: {exc}")
-            if ckpt_path.exists():
-                ckpt_path.unlink()
+            for stale in (ckpt_path, final_path):  # a failed run is not extended
+                if stale.exists():
+                    stale.unlink()
             # what was said before it failed (a stability warning often explains the failure)
             exc.run_warnings = messages + [str(w.message) for w in caught]
             raise
@@ -363,6 +389,9 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             bar.stop()
         stream.close()
     frames = stream.frames
+    # the end state first (so `--resume --steps N` can extend the run), then the .npz
+    write_checkpoint(final_path, sim, frames=frames, scene=scene, model=model, total=total,
+                     every=every)
     path = finalize_stream(stream_dir, npz_path, status="complete")
     if ckpt_path.exists():
         ckpt_path.unlink()

@@ -11,7 +11,12 @@ Stored arrays:
 ``frames``              () i8      frames in the trajectory stream at this point
 ``sim.<name>``          any        :meth:`Simulator.internal_state` (solver history, contact
                                    state, CG warm start and counters)
-``scene_sha256``        str        hash of the scene text and resolved parameters
+``frame_every``         () i8      steps between the run's saved frames
+``total_steps``         () i8      steps the run was asked for
+``scene_steps``         () i8      its scene's ``[integrator] steps`` (a changed one asks for
+                                   a longer or shorter run)
+``scene_sha256``        str        hash of the scene's resolved parameters, all but the run's
+                                   length (``[integrator] steps``), so a run can be extended
 ``model_sha256``        str        hash of the built body (rest positions, masses, springs)
 ``version``             str        jellysim version that wrote it
 ======================  =========  ================================================
@@ -35,10 +40,12 @@ from ..errors import CheckpointError
 from .. import __version__
 from .stream import write_replace
 
-__all__ = ["CHECKPOINT", "Checkpoint", "model_hash", "scene_hash", "write_checkpoint",
-           "read_checkpoint"]
+__all__ = ["CHECKPOINT", "FINAL_CHECKPOINT", "Checkpoint", "model_hash", "scene_hash",
+           "write_checkpoint", "read_checkpoint"]
 
 CHECKPOINT = "checkpoint.npz"
+FINAL_CHECKPOINT = "checkpoint.final.npz"
+"""The state a completed run ended in: ``--resume --steps M`` extends the run from it."""
 
 
 def _version() -> str:
@@ -46,8 +53,12 @@ def _version() -> str:
 
 
 def scene_hash(scene) -> str:
-    h = hashlib.sha256(scene.text.encode("utf-8"))
-    h.update(json.dumps(scene.params, sort_keys=True, default=str).encode("utf-8"))
+    """Hash of the resolved parameters (the text's and every ``--set``), without the run's
+    length: a run continued for more steps is the same scene."""
+    params = {k: dict(v) if isinstance(v, dict) else v for k, v in scene.params.items()}
+    if isinstance(params.get("integrator"), dict):
+        params["integrator"].pop("steps", None)
+    h = hashlib.sha256(json.dumps(params, sort_keys=True, default=str).encode("utf-8"))
     return h.hexdigest()
 
 
@@ -73,9 +84,14 @@ class Checkpoint:
     version: str
     total_steps: int | None = None
     """The run's step count (its scene's, or ``--steps``), so a resume finishes that run."""
+    scene_steps: int | None = None
+    """The scene's own ``[integrator] steps`` when it was written."""
+    frame_every: int | None = None
+    """Steps between the run's saved frames, so a longer continuation keeps their schedule."""
 
 
-def write_checkpoint(path, sim, *, frames: int, scene, model, total: int | None = None) -> Path:
+def write_checkpoint(path, sim, *, frames: int, scene, model, total: int | None = None,
+                     every: int | None = None) -> Path:
     s = sim.state
     arrays = {"state.x": s.x, "state.v": s.v, "state.a": s.a,
               "state.t": np.array(float(s.t)), "state.step": np.array(int(s.step)),
@@ -85,6 +101,10 @@ def write_checkpoint(path, sim, *, frames: int, scene, model, total: int | None 
               "version": np.array(_version())}
     if total is not None:
         arrays["total_steps"] = np.array(int(total))
+    if every is not None:
+        arrays["frame_every"] = np.array(int(every))
+    if getattr(scene, "params", None) is not None:
+        arrays["scene_steps"] = np.array(int(scene.params["integrator"]["steps"]))
     for k, v in sim.internal_state().items():
         arrays[f"sim.{k}"] = v
     buf = io.BytesIO()
@@ -109,7 +129,9 @@ def read_checkpoint(path, *, scene=None, model=None) -> Checkpoint:
             internal={k[4:]: v for k, v in d.items() if k.startswith("sim.")},
             scene_sha256=str(d["scene_sha256"]), model_sha256=str(d["model_sha256"]),
             version=str(d["version"]),
-            total_steps=int(d["total_steps"]) if "total_steps" in d else None)
+            total_steps=int(d["total_steps"]) if "total_steps" in d else None,
+            frame_every=int(d["frame_every"]) if "frame_every" in d else None,
+            scene_steps=int(d["scene_steps"]) if "scene_steps" in d else None)
     except (OSError, ValueError, KeyError, EOFError) as exc:
         raise CheckpointError(f"{path}: damaged checkpoint ({exc}); start the run afresh "
                               "(without --resume)") from None

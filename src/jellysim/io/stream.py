@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["STREAM_DIR", "GrowingNpy", "TrajectoryStream", "read_stream", "stream_frames",
-           "finalize_stream", "write_replace"]
+           "finalize_stream", "reopen_stream", "write_replace"]
 
 STREAM_DIR = "trajectory.stream"
 """Name of the stream directory inside a run's output directory."""
@@ -267,3 +267,48 @@ def finalize_stream(directory, npz_path, status: str) -> Path:
     os.replace(part, npz_path)
     shutil.rmtree(directory)
     return Path(npz_path)
+
+
+def reopen_stream(npz_path, directory) -> int:
+    """Turn a finished ``trajectory.npz`` back into a stream ``directory`` holding all its
+    frames (a completed run being extended); returns the frame count.  The arrays are copied
+    block by block (memory does not grow with the frame count) into
+    ``<directory>.partial``, which is renamed into place only when complete; the ``.npz`` is
+    left as it is (the extended run's end replaces it atomically)."""
+    npz_path, directory = Path(npz_path), Path(directory)
+    part = directory.with_name(directory.name + ".partial")
+    if part.exists():
+        shutil.rmtree(part)
+    part.mkdir()
+    frame_names = {f"{name}.npy": (name, dt, w) for name, dt, w in _FRAME_ARRAYS}
+    with np.load(npz_path, allow_pickle=False) as z:  # members are read only when asked
+        meta = {k: z[k] for k in z.files if f"{k}.npy" not in frame_names and k != "status"}
+    frames = None
+    with zipfile.ZipFile(npz_path) as zf:
+        for member, (_, dt, w) in frame_names.items():
+            with zf.open(member) as fh:
+                version = np.lib.format.read_magic(fh)
+                read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                        else np.lib.format.read_array_header_2_0)
+                shape, _, dtype = read(fh)
+                g = GrowingNpy(part / member, dt, (shape[1], w) if w else ())
+                row = max(1, int(np.prod(shape[1:], dtype=np.int64)) * dtype.itemsize)
+                step = max(1, BLOCK_BYTES // row)
+                left = shape[0]
+                while left > 0:
+                    take = min(step, left)
+                    g.append(np.frombuffer(fh.read(take * row), dtype=dtype))
+                    left -= take
+                g.commit()
+                g.close()
+                frames = shape[0] if frames is None else min(frames, shape[0])
+    import io
+
+    buf = io.BytesIO()
+    np.savez(buf, **meta)
+    write_replace(part / "meta.npz", buf.getvalue())
+    write_replace(part / "status.txt", b"running")
+    if directory.exists():
+        shutil.rmtree(directory)
+    os.replace(part, directory)
+    return int(frames or 0)

@@ -163,16 +163,18 @@ def resolve_trajectory(path) -> Path:
     """The file or stream directory a trajectory argument names.
 
     Accepted: a ``trajectory.npz`` file; a stream directory (``trajectory.stream``, see
-    :mod:`jellysim.io.stream`); a run's output directory (its ``trajectory.npz``, else its
-    stream); a missing ``.npz`` whose directory holds a stream (a run that was interrupted or
-    killed before it could write the ``.npz``)."""
+    :mod:`jellysim.io.stream`); a run's output directory (its stream if it has one, being the
+    newer, else its ``trajectory.npz``); a missing ``.npz`` whose directory holds a stream (a
+    run that was interrupted or killed before it could write the ``.npz``)."""
 
     path = Path(path)
     if path.is_dir():
         if (path / "meta.npz").is_file():
             return path
-        for cand in (path / "trajectory.npz", path / STREAM_DIR):
-            if cand.exists():
+        # a stream beside a .npz is a finished run being extended (or an extension that was
+        # stopped): it holds the .npz's frames and more
+        for cand in (path / STREAM_DIR, path / "trajectory.npz"):
+            if cand.exists() and (cand.suffix == ".npz" or (cand / "meta.npz").is_file()):
                 return cand
         raise JellysimError(f"{path}: directory holds no trajectory.npz and no {STREAM_DIR}")
     if not path.exists() and (path.parent / STREAM_DIR / "meta.npz").is_file():
