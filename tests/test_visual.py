@@ -444,3 +444,32 @@ def test_the_plate_is_framed_whole(traj):
     assert plate.sum() > 0.02 * plate.size  # the plate is drawn
     border = np.concatenate([plate[0], plate[-1], plate[:, 0], plate[:, -1]])
     assert not border.any()
+
+
+def test_a_travelling_body_is_followed_not_shrunk_to_a_speck(traj):
+    """A body that travels far (here the test run moved 30 body sizes along x per frame) is
+    drawn at the size it has when it stays near: the automatic camera follows it across the
+    floor (session 9's trial: a body slid 100 m rendered as a speck); a fixed camera, which
+    frames the whole path, draws it far smaller.  The body is in the picture, off its border,
+    at every frame."""
+    import dataclasses
+
+    from jellysim.render.offscreen import Renderer, RenderOptions
+
+    size = float(np.max(np.ptp(traj.positions[0], axis=0)))
+    shift = np.zeros((traj.frame_count, 1, 3))
+    shift[:, 0, 0] = 30.0 * size * np.arange(traj.frame_count)
+    moved = dataclasses.replace(traj, positions=traj.positions + shift)
+
+    def body_pixels(t, camera, f):
+        img = Renderer(t, RenderOptions(size=(160, 96), camera=camera)).render(f).astype(int)
+        red = (img[..., 0] > img[..., 1] + 60) & (img[..., 0] > img[..., 2] + 40)
+        return red
+
+    still = body_pixels(traj, "auto", traj.frame_count - 1).sum()
+    assert still > 100
+    for f in (0, traj.frame_count - 1):
+        red = body_pixels(moved, "auto", f)
+        assert 0.5 * still < red.sum() < 2.0 * still, (f, red.sum(), still)
+        assert not np.concatenate([red[0], red[-1], red[:, 0], red[:, -1]]).any()
+    assert body_pixels(moved, "fixed", traj.frame_count - 1).sum() < 0.1 * still

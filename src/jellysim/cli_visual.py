@@ -5,6 +5,7 @@ command reads saved trajectories only; none of them changes a simulation.
 """
 from __future__ import annotations
 
+import dataclasses
 import sys
 from pathlib import Path
 
@@ -263,8 +264,13 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @_overwrite
 @_camera_options
+@click.option("--camera", "camera_mode", type=click.Choice(["auto", "fixed", "follow"]),
+              default="auto", show_default=True,
+              help="fixed: one view of the whole motion; follow: the camera travels with the "
+                   "body; auto: follow a body that travels more than 4 times its size.")
 def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame, every,
-           quiet, overwrite=False, azimuth=None, elevation=None, zoom=1.0):
+           quiet, overwrite=False, azimuth=None, elevation=None, zoom=1.0,
+           camera_mode="auto"):
     """Render TRAJECTORY (trajectory.npz) to a video or pictures, off screen."""
     import numpy as np
 
@@ -278,9 +284,10 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
             frames = np.array([frame % traj.frame_count])
         if fps is None and every > 1:
             fps = default_fps(traj.times[frames])
-        path = render_trajectory(traj, output, _options(size, color, opacity, show, no_floor,
-                                                        (azimuth, elevation, zoom)),
-                                 fps=fps, frames=frames, progress=not quiet)
+        options = dataclasses.replace(_options(size, color, opacity, show, no_floor,
+                                               (azimuth, elevation, zoom)), camera=camera_mode)
+        path = render_trajectory(traj, output, options, fps=fps, frames=frames,
+                                 progress=not quiet)
     except JellysimError as exc:
         _fail(str(exc))
     click.echo(f"wrote {path}")

@@ -6,6 +6,7 @@ Needs a display (X11 / Wayland on Linux); without one it fails with a clear mess
 """
 from __future__ import annotations
 
+import dataclasses
 import os
 import sys
 
@@ -36,7 +37,8 @@ def view_trajectory(traj, options=None, *, fps: float | None = None,
         del os.environ["VTK_DEFAULT_OPENGL_WINDOW"]   # EGL windows cannot be interactive
 
     options = options or RenderOptions(size=(1024, 640))
-    r = Renderer(traj, options, offscreen=False)
+    # the window's camera is the user's to orbit: one fixed framing, never moved per frame
+    r = Renderer(traj, dataclasses.replace(options, camera="fixed"), offscreen=False)
     p = r.plotter
     last = traj.frame_count - 1
     fps = default_fps(traj.times) if fps is None else float(fps)

@@ -2,16 +2,20 @@
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import JellysimError
-from .camera import frame_motion, view_direction
+from .camera import Camera, frame_motion, view_direction
 
 __all__ = ["RenderOptions", "Renderer", "ground_height"]
 
 JELLO_RED = "#d81e3c"
+
+FOLLOW_RATIO = 4.0
+"""``camera = "auto"`` follows a body whose horizontal travel exceeds this many body sizes."""
 
 
 @dataclass(frozen=True)
@@ -44,6 +48,11 @@ class RenderOptions:
     """Camera elevation [degrees] above the horizontal (None: 20.4; 90: from above)."""
     zoom: float = 1.0
     """> 1 moves the camera closer (the automatic framing keeps the whole motion at 1)."""
+    camera: str = "auto"
+    """``"fixed"``: one camera that sees the whole motion; ``"follow"``: the camera moves
+    with the body across the floor (its height and view stay), framing the body's largest
+    extent; ``"auto"``: follow when the body travels more than :data:`FOLLOW_RATIO` times
+    its own size (it would be a speck in a fixed frame), else fixed."""
 
     def even_size(self) -> tuple[int, int]:
         w, h = (int(s) for s in self.size)
@@ -95,6 +104,41 @@ def _motion_bounds(traj, surface_frames, chunk: int = 32) -> np.ndarray:
     return np.array(corners)
 
 
+def _body_track(traj, surface_frames, mode: str, chunk: int = 32):
+    """For a following camera: (each frame's horizontal body centre [m], shape (F, 3) with
+    y = 0; the half-extents [m] (3,) of the largest box around the body in any frame), or
+    ``None`` for a fixed camera (``mode`` "fixed", or "auto" and the body stays near)."""
+    if mode not in ("auto", "fixed", "follow"):
+        raise JellysimError(f"camera must be 'auto', 'fixed' or 'follow', got {mode!r}")
+    if mode == "fixed" or traj.frame_count < 2:
+        return None
+    centres, half = [], np.zeros(3)
+    for start in range(0, traj.frame_count, chunk):
+        sl = slice(start, min(start + chunk, traj.frame_count))
+        blocks = [np.asarray(traj.positions[sl], dtype=np.float64)]
+        if surface_frames is not None:
+            blocks.append(np.asarray(surface_frames(sl), dtype=np.float64))
+        a = np.concatenate(blocks, axis=1)                      # (c, m, 3)
+        a = np.where(np.isfinite(a), a, np.nan)
+        with warnings.catch_warnings():  # a frame of a failed run may hold no finite point
+            warnings.simplefilter("ignore", RuntimeWarning)
+            lo, hi = np.nanmin(a, axis=1), np.nanmax(a, axis=1)  # (c, 3)
+            centres.append(0.5 * (lo + hi))
+            half = np.fmax(half, np.nanmax(0.5 * (hi - lo), axis=0))
+    centre = np.concatenate(centres)
+    good = np.all(np.isfinite(centre), axis=1)
+    if not good.any():
+        return None
+    last_good = np.maximum.accumulate(np.where(good, np.arange(len(good)), -1))
+    centre = centre[np.where(last_good >= 0, last_good, np.argmax(good))]
+    centre[:, 1] = 0.0
+    travel = float(np.max(np.ptp(centre[:, [0, 2]], axis=0)))
+    size = 2.0 * float(np.max(half))
+    if mode == "auto" and not travel > FOLLOW_RATIO * size:
+        return None
+    return centre, half
+
+
 class Renderer:
     """Draws frames of a :class:`~jellysim.io.trajectory.Trajectory`.
 
@@ -128,16 +172,21 @@ class Renderer:
 
         motion = _motion_bounds(traj, self._surface_frames)     # (2 F', 3) box corners
         lo, hi = motion.min(axis=0), motion.max(axis=0)
+        self._track = _body_track(traj, self._surface_frames, o.camera)
         gh = ground_height(traj)
-        extra = None
+        extra = self.floor = None
         if o.floor:
             floor_y = gh if gh is not None else float(lo[1])
             ext = float(np.max(hi - lo))
             c = 0.5 * (lo + hi)
+            if self._track is not None:  # a floor patch that travels with the camera (it is
+                c = np.zeros(3)          # uniform), so the clipping range stays the body's
+                ext = 2.0 * float(np.max(self._track[1]))
             size = 100.0 * max(ext, 1e-3)  # its far edge out of the frame
-            floor = pv.Plane(center=(c[0], floor_y, c[2]), direction=(0, 1, 0),
-                             i_size=size, j_size=size, i_resolution=1, j_resolution=1)
-            p.add_mesh(floor, color="#cfc8bd", ambient=0.35, diffuse=0.7, specular=0.0,
+            self.floor = pv.Plane(center=(c[0], floor_y, c[2]), direction=(0, 1, 0),
+                                  i_size=size, j_size=size, i_resolution=1, j_resolution=1)
+            self._floor_points = np.array(self.floor.points)
+            p.add_mesh(self.floor, color="#cfc8bd", ambient=0.35, diffuse=0.7, specular=0.0,
                        name="floor")
             extra = np.array([[lo[0], floor_y, lo[2]], [hi[0], floor_y, hi[2]]])
             if o.plate:
@@ -156,8 +205,20 @@ class Renderer:
                 self._floor_y = floor_y + 0.0045 * ext
             else:
                 self._floor_y = floor_y + 0.0005 * ext
-        self.camera = frame_motion(motion, self.size, extra_points=extra, zoom=o.zoom,
-                                   direction=view_direction(o.azimuth, o.elevation))
+        direction = view_direction(o.azimuth, o.elevation)
+        if self._track is None:
+            self.camera = frame_motion(motion, self.size, extra_points=extra, zoom=o.zoom,
+                                       direction=direction)
+        else:  # framed on the body's largest box, moved with its centre (see set_frame)
+            half = self._track[1]
+            box = np.array([-half, half])
+            box[:, 1] = lo[1], hi[1]
+            if o.floor:
+                box = np.vstack([box, [[-half[0], floor_y, -half[2]],
+                                       [half[0], floor_y, half[2]]]])
+            self.camera = frame_motion(box, self.size, zoom=o.zoom, direction=direction,
+                                       margin=1.0)  # the whole sphere: the box's corners
+
         self.shadow = None
         if o.floor and o.shadow and self._surface_frames is not None:
             self.shadow = pv.PolyData(self._shadow_points(0), _faces(faces))
@@ -180,6 +241,8 @@ class Renderer:
             p.add_mesh(self.springs, color="#5a1020", opacity=0.35, line_width=1.0,
                        name="springs")
         self.camera.apply(p)
+        if self._track is not None:
+            self.set_frame(0)  # the following camera's place at the first frame
 
     def _shadow_points(self, f: int) -> np.ndarray:
         pts = np.array(self._surface_frames(f), dtype=np.float64)
@@ -187,8 +250,15 @@ class Renderer:
         return pts
 
     def set_frame(self, f: int) -> None:
-        """Move every drawn mesh to frame ``f``."""
+        """Move every drawn mesh (and a following camera) to frame ``f``."""
         x = self.traj.positions[f]
+        if self._track is not None:
+            shift = self._track[0][f]
+            if self.floor is not None:
+                self.floor.points = self._floor_points + shift
+            c = self.camera
+            Camera(tuple(np.add(c.position, shift)), tuple(np.add(c.focal_point, shift)),
+                   c.up, c.view_angle).apply(self.plotter)
         if self.shadow is not None:
             self.shadow.points = self._shadow_points(f)
         if self.surface is not None:
