@@ -19,7 +19,8 @@ def test_scene_schema_defaults_are_the_dataclass_defaults():
     assert pv["pairs"].default == P.pairs.value and pv["order"].default == P.order.value
     for key in ("enabled", "height", "mu", "nu", "restitution", "friction", "static_friction"):
         assert gr[key].default == getattr(G, key), key
-    assert gr["model"].default == G.model.value
+    assert gr["model"].default is None  # unset: the body's path decides, the springs path's
+    assert G.model.value == "paper"       # is the report's ground (test_hostile_input)
     assert (it["scheme"].default, it["theta"].default, it["cg_tolerance"].default,
             it["cg_max_iterations"].default) == (I.scheme, I.theta, I.cg_tolerance,
                                                  I.max_iterations)

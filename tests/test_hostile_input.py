@@ -740,3 +740,67 @@ def test_too_few_points_for_a_shape_is_one_clear_error(points):
                                          "coarse"):
         js.Body.from_mesh(Path(__file__).parent / "data" / "torus.obj", size=0.08,
                           points=points)
+
+
+_GEL = '[material]\npreset = "gelatin"\n[body]\npoints = 27\n'
+
+
+@pytest.mark.parametrize("extra,match", [
+    ('[ground]\nmu = 0.3\n', r"\[ground\] mu is the report's paper ground's.*friction"),
+    ('[mass]\ndensity = 500\n', r"\[mass\] density is not used.*from the preset 'gelatin'"
+                                r".*set \[material\] density"),
+    ('[provot]\nenabled = true\n', r"\[provot\] enabled = true.*not used by the physical"),
+    ('[springs]\nstiffness = 50\n', r"stiffness is not used with \[material\] preset = "
+                                    r"'gelatin'"),
+    ('[ground]\nmodel = "paper"\n', r"model = 'paper'.*springs path only.*fall through"),
+    ('[ground]\nmu = 0.3\nfriction = 0.5\n', r"mu \(the paper ground's rule\) and friction"),
+])
+def test_keys_a_gelatin_scene_would_ignore_are_refused_with_the_fix(extra, match):
+    """Session 10's trial: each of these ran and changed nothing (or, for the paper ground,
+    let the tet body fall 5 m through the floor); each is now an error naming the key and
+    the fix."""
+    with pytest.raises(SceneError, match=match):
+        scene = Scene.from_text(_GEL + extra, name="s.toml")
+        scene.simulator(scene.build_model())
+
+
+def test_a_tet_body_without_a_ground_model_lands_on_the_contact_ground():
+    """A scene with [material] youngs_modulus (no preset) puts a box on the physical path; its
+    unset [ground] model was the paper rule, which that path does not apply: the body fell
+    4.9 m through the floor in 1 s, silently.  Unset, the model now follows the body's path
+    (contact here, paper on the springs path), and the body rests on the plane: no point
+    below it (the contact rule's non-penetration) after landing, and the box still 10 cm
+    wide (within its landing's wobble).  Python's Simulator refuses the paper ground for a tet body, naming the fix."""
+    import jellysim as js
+    from jellysim.params import GroundModel
+
+    text = ("[material]\nyoungs_modulus = 1e4\ndensity = 1141\n[body]\ntype = 'box'\n"
+            "distribution = 'grid'\npoints = 64\nlower = [0, 0.02, 0]\nupper = [0.1, 0.12, 0.1]"
+            "\n[integrator]\ndt = 0.016666666666666666\nsteps = 30\n")
+    scene = Scene.from_text(text, name="s.toml")
+    model = scene.build_model()
+    sim = scene.simulator(model)
+    assert sim.physical and sim.ground.model is GroundModel.CONTACT
+    sim.advance(30)
+    x = sim.state.x
+    assert x[:, 1].min() >= -1e-9 and x[:, 1].max() > 0.09  # on the floor, not flattened
+    assert np.ptp(x[:, 0]) == pytest.approx(0.1, rel=0.1)   # (still wobbling from the drop)
+    springs = Scene.from_text(text.replace("[material]\nyoungs_modulus = 1e4\ndensity = 1141",
+                                           "[springs]\nstiffness = 300.0\nradius = 0.06"),
+                              name="s.toml")
+    assert springs.ground_params(springs.build_model()).model is GroundModel.PAPER
+    with pytest.raises(SceneError, match=r"paper ground.*springs path only.*model='contact'"):
+        js.Simulator(model, dt=1 / 60, ground=js.GroundParams())
+    with pytest.raises(ValueError, match=r"ground model must be one of \['paper', 'contact'\]"):
+        js.GroundParams(model="contcat")
+    with pytest.raises(ValueError, match=r"ground mu = 0.3: mu and nu are the report's paper"):
+        js.GroundParams(model="contact", mu=0.3)
+    with pytest.raises(ValueError, match=r"material model must be one of \['fem', 'springs'\]"):
+        js.material("gelatin", model="fen")
+    with pytest.warns(UserWarning, match=r"youngs_modulus = 10 Pa is outside 100 Pa"):
+        js.material("gelatin", youngs_modulus=10)
+    sim = js.Simulator(model, dt=1 / 60, ground=js.GroundParams(model="contact"))
+    sim.drag(0, (0.0, 0.2, 0.0))
+    assert sim.handles.drag[0] == 0
+    sim.drag(0, None)                     # the docstring's "None releases", as written
+    assert sim.handles.drag[0] < 0

@@ -323,10 +323,11 @@ class HandleMethods:
 
     def drag(self, point: int | None, target=None, stiffness: float | None = None) -> None:
         """Pull ``point`` towards ``target`` [m] with a spring of ``stiffness`` [N/m]
-        (default: strong enough to move the whole body's weight by 1 cm); ``None`` releases."""
+        (default: strong enough to move the whole body's weight by 1 cm); ``drag(None)`` (or a
+        ``target`` of ``None``) releases."""
         self._require_physical("dragging")
         d = self.handles.drag
-        if point is None:
+        if point is None or target is None:
             d[0] = -1.0
             return
         if stiffness is None:

@@ -142,6 +142,33 @@ class GroundParams:
     force (a wet plate holding a gel by adhesion: Coulomb's bound vanishes at the base's edge,
     where the pressure does; the point can still lift off).  Explicit integrators only."""
 
+    def __post_init__(self):
+        try:
+            object.__setattr__(self, "model", GroundModel(self.model))
+        except ValueError:
+            raise ValueError(f"ground model must be one of {[m.value for m in GroundModel]}, "
+                             f"got {self.model!r}") from None
+        paper = {k: getattr(self, k) for k in ("mu", "nu")
+                 if getattr(self, k) != _GROUND_DEFAULTS[k]}
+        contact = {k: getattr(self, k) for k in ("restitution", "friction", "static_friction",
+                                                  "no_slip")
+                   if getattr(self, k) != _GROUND_DEFAULTS[k]}
+        if self.model is GroundModel.CONTACT and paper:
+            raise ValueError(f"ground {', '.join(f'{k} = {v}' for k, v in paper.items())}: "
+                             "mu and nu are the report's paper ground's (model = 'paper'); the "
+                             "contact ground's Coulomb coefficient is friction (and its bounce "
+                             "restitution)")
+        if self.model is GroundModel.PAPER and contact:
+            raise ValueError(f"ground {', '.join(f'{k} = {v}' for k, v in contact.items())}: "
+                             "used by the contact ground only; give model = 'contact' (the "
+                             "paper ground's rule has mu and nu)")
+
+
+_GROUND_DEFAULTS = {"mu": 0.1, "nu": 0.2, "restitution": CONTACT_RESTITUTION,
+                    "friction": CONTACT_FRICTION, "static_friction": None, "no_slip": False}
+""":class:`GroundParams`' defaults of each model's own keys (a key of the other model given
+with a non-default value is refused)."""
+
 
 class ImplicitScheme(str, Enum):
     """Time discretisation of :attr:`Integrator.IMPLICIT` (see :class:`ImplicitParams`)."""
@@ -259,4 +286,14 @@ class Material:
             value = getattr(self, name)
             if not (math.isfinite(value) and ok):  # (numbers: checked above)
                 raise ValueError(f"material {name} must be {allowed}, got {value!r}")
-        object.__setattr__(self, "model", MaterialModel(self.model))
+        try:
+            object.__setattr__(self, "model", MaterialModel(self.model))
+        except ValueError:
+            raise ValueError(f"material model must be one of "
+                             f"{[m.value for m in MaterialModel]}, got {self.model!r}") from None
+        if self.youngs_modulus < 100.0 or self.youngs_modulus > 1e9:
+            import warnings
+
+            warnings.warn(f"material youngs_modulus = {self.youngs_modulus:g} Pa is outside "
+                          "100 Pa .. 1 GPa (gels are 1-100 kPa, rubber about 1 MPa): it is in "
+                          "pascals (10 kPa = 1e4)", UserWarning, stacklevel=3)

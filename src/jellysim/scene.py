@@ -20,8 +20,8 @@ from .params import (MAX_ALL_PAIRS_POINTS, GroundParams, ImplicitParams, ProvotO
 from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-exported)
                               make_obstacle, validate_obstacles)
 from .scene_schema import SCHEMA
-from .scene_spec import (Spec, as_toml, check_backend, check_value, plain,
-                         grid_radius, missing_path, refuse_unused_keys)
+from .scene_spec import (Spec, as_toml, check_backend, check_given_keys, check_value,
+                         given_keys, plain, grid_radius, missing_path, refuse_unused_keys)
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
 from .scene_doc import schema_markdown as make
@@ -57,6 +57,7 @@ class Scene:
         self.text = text
         self.name = name
         self.overrides: tuple[str, ...] = ()  # the --set items this scene was loaded with
+        self.given: dict = {}  # {section: keys} as written and --set (no preset): given_keys
 
     @classmethod
     def load(cls, path, *, overrides=()) -> "Scene":
@@ -82,6 +83,7 @@ class Scene:
         if overrides:   # the recorded text says what ran
             text += "\n# overridden on the command line:\n" + "".join(
                 f"#   --set {item}\n" for item in overrides)
+        given = given_keys(raw)
         try:
             params = cls._validate(raw, name)
         except SceneError as exc:  # say when the bad value came from the command line
@@ -94,6 +96,7 @@ class Scene:
             raise SceneError(msg) from None
         scene = cls(params, text=text, name=name)
         scene.overrides = tuple(overrides)  # (a resume needs them again)
+        scene.given = given
         return scene
 
     @classmethod
@@ -109,10 +112,14 @@ class Scene:
         errors name ``name``.  The scene's text (recorded in a run's trajectory) is the
         dictionary written as TOML."""
         raw = plain(raw)  # tuples, numpy arrays and numpy scalars as the TOML reader's values
-        return cls(cls._validate(raw, name), text=as_toml(raw), name=name)
+        given = given_keys(raw)
+        scene = cls(cls._validate(raw, name), text=as_toml(raw), name=name)
+        scene.given = given
+        return scene
 
     @staticmethod
     def _validate(raw: dict, name: str) -> dict:
+        user = given_keys(raw)
         preset = raw.get("material", {}).get("preset") if isinstance(
             raw.get("material"), dict) else None
         if preset is not None:
@@ -144,8 +151,14 @@ class Scene:
             raise SceneError(f"{name}: give [springs] stiffness (N/m) or [material] "
                              "youngs_modulus (Pa), or [material] preset = 'gelatin'")
         if mat["youngs_modulus"] is not None and spr["stiffness"] is not None:
+            if "youngs_modulus" not in user.get("material", ()):
+                raise SceneError(f"{name}: [springs] stiffness is not used with [material] "
+                                 f"preset = {preset!r}, whose youngs_modulus derives every "
+                                 "spring's stiffness; remove [springs] stiffness (or the "
+                                 "preset, to give the springs your own)")
             raise SceneError(f"{name}: [springs] stiffness and [material] youngs_modulus both "
                              "set; give one (youngs_modulus derives every spring's stiffness)")
+        check_given_keys(user, raw, out, name, preset)
         it = out["integrator"]
         if it["name"] == "implicit" and out["provot"]["enabled"] and "provot" in raw and (
                 "enabled" in raw["provot"]):
@@ -365,10 +378,13 @@ class Scene:
                             pairs=ProvotPairs(p["pairs"]), order=ProvotOrder(p["order"]),
                             tolerance=p["tolerance"], velocity_update=p["velocity_update"])
 
-    def ground_params(self):
+    def ground_params(self, model=None):
+        """The ground; an unset ``[ground] model`` is 'contact' for a ``model`` on the
+        physical (tet) path (the paper rule does not hold it), else 'paper'."""
         g = self.params["ground"]
+        kind = g["model"] or ("contact" if getattr(model, "fem", None) is not None else "paper")
         return GroundParams(enabled=g["enabled"], mu=g["mu"], nu=g["nu"], height=g["height"],
-                            model=g["model"], restitution=g["restitution"],
+                            model=kind, restitution=g["restitution"],
                             friction=g["friction"], static_friction=g["static_friction"],
                             no_slip=g["no_slip"])
 
@@ -385,7 +401,7 @@ class Scene:
         check_backend(it["backend"], it["name"], it["device"], it["precision"], where=self.name,
                       physical=_wants_fem(self.params))
         scene = Scene({**self.params, "integrator": it}, text=self.text, name=self.name)
-        scene.overrides = self.overrides
+        scene.overrides, scene.given = self.overrides, self.given
         return scene
 
     def simulator(self, model=None, **overrides):
@@ -417,7 +433,8 @@ class Scene:
         it = self.params["integrator"]
 
         kw = dict(dt=it["dt"], integrator=it["name"], provot=self.provot_params(),
-                  ground=self.ground_params(), backend=it["backend"], threads=it["threads"],
+                  ground=self.ground_params(model), backend=it["backend"],
+                  threads=it["threads"],
                   device=it["device"], precision=it["precision"],
                   substeps=it["substeps"] if it["substeps"] is not None else "auto",
                   implicit=ImplicitParams(scheme=it["scheme"], theta=it["theta"],
@@ -430,6 +447,18 @@ class Scene:
                     f"{self.name}: [integrator] name = {it['name']!r}: a fem material is "
                     "integrated by symplectic substeps; set name = 'symplectic' (or [material] "
                     "model = 'springs' for the springs path)")
+            if self.params["provot"]["enabled"] and "enabled" in self.given.get("provot", ()):
+                raise SceneError(f"{self.name}: [provot] enabled = true: Provot's strain "
+                                 "limiting is not used by the physical (tet) path, whose tets "
+                                 "keep their shape; remove it (or [material] model = "
+                                 "'springs' for the springs path)")
+            if self.params["ground"]["model"] == "paper" and self.params["ground"]["enabled"]:
+                what = ("model = 'paper' (the report's mu/nu rule)" if "model" in
+                        self.given.get("ground", ()) else "mu / nu (the report's paper rule's)")
+                raise SceneError(f"{self.name}: [ground] {what} acts on the springs path "
+                                 "only: this body is on the physical (tet) path and would fall "
+                                 "through it; use model = 'contact' (its Coulomb coefficient is "
+                                 "friction) or [material] model = 'springs'")
             kw["provot"] = self.provot_params().__class__(enabled=False)
         if it["start_acceleration"] == "zero" and "state" not in overrides and model is not None:
             state = model.state()

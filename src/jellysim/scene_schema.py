@@ -172,8 +172,11 @@ SCHEMA: dict[str, dict[str, Spec]] = {
     },
     "ground": {
         "enabled": Spec("bool", _G.enabled, "The report's ground plane on/off."),
-        "model": Spec("str", _G.model.value, "'paper': the report's mu/nu rule (eqs. 2, 3); "
-                      "'contact': non-penetration, restitution, Coulomb friction.",
+        "model": Spec("str", None, "'paper': the report's mu/nu rule (eqs. 2, 3), springs "
+                      "path only; 'contact': non-penetration, restitution, Coulomb friction. "
+                      "Default: 'paper' if mu or nu is given, 'contact' if restitution or "
+                      "friction is, else 'contact' for a body on the physical (tet) path and "
+                      "'paper' on the springs path.",
                       choices=("paper", "contact")),
         "height": Spec("float", _G.height, "Height of the plane y = height [m]."),
         "mu": Spec("float", _G.mu, "Factor on x/z velocity of a point on the ground.",

@@ -226,3 +226,48 @@ def refuse_unused_keys(raw: dict, kind: str, name: str, schema: dict) -> None:
                     given[key] != schema[section][key].default):
                 raise SceneError(f"{name}: [{section}] {key} is not used for [body] type = "
                                  f"{kind!r} ({why}); remove it")
+
+
+PAPER_GROUND_KEYS = ("mu", "nu")
+CONTACT_GROUND_KEYS = ("restitution", "friction", "static_friction", "no_slip")
+
+
+def check_given_keys(user: dict, preset_raw: dict, out: dict, name: str, preset) -> None:
+    """Refuse keys the scene would silently ignore, and settle ``[ground] model``.
+
+    ``user``: the sections and keys as written (and ``--set``), before any preset;
+    ``preset_raw``: the same with the preset under it; ``out``: the validated parameters,
+    whose ``[ground] model`` is set here: as written; else as the other ground keys given
+    imply (``mu``/``nu``: 'paper'; ``restitution``/``friction``/...: 'contact'); else the
+    preset's; else ``None``, which the body's path settles (:meth:`Scene.ground_params`)."""
+    ground = user.get("ground", set())
+    paper = [k for k in PAPER_GROUND_KEYS if k in ground]
+    contact = [k for k in CONTACT_GROUND_KEYS if k in ground]
+    if paper and contact:
+        raise SceneError(f"{name}: [ground] {', '.join(paper)} (the paper ground's rule) and "
+                         f"{', '.join(contact)} (the contact ground's) both given; keep one "
+                         "model's keys")
+    model = (out["ground"]["model"] if "model" in ground else
+             preset_raw.get("ground", {}).get("model") if preset is not None else None)
+    if model is None:
+        model = "paper" if paper else "contact" if contact else None
+    if model == "contact" and paper:
+        raise SceneError(f"{name}: [ground] {', '.join(paper)} is the report's paper ground's "
+                         "(model = 'paper'); the contact ground's Coulomb coefficient is "
+                         "[ground] friction (and its bounce restitution)")
+    if model == "paper" and contact:
+        raise SceneError(f"{name}: [ground] {', '.join(contact)} is used by the contact ground "
+                         "only; set [ground] model = 'contact' (the paper ground's rule has "
+                         "mu and nu)")
+    out["ground"]["model"] = model
+    if "density" in user.get("mass", set()) and out["material"]["density"] is not None:
+        source = (f", from the preset {preset!r}" if "density" not in user.get("material", set())
+                  else "")
+        raise SceneError(f"{name}: [mass] density is not used: [material] density "
+                         f"({out['material']['density']:g} kg/m^3{source}) sets the body's "
+                         "mass; set [material] density instead")
+
+
+def given_keys(raw: dict) -> dict:
+    """``{section: set of keys}`` of a scene as written (tables only)."""
+    return {s: set(v) for s, v in raw.items() if isinstance(v, dict)}

@@ -73,10 +73,11 @@ def scene_summary(scene, said: list | None = None) -> list[tuple[str, str]]:
                  + f" ({_seconds(dt / sim.substeps)} each)")
     rows.append(("step", step))
     rows.append(("backend", f"{_name(sim.backend)}, {sim.threads} thread(s)"))
+    kind = scene.ground_params(model).model.value  # an unset model: the body's path's
     ground = "off" if not g["enabled"] else (
-        f"{g['model']}" + (f", restitution {g['restitution']:g}, friction {g['friction']:g}"
-                           + (", no slip" if g["no_slip"] else "")
-                           if g["model"] == "contact" else f", mu {g['mu']:g}, nu {g['nu']:g}"))
+        kind + (f", restitution {g['restitution']:g}, friction {g['friction']:g}"
+                + (", no slip" if g["no_slip"] else "")
+                if kind == "contact" else f", mu {g['mu']:g}, nu {g['nu']:g}"))
     rows.append(("ground", ground))
     rows.append(("obstacles", f"{len(scene.obstacles())}"))
     rows.append(("handles", f"{len(p.get('handle') or [])}"))

@@ -19,8 +19,7 @@ from .errors import SceneError, SimulationError, SolverWarning, StabilityWarning
 from .kernels import (INTEGRATOR_CODES, STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY, Backend,
                       get_backend)
 from .params import (MAX_ALL_PAIRS_POINTS, GroundModel, GroundParams, ImplicitParams,
-                     ImplicitScheme,
-                     Integrator, ProvotOrder, ProvotPairs, ProvotParams)
+                     ImplicitScheme, Integrator, ProvotOrder, ProvotPairs, ProvotParams)
 from .handles import HandleMethods
 from .physical_stepping import PhysicalStepping, travel_error
 from .stability import StabilityEstimate, estimate_stability, implicit_accuracy
@@ -144,7 +143,8 @@ class Simulator(HandleMethods, PhysicalStepping):
         (``ProvotParams()`` = its defaults, as in a scene: tau = 0.1 %, 5 loops); ``None``
         (default): none.
     ground: :class:`~jellysim.params.GroundParams` for a ground plane (``GroundParams()`` =
-        the report's mu/nu ground at y = 0, as in a scene); ``None`` (default): none.
+        the report's mu/nu ground at y = 0, for the springs path; a physical (tet) body needs
+        ``GroundParams(model="contact")``); ``None`` (default): none.
     backend: ``"numba"`` (default), ``"numpy"`` (the reference) or ``"warp"`` (NVIDIA Warp,
         integrators ``paper`` and ``symplectic``, and the physical path; ``pip install
         'jellysim[gpu]'``).
@@ -205,6 +205,10 @@ class Simulator(HandleMethods, PhysicalStepping):
             raise SceneError(
                 f"a body with a physical (FEM) material is integrated by symplectic substeps "
                 f"(integrator = 'symplectic', the default); got '{self.integrator.value}'")
+        if self.physical and ground.enabled and GroundModel(ground.model) is GroundModel.PAPER:
+            raise SceneError("the report's paper ground (mu, nu) acts on the springs path only: "
+                             "a physical (tet) body falls through it; give GroundParams(model="
+                             "'contact', friction=...) ([ground] model = 'contact')")
         if self.physical and provot.enabled:
             raise SceneError("Provot strain limiting is not used by the physical (FEM) path: "
                              "its tets keep their shape; disable it")
