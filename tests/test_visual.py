@@ -473,3 +473,31 @@ def test_a_travelling_body_is_followed_not_shrunk_to_a_speck(traj):
         assert 0.5 * still < red.sum() < 2.0 * still, (f, red.sum(), still)
         assert not np.concatenate([red[0], red[-1], red[:, 0], red[:, -1]]).any()
     assert body_pixels(moved, "fixed", traj.frame_count - 1).sum() < 0.1 * still
+
+
+def test_a_python_run_of_a_tet_body_is_drawn_and_exported_by_its_outer_faces(tmp_path):
+    """Session 10's trial: a run recorded from Python on a grid box (no skin, no surface
+    triangles) could not be exported ("no surface triangles").  Its trajectory now carries
+    the tets' outer faces: a closed surface (every edge shared by two faces) oriented outward,
+    whose enclosed volume (divergence theorem) is the tets' total volume."""
+    import jellysim as js
+    from jellysim.geometry.tetra import tet_signed_volumes
+    from jellysim.io.trajectory import Recorder
+    from jellysim.io.usd import surface_of
+
+    model = js.physical_model(js.Body.box(points=64), js.material("gelatin"))
+    sim = js.Simulator(model, dt=1 / 60, ground=js.GroundParams(model="contact"))
+    rec = Recorder(model)
+    rec.record(sim.state)
+    sim.advance(3)
+    rec.record(sim.state)
+    t = load_trajectory(rec.save(tmp_path / "py" / "trajectory.npz"))
+    frames, faces = surface_of(t)
+    assert len(faces) and np.array_equal(faces, t.triangles)
+    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    assert np.all(np.unique(edges, axis=0, return_counts=True)[1] == 2)
+    for f in (0, 1):
+        p = frames[f][faces]
+        enclosed = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6.0
+        tets = np.abs(tet_signed_volumes(t.positions[f], model.fem.tets)).sum()
+        assert enclosed == pytest.approx(tets, rel=1e-9) and enclosed > 0

@@ -102,10 +102,18 @@ def trajectory_meta(model, *, scene_text: str = "", params: dict | None = None,
     if fem is not None:  # what `jellysim plot` needs for the tets' elastic energy
         params = dict(params or {}, fem={"youngs_modulus": float(fem.youngs_modulus),
                                          "poisson_ratio": float(fem.poisson_ratio)})
+    triangles = body.triangles
+    tets = body.tets if body.tets is not None else getattr(fem, "tets", None)
+    if triangles is None and tets is not None and len(tets):
+        # a body without surface triangles but with tets (a grid box, a Python-built body):
+        # its tets' outer faces, outward, so render and export show its surface
+        from ..geometry.tetra import boundary_faces, orient_tets
+
+        triangles = boundary_faces(orient_tets(m.point_x0, tets), m.point_count)
     return dict(rest_positions=m.point_x0, masses=m.point_mass,
                 springs=m.spring_ij, rest_length=m.spring_rest_length,
                 stiffness=m.spring_stiffness, gravity=m.gravity,
-                triangles=body.triangles if body.triangles is not None else empty3,
+                triangles=triangles if triangles is not None else empty3,
                 tets=body.tets if body.tets is not None else empty4,
                 scene_toml=np.array(scene_text),
                 params_json=np.array(json.dumps(params or {}, sort_keys=True)), **extra)
