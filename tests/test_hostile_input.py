@@ -804,3 +804,12 @@ def test_a_tet_body_without_a_ground_model_lands_on_the_contact_ground():
     assert sim.handles.drag[0] == 0
     sim.drag(0, None)                     # the docstring's "None releases", as written
     assert sim.handles.drag[0] < 0
+
+
+@pytest.mark.parametrize("name,kind", [("cube.obj", "a mesh"), ("body.jello", "a body file")])
+def test_a_mesh_or_body_given_as_a_scene_says_how_to_use_it(tmp_path, name, kind):
+    """`jellysim run cube.obj` said only "not valid TOML" (session 10's trial)."""
+    (tmp_path / name).write_text("v 0 0 0\n")
+    r = CliRunner().invoke(cli, ["run", str(tmp_path / name), "--quiet"])
+    assert r.exit_code != 0 and kind in r.output and "not a scene" in r.output
+    assert "[body] type =" in r.output and "Traceback" not in r.output

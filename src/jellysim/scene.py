@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import JellysimError, SceneError, did_you_mean
+from .geometry.mesh import MESH_SUFFIXES
 from .params import (MAX_ALL_PAIRS_POINTS, GroundParams, ImplicitParams, ProvotOrder, ProvotPairs,
                      ProvotParams)
 # Spec (one row of the schema) and the checks live in scene_spec, the table of keys in
@@ -64,6 +65,14 @@ class Scene:
         """Read and validate a TOML scene file (also :meth:`from_file`).  ``overrides``:
         ``"section.key=value"`` strings (TOML values) applied over the file's values."""
         path = Path(path)
+        suffix = path.suffix.lower()
+        if suffix in MESH_SUFFIXES or suffix in (".jello", ".npz"):
+            what = "a mesh" if suffix in MESH_SUFFIXES else "a body file (or a trajectory)"
+            kind = "mesh" if suffix in MESH_SUFFIXES else "file"
+            raise SceneError(f"{path}: {what}, not a scene (.toml): a scene names it as [body] "
+                             f"type = '{kind}', path = '{path.name}' (examples/"
+                             "spot_drop.toml shows one); `jellysim build` makes a body of "
+                             "a mesh, `jellysim render` draws a run")
         try:
             text = path.read_text(encoding="utf-8")
         except FileNotFoundError:
