@@ -92,7 +92,7 @@ class Scene:
         if overrides:   # the recorded text says what ran
             text += "\n# overridden on the command line:\n" + "".join(
                 f"#   --set {item}\n" for item in overrides)
-        given = given_keys(raw)
+        given = given_keys(raw, SCHEMA, PRESETS)
         try:
             params = cls._validate(raw, name)
         except SceneError as exc:  # say when the bad value came from the command line
@@ -121,14 +121,14 @@ class Scene:
         errors name ``name``.  The scene's text (recorded in a run's trajectory) is the
         dictionary written as TOML."""
         raw = plain(raw)  # tuples, numpy arrays and numpy scalars as the TOML reader's values
-        given = given_keys(raw)
+        given = given_keys(raw, SCHEMA, PRESETS)
         scene = cls(cls._validate(raw, name), text=as_toml(raw), name=name)
         scene.given = given
         return scene
 
     @staticmethod
     def _validate(raw: dict, name: str) -> dict:
-        user = given_keys(raw)
+        user = given_keys(raw, SCHEMA, PRESETS)
         preset = raw.get("material", {}).get("preset") if isinstance(
             raw.get("material"), dict) else None
         if preset is not None:

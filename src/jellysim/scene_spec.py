@@ -268,6 +268,21 @@ def check_given_keys(user: dict, preset_raw: dict, out: dict, name: str, preset)
                          "mass; set [material] density instead")
 
 
-def given_keys(raw: dict) -> dict:
-    """``{section: set of keys}`` of a scene as written (tables only)."""
-    return {s: set(v) for s, v in raw.items() if isinstance(v, dict)}
+def given_keys(raw: dict, schema: dict, presets: dict) -> dict:
+    """``{section: set of keys}`` of a scene as written (tables only) whose value differs from
+    what the key would be without it: its preset's value where the scene's preset sets it,
+    else the schema's default (so a scene's own full parameters, read back by
+    ``Scene.from_dict``, give nothing)."""
+    material = raw.get("material")
+    preset = presets.get(material.get("preset")) if isinstance(material, dict) and isinstance(
+        material.get("preset"), str) else None
+    out = {}
+    for section, table in raw.items():
+        if not isinstance(table, dict):
+            continue
+        base = (preset or {}).get(section, {})
+        specs = schema.get(section, {})
+        out[section] = {k for k, v in table.items()
+                        if k not in base and k not in specs
+                        or v != (base[k] if k in base else specs[k].default)}
+    return out
