@@ -511,3 +511,56 @@ def test_a_fine_cube_wobbles_at_the_timoshenko_estimate():
                 for kappa in (5 / 6, 1.0)]
     print(f"f = {f:.3f} Hz; Timoshenko-Dunkerley {estimate[0]:.3f}-{estimate[1]:.3f} Hz")
     assert estimate[0] < f < 1.05 * estimate[1]
+
+
+def test_a_timed_push_gives_the_impulse_then_lets_the_body_go(tmp_path):
+    """`[[handle]] kind = "force"` with `until`: a free body (no gravity, no ground) pushed by
+    a total force F until t_r gains the momentum F t_r (Newton's second law; t_r on the step
+    nearest `until`) and keeps it afterwards (no external force); its centre of mass moves
+    F t^2 / 2M, then uniformly.  A run stopped after the release and resumed ends bitwise
+    as the uninterrupted one, stopped before or after the release."""
+    from jellysim.errors import RunInterrupted
+    from jellysim.io.trajectory import load_trajectory
+    from jellysim.runner import run_scene
+    from jellysim.scene import Scene
+
+    text = """
+[material]
+preset = "gelatin"
+[body]
+points = 64
+lower = [0.0, 0.1, 0.0]
+upper = [0.06, 0.16, 0.06]
+[physics]
+gravity = [0.0, 0.0, 0.0]
+[ground]
+enabled = false
+[integrator]
+dt = 0.01
+steps = 40
+[output]
+every = 5
+vtu = false
+[[handle]]
+kind = "force"
+box = [[0.05, 0.0, -1.0], [1.0, 1.0, 1.0]]
+force = [0.3, 0.0, 0.0]
+until = 0.123
+"""
+    scene = Scene.from_text(text, name="push.toml")
+    full = load_trajectory(run_scene(scene, tmp_path / "full", progress=False).trajectory)
+    model = scene.build_model()
+    m = model.point_mass
+    p = np.einsum("i,fij->fj", m, full.velocities)          # momentum [kg m/s] per frame
+    t_r = round(0.123 / 0.01) * 0.01
+    impulse = 0.3 * t_r
+    for f, t in enumerate(full.times):
+        expect = 0.3 * min(t, t_r)
+        assert p[f, 0] == pytest.approx(expect, rel=1e-9, abs=1e-12 * impulse), (t, p[f])
+        assert abs(p[f, 1]) < 1e-12 and abs(p[f, 2]) < 1e-12
+    assert full.times[-1] > 2 * t_r and p[-1, 0] == pytest.approx(impulse, rel=1e-9)
+    for stop in (5, 15):                                     # before and after the release
+        with pytest.raises(RunInterrupted):
+            run_scene(scene, tmp_path / f"cut{stop}", progress=False, stop_after=stop)
+        res = run_scene(scene, tmp_path / f"cut{stop}", progress=False, resume=True)
+        assert np.array_equal(load_trajectory(res.trajectory).positions, full.positions)

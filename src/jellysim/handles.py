@@ -159,16 +159,18 @@ class Handles:
 
 
 HANDLE_KINDS = {"pin": "fix points, or move them along 'path'",
-                "force": "a constant total 'force' [N] split over the points",
+                "force": "a constant total 'force' [N] split over the points (released at "
+                         "time 'until' [s] if given)",
                 "gravity": "multiply gravity on the points by 'scale'"}
-_HANDLE_KEYS = {"kind", "box", "sphere", "indices", "path", "force", "scale"}
+_HANDLE_KEYS = {"kind", "box", "sphere", "indices", "path", "force", "until", "scale"}
 
 
 def validate_handle_tables(entries, name: str) -> list[dict]:
     """Check ``[[handle]]`` tables of a scene: ``kind`` ('pin', 'force', 'gravity'), one
     selection (``box = [[x0, y0, z0], [x1, y1, z1]]``, ``sphere = {center = [...], radius =
     r}``, ``indices = [...]``), and ``path`` (pin, optional: rows [t, dx, dy, dz]), ``force``
-    ([fx, fy, fz] N, total), ``scale`` (gravity factor)."""
+    ([fx, fy, fz] N, total; ``until``: its release time [s], optional), ``scale`` (gravity
+    factor)."""
     if isinstance(entries, dict):
         entries = [entries]
     if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
@@ -199,8 +201,9 @@ def validate_handle_tables(entries, name: str) -> list[dict]:
         for key in needs:
             if key not in entry:
                 raise SceneError(f"{where}: kind = '{kind}' needs '{key}'")
-        allowed = {"pin": {"path"}, "force": {"force"}, "gravity": {"scale"}}[kind]
-        stray = [key for key in ("path", "force", "scale") if key in entry and key not in allowed]
+        allowed = {"pin": {"path"}, "force": {"force", "until"}, "gravity": {"scale"}}[kind]
+        stray = [key for key in ("path", "force", "until", "scale")
+                 if key in entry and key not in allowed]
         if stray:
             raise SceneError(f"{where}: '{stray[0]}' is not used by kind = '{kind}'")
         if "path" in entry:  # a scene pins at t = 0
@@ -212,6 +215,11 @@ def validate_handle_tables(entries, name: str) -> list[dict]:
                 raise SceneError(f"{where}: force must be [fx, fy, fz] (N)") from None
             if not np.all(np.isfinite(f)):
                 raise SceneError(f"{where}: force must be finite")
+        until = entry.get("until")
+        if until is not None and (isinstance(until, bool) or not isinstance(until, (int, float))
+                                  or not (np.isfinite(until) and until > 0)):
+            raise SceneError(f"{where}: until must be a time > 0 [s] (when the force is "
+                             f"released), got {until!r}")
         if "scale" in entry and not (isinstance(entry["scale"], (int, float))
                                      and np.isfinite(entry["scale"])):
             raise SceneError(f"{where}: scale must be a finite number")
@@ -237,7 +245,7 @@ def apply_handle_tables(sim, tables, springs_reason: str | None = None) -> None:
         if entry["kind"] == "pin":
             sim.pin(idx, path=entry.get("path"))
         elif entry["kind"] == "force":
-            sim.apply_force(idx, entry["force"])
+            sim.apply_force(idx, entry["force"], until=entry.get("until"))
         else:
             sim.set_gravity_scale(idx, entry["scale"])
 
@@ -303,13 +311,40 @@ class HandleMethods:
         hd.pinned[idx] = 0
         hd.paths = [(i, p) for i, p in hd.paths if not np.isin(i, idx).any()]
 
-    def apply_force(self, indices, force, *, total: bool = True) -> None:
+    def apply_force(self, indices, force, *, total: bool = True,
+                    until: float | None = None) -> None:
         """Constant force [N], shape (3,), on the points (replacing an earlier one there):
-        split evenly with ``total`` (default), else on each point."""
+        split evenly with ``total`` (default), else on each point.  ``until`` [s]: the force
+        is released (set to zero on those points) at that simulated time, on the step nearest
+        to it (:meth:`advance` stops there): a push, then a free wobble."""
         self._require_physical("point forces")
         idx = self._point_indices(indices, "apply_force")
         f = _vec3(force, "apply_force: force [N]")
+        if until is not None:
+            if isinstance(until, bool) or not isinstance(until, (int, float, np.number)) or not (
+                    np.isfinite(until) and until >= 0):
+                raise SceneError(f"apply_force: until must be a time >= 0 [s], got {until!r}")
+            release = int(round(float(until) / self.dt))
+            if release <= self.state.step:
+                raise SceneError(f"apply_force: until = {until} s is not after the present "
+                                 f"t = {self.state.t:g} s")
+            self.__dict__.setdefault("_releases", []).append((release, idx))
         self.handles.point_force[idx] = f / len(idx) if total else f
+
+    def _advance_scheduled(self, steps: int) -> None:
+        """``advance(steps)``, stopping at each step where a timed force ends to release it
+        (a release already due, as after a resume past it, is made first)."""
+        end = self.state.step + steps
+        while True:
+            due = [r for r in getattr(self, "_releases", ()) if r[0] <= self.state.step]
+            for r in due:
+                self.handles.point_force[r[1]] = 0.0
+                self._releases.remove(r)
+            later = [r[0] for r in getattr(self, "_releases", ()) if r[0] < end]
+            stop = min(later, default=end)
+            if stop <= self.state.step:
+                return
+            self._advance_chunk(stop - self.state.step)
 
     def set_gravity_scale(self, indices, scale: float) -> None:
         """Gravity on the points is multiplied by ``scale`` [-]."""

@@ -40,6 +40,8 @@ def schema_markdown() -> str:
               "at times [s], linear between rows; from a zero offset at t = 0 to the first "
               "row (a non-zero offset at t = 0 is refused: the points would jump). |",
               "| `force` | [fx, fy, fz] | Force: total force [N], split evenly. |",
+              "| `until` | float | Force: release time [s] (the force acts from the start "
+              "until then: a push, then a free wobble); default: the whole run. |",
               "| `scale` | float | Gravity: factor on gravity [-]. |"]
     return "\n".join(lines)
 

@@ -127,8 +127,7 @@ def _check_above_ground(x0, height: float) -> None:
             f"y = {low:.4g} m, the ground at y = {height:g} m; {below} of {len(x0)} points "
             f"below): the ground would throw it out.  Lift it: [body] base = [0, {height:g}, "
             f"0] (mesh and file bodies) or [body] lower with y >= {height:g} (box fields) in a "
-            f"scene; Body.from_mesh(..., base=(0, {height:g}, 0)) in Python; or disable the "
-            f"ground")
+            f"scene; Body.from_mesh(..., base=(0, {height:g}, 0)) in Python; or disable the ground")
 
 
 class Simulator(HandleMethods, PhysicalStepping):
@@ -171,14 +170,12 @@ class Simulator(HandleMethods, PhysicalStepping):
     """
 
     def __init__(self, model, *, dt: float, integrator: Integrator | str = Integrator.SYMPLECTIC,
-                 provot: ProvotParams | None = None,
-                 ground: GroundParams | None = None,
+                 provot: ProvotParams | None = None, ground: GroundParams | None = None,
                  backend: Backend | str = Backend.NUMBA, threads: int | None = None,
                  runaway_distance: float | None = None, check_stability: bool = True,
-                 state=None, substeps: int | str = "auto",
-                 implicit: ImplicitParams = ImplicitParams(), obstacles=(),
-                 rest_speed: float | None = None, device: str | None = None,
-                 precision: str = "float64"):
+                 state=None, substeps: int | str = "auto", implicit: ImplicitParams =
+                 ImplicitParams(), obstacles=(), rest_speed: float | None = None,
+                 device: str | None = None, precision: str = "float64"):
         if isinstance(dt, bool) or not isinstance(dt, (int, float, np.number)) or not (
                 np.isfinite(dt) and dt > 0):
             raise SceneError(f"time step dt must be a positive number of seconds, got {dt!r}")
@@ -460,6 +457,9 @@ class Simulator(HandleMethods, PhysicalStepping):
         the state as it was after the failing step."""
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
             raise SceneError(f"advance(steps): steps must be a whole number >= 0, got {steps!r}")
+        self._advance_scheduled(int(steps))  # (split where a timed handle ends: handles.py)
+
+    def _advance_chunk(self, steps: int) -> None:
         if steps == 0:
             return
         s = self.state
