@@ -228,7 +228,11 @@ def test_pvd_series_every_frame_readable_by_meshio(run_dir, traj, tmp_path):
             expected = traj.skin_positions(k) if "skin" in pvd.name else traj.positions[k]
             np.testing.assert_allclose(mesh.points, expected, atol=1e-12)
             kinds = {c.type for c in mesh.cells}
-            assert kinds == ({"triangle"} if "skin" in pvd.name else {"line"})
+            if "skin" in pvd.name:
+                assert kinds == {"triangle"}
+            else:  # springs as lines, the tets' outer faces, the tets
+                assert "line" in kinds and kinds <= {"line", "triangle", "tetra"}
+                assert ("tetra" in kinds) == bool(len(traj.tets))
 
 
 @pytest.mark.parametrize("fmt", ["obj", "ply"])
@@ -501,3 +505,35 @@ def test_a_python_run_of_a_tet_body_is_drawn_and_exported_by_its_outer_faces(tmp
         enclosed = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6.0
         tets = np.abs(tet_signed_volumes(t.positions[f], model.fem.tets)).sum()
         assert enclosed == pytest.approx(tets, rel=1e-9) and enclosed > 0
+
+
+def test_a_tet_run_writes_its_tets_and_their_volume_ratio_for_paraview(tmp_path):
+    """Session 10's trial: the ParaView frames held only springs.  A run of a tet body now
+    writes its tets as VTK tetrahedra with the cell field volume_ratio J = V / V0: 1 at the
+    first frame (the rest shape, exact), and at a later frame the same as computed here from
+    the trajectory's positions, with the body's total volume conserved within the material's
+    compressibility (nu = 0.48: a few per cent)."""
+    import meshio
+
+    from jellysim.geometry.tetra import tet_signed_volumes
+
+    text = ('[material]\npreset = "gelatin"\n[body]\npoints = 64\n[integrator]\nsteps = 12\n'
+            '[output]\nevery = 6\n')
+    run_scene(Scene.from_text(text, name="s.toml"), tmp_path, progress=False)
+    traj = load_trajectory(tmp_path)
+    files = [d.get("file") for d in ET.parse(tmp_path / "body.pvd").getroot().iter("DataSet")]
+    assert len(files) == traj.frame_count == 3
+    for k, f in enumerate(files):
+        mesh = meshio.read(tmp_path / f)
+        blocks = [c.type for c in mesh.cells]
+        tets = mesh.cells[blocks.index("tetra")].data
+        j = mesh.cell_data["volume_ratio"][blocks.index("tetra")]
+        rest = tet_signed_volumes(traj.rest_positions, tets)
+        v = tet_signed_volumes(traj.positions[k], tets)
+        assert np.all(rest > 0)
+        np.testing.assert_allclose(j, v / rest, rtol=1e-12)
+        if k == 0:
+            assert np.all(j == 1.0)
+        for other in set(blocks) - {"tetra"}:
+            assert np.all(np.isnan(mesh.cell_data["volume_ratio"][blocks.index(other)]))
+        assert abs(v.sum() / rest.sum() - 1.0) < 0.05

@@ -115,7 +115,8 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
         recorder.record(state)
         if series is not None:
             series.add(state.t, state.x, model.spring_ij, velocities=state.v,
-                       triangles=model.body.triangles)
+                       triangles=model.body.triangles, rest=model.point_x0,
+                       tets=model.fem.tets if model.fem is not None else model.body.tets)
         if skin_series is not None:
             skin_series.add_surface(state.t, skin.deform(state.x, **bounds), skin.faces)
 

@@ -1,4 +1,5 @@
-"""ParaView output: one ``.vtu`` per frame (points + springs as lines) and a ``.pvd`` index.
+"""ParaView output: one ``.vtu`` per frame (points + springs as lines, and a body's tets with
+their volume ratio J) and a ``.pvd`` index.
 
 A skin (:mod:`jellysim.skin`) is written as its own series (``skin.pvd``) because its vertices
 are not the body's points.  :func:`export_pvd` writes both series from a saved trajectory.
@@ -19,16 +20,35 @@ __all__ = ["PVDSeries", "export_pvd", "export_pvd_file", "write_vtu"]
 
 
 def write_vtu(path, points: np.ndarray, springs: np.ndarray, *, point_data=None,
-              triangles: np.ndarray | None = None, atomic: bool = True) -> None:
-    """One frame: points [m] (n, 3), springs (k, 2) as VTK lines (+ optional triangles).
-    ``atomic=False`` writes ``path`` directly (a series lists it only once complete)."""
+              triangles: np.ndarray | None = None, tets: np.ndarray | None = None,
+              rest: np.ndarray | None = None, atomic: bool = True) -> None:
+    """One frame: points [m] (n, 3), springs (k, 2) as VTK lines (+ optional triangles, and
+    tets (t, 4) as VTK tetrahedra with, given the ``rest`` positions [m] (n, 3), the cell
+    field ``volume_ratio`` J = volume / rest volume [-] per tet: < 1 squeezed, < 0 inside
+    out; NaN on the lines and triangles).  ``atomic=False`` writes ``path`` directly (a series
+    lists it only once complete)."""
     import meshio
 
+    x = np.asarray(points, dtype=np.float64)
     cells = [("line", np.asarray(springs, dtype=np.int64))]
     if triangles is not None and len(triangles):
         cells.append(("triangle", np.asarray(triangles, dtype=np.int64)))
-    mesh = meshio.Mesh(np.asarray(points, dtype=np.float64), cells,
-                       point_data=point_data or {})
+    if not len(cells[0][1]) and (len(cells) > 1 or tets is not None and len(tets)):
+        cells = cells[1:]  # no springs (a tet body): meshio cannot write an empty block
+    cell_data = {}
+    if tets is not None and len(tets):
+        t = np.asarray(tets, dtype=np.int64)
+        cells.append(("tetra", t))
+        if rest is not None:
+            def volumes(p):
+                a, b, c, d = (p[t[:, i]] for i in range(4))
+                return np.einsum("ij,ij->i", b - a, np.cross(c - a, d - a)) / 6.0
+
+            r = volumes(np.asarray(rest, dtype=np.float64))
+            ratio = np.divide(volumes(x), r, out=np.full(len(t), np.nan), where=r != 0)
+            cell_data["volume_ratio"] = [np.full(len(c[1]), np.nan) for c in cells[:-1]] + [
+                ratio]
+    mesh = meshio.Mesh(x, cells, point_data=point_data or {}, cell_data=cell_data)
     if not atomic:
         meshio.write(path, mesh, file_format="vtu")
         return
@@ -86,10 +106,12 @@ class PVDSeries:
             (self.directory / self.pieces).mkdir(parents=True, exist_ok=True)
         return fname, self.directory / fname
 
-    def add(self, t: float, points, springs, *, velocities=None, triangles=None) -> Path:
+    def add(self, t: float, points, springs, *, velocities=None, triangles=None, tets=None,
+            rest=None) -> Path:
         fname, path = self._next()
         data = {} if velocities is None else {"velocity": np.asarray(velocities)}
-        write_vtu(path, points, springs, point_data=data, triangles=triangles, atomic=False)
+        write_vtu(path, points, springs, point_data=data, triangles=triangles, tets=tets,
+                  rest=rest, atomic=False)
         self._append(t, fname)
         return path
 
@@ -125,9 +147,11 @@ def export_pvd(traj, directory, name: str = "body", *, pieces: str = "") -> list
     the ``.pvd``).  Returns the ``.pvd`` paths."""
     body = PVDSeries(directory, name, pieces=pieces)
     tri = traj.triangles if len(traj.triangles) else None
+    tets = traj.tets if len(traj.tets) else None
     for f in range(traj.frame_count):
         body.add(traj.times[f], traj.positions[f], traj.springs,
-                 velocities=traj.velocities[f], triangles=tri)
+                 velocities=traj.velocities[f], triangles=tri, tets=tets,
+                 rest=traj.rest_positions)
     out = [body.pvd_path]
     if traj.skin is not None:
         skin = PVDSeries(directory, f"{name}_skin", pieces=pieces)
