@@ -299,12 +299,31 @@ class PhysicalMethods(PhysicalStepping):
         hd.pinned[self._local_rows(gidx)[0]] = 0
         self._set_paths([(i, p) for i, p in self._global_paths if not np.isin(i, gidx).any()])
 
-    def apply_force(self, indices, force, *, total: bool = True) -> None:
-        """:meth:`Simulator.apply_force` with global point indices."""
+    def apply_force(self, indices, force, *, total: bool = True,
+                    until: float | None = None) -> None:
+        """:meth:`Simulator.apply_force` with global point indices (``until``: released at
+        that time [s], on the nearest step, every rank alike)."""
         self._require_physical("point forces")
         rows, count = self._local_rows(indices)
         f = np.asarray(force, dtype=np.float64).reshape(3)
+        if until is not None:
+            release = int(round(float(until) / self.dt))
+            self.__dict__.setdefault("_releases", []).append((release, rows))
         self.handles.point_force[rows] = f / count if total else f
+
+    def _advance_scheduled(self, steps: int, chunk) -> None:
+        """``chunk(n)`` until ``steps`` are taken, stopping where a timed force ends to
+        release it (a release already due, as after a resume past it, first)."""
+        end = self.step + steps
+        while True:
+            for r in [r for r in getattr(self, "_releases", ()) if r[0] <= self.step]:
+                self.handles.point_force[r[1]] = 0.0
+                self._releases.remove(r)
+            stop = min([r[0] for r in getattr(self, "_releases", ()) if r[0] < end],
+                       default=end)
+            if stop <= self.step:
+                return
+            chunk(stop - self.step)
 
     def set_gravity_scale(self, indices, scale: float) -> None:
         """:meth:`Simulator.set_gravity_scale` with global point indices."""

@@ -339,6 +339,10 @@ class DistributedSimulator(PhysicalMethods):
     def advance(self, steps: int = 1) -> None:
         """Take ``steps`` time steps on every rank (a collective call).  Raises the same
         :class:`SimulationError` on every rank when any rank's points blow up."""
+        if steps > 0:
+            self._advance_scheduled(int(steps), self._advance_chunk)
+
+    def _advance_chunk(self, steps: int) -> None:
         if steps <= 0:
             return
         done, status = 0, STATUS_OK
