@@ -1,8 +1,8 @@
 """Automatic camera framing: one fixed camera that sees every frame of the motion.
 
 Y is up (gravity is -y in jellysim scenes).  The camera looks at the centre of the bounding box
-of all frames from a fixed elevated three-quarter direction, far enough that the bounding
-sphere fits the narrower of the horizontal and vertical fields of view.
+of all frames from a fixed elevated three-quarter direction, as close as keeps the corners of
+every frame's bounding box inside the image with a margin (:func:`frame_motion`).
 """
 from __future__ import annotations
 
@@ -50,9 +50,16 @@ class Camera:
 
 
 def frame_motion(positions: np.ndarray, size: tuple[int, int], *, view_angle: float = 30.0,
-                 direction=DEFAULT_DIRECTION, margin: float = 0.85,
+                 direction=DEFAULT_DIRECTION, margin: float = 0.9,
                  extra_points: np.ndarray | None = None, zoom: float = 1.0) -> Camera:
     """A camera that keeps all of ``positions`` in view.
+
+    The camera looks at the centre of their bounding box from ``direction``, as close as the
+    positions allow: each one's distance from the view axis, over the tangent of the half
+    field of view it lies in (horizontal or vertical), plus its depth towards the camera,
+    bounds the distance; the largest bound is taken.  A perspective image of a box is the
+    convex hull of its corners' images, so giving the corners of boxes (each frame's, as the
+    renderer does) keeps everything inside them in view.
 
     Parameters
     ----------
@@ -60,7 +67,8 @@ def frame_motion(positions: np.ndarray, size: tuple[int, int], *, view_angle: fl
     size: image (width, height) in pixels.
     view_angle: vertical field of view [degrees].
     direction: from the focal point towards the camera (normalised here).
-    margin: extra room around the bounding sphere (1 = touching the image border).
+    margin: the fraction of each half field of view the box may fill (0.9: a tenth of the
+        image is left free on each side; 1 = touching the image border).
     extra_points: more positions [m] (..., 3) to include (e.g. a floor patch).
     zoom: > 1 moves the camera closer by that factor (the framing then crops the motion).
     """
@@ -72,18 +80,23 @@ def frame_motion(positions: np.ndarray, size: tuple[int, int], *, view_angle: fl
         pts = np.zeros((1, 3))
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     center = 0.5 * (lo + hi)
-    radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-3)
     width, height = size
     vfov = math.radians(view_angle)
     hfov = 2.0 * math.atan(math.tan(vfov / 2.0) * width / height)
-    fov = min(vfov, hfov)
-    distance = margin * radius / math.sin(fov / 2.0) / float(zoom)
     d = np.asarray(direction, dtype=np.float64)
     d = d / np.linalg.norm(d)
-    pos = center + distance * d
     up = (0.0, 1.0, 0.0)
     if abs(d[1]) > 0.999:  # looking (nearly) straight down: +y is not "up" on the image
         n = float(np.hypot(d[0], d[2]))
         up = (-d[0] / n, 0.0, -d[2] / n) if n > 0 else (0.0, 0.0, -1.0)
+    right = np.cross(-d, up)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, -d)
+    rel = pts - center
+    lateral = np.maximum(np.abs(rel @ right) / (margin * math.tan(hfov / 2.0)),
+                         np.abs(rel @ true_up) / (margin * math.tan(vfov / 2.0)))
+    extent = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-3)
+    distance = max(float(np.max(rel @ d + lateral)), 1.05 * extent) / float(zoom)
+    pos = center + distance * d
     return Camera(tuple(pos.tolist()), tuple(center.tolist()), tuple(float(u) for u in up),
                   float(view_angle))

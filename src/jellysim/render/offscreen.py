@@ -87,21 +87,27 @@ def _faces(tri: np.ndarray) -> np.ndarray:
 
 
 def _motion_bounds(traj, surface_frames, chunk: int = 32) -> np.ndarray:
-    """Lower and upper corners [m] of the bounding box of points and surface in each chunk of
-    frames, stacked: shape (2 c, 3).  Never expands every frame's surface at once."""
+    """The eight corners [m] of the bounding box of points and surface in each frame, stacked:
+    shape (8 F', 3) (frames with no finite position left out).  Never expands every frame's
+    surface at once."""
     corners = []
+    pick = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
     for start in range(0, traj.frame_count, chunk):
         sl = slice(start, min(start + chunk, traj.frame_count))
-        blocks = [traj.positions[sl].reshape(-1, 3)]
+        blocks = [np.asarray(traj.positions[sl], dtype=np.float64)]
         if surface_frames is not None:
-            blocks.append(np.asarray(surface_frames(sl)).reshape(-1, 3))
-        a = np.concatenate(blocks)
-        a = a[np.all(np.isfinite(a), axis=1)]
-        if len(a):
-            corners += [a.min(axis=0), a.max(axis=0)]
-    if not corners:
+            blocks.append(np.asarray(surface_frames(sl), dtype=np.float64))
+        a = np.concatenate(blocks, axis=1)                       # (c, m, 3)
+        a = np.where(np.isfinite(a), a, np.nan)
+        with warnings.catch_warnings():  # a frame of a failed run may hold no finite point
+            warnings.simplefilter("ignore", RuntimeWarning)
+            box = np.stack([np.nanmin(a, axis=1), np.nanmax(a, axis=1)], axis=1)  # (c, 2, 3)
+        box = box[np.all(np.isfinite(box), axis=(1, 2))]
+        corners.append(box[:, pick, [0, 1, 2]].reshape(-1, 3))
+    corners = np.concatenate(corners) if corners else np.zeros((0, 3))
+    if not len(corners):
         raise JellysimError("the trajectory has no finite positions to draw")
-    return np.array(corners)
+    return corners
 
 
 def _body_track(traj, surface_frames, mode: str, chunk: int = 32):
@@ -216,8 +222,7 @@ class Renderer:
             if o.floor:
                 box = np.vstack([box, [[-half[0], floor_y, -half[2]],
                                        [half[0], floor_y, half[2]]]])
-            self.camera = frame_motion(box, self.size, zoom=o.zoom, direction=direction,
-                                       margin=1.0)  # the whole sphere: the box's corners
+            self.camera = frame_motion(box, self.size, zoom=o.zoom, direction=direction)
 
         self.shadow = None
         if o.floor and o.shadow and self._surface_frames is not None:
