@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jellysim.errors import CheckpointError, RunInterrupted, SceneError
+from jellysim.errors import CheckpointError, JellysimError, RunInterrupted, SceneError
 from jellysim.io.checkpoint import CHECKPOINT
 from jellysim.io.stream import STREAM_DIR, GrowingNpy, stream_frames
 from jellysim.io.trajectory import load_trajectory
@@ -461,3 +461,25 @@ def test_python_run_into_an_earlier_run_is_refused_unless_overwrite(tmp_path):
     assert len(vtus) == frames < len([n for n in before if n.startswith("body_")])
     assert (out / "body.pvd").read_text().count("<DataSet") == frames
     assert (out / "notes.txt").read_text() == "mine"
+
+
+def test_an_interrupted_run_in_a_folder_with_a_space_says_how_to_continue_it(tmp_path):
+    """Session 10's trial: the printed "continue with" command broke on a folder with a space
+    (not quoted), and running the same command again offered only --overwrite (which would
+    delete the frames so far).  The command now parses back to the folder, and a new run into
+    the folder says it holds an interrupted run and how to --resume it."""
+    import shlex
+
+    from jellysim.runner import prepare_out_dir
+
+    scene = Scene.from_text(EXPLICIT, name="my scene.toml")
+    out = tmp_path / "my run"
+    with pytest.raises(RunInterrupted) as info:
+        run_scene(scene, out, progress=False, stop_after=2 * scene.frame_every)
+    msg = str(info.value)
+    argv = shlex.split(msg[msg.index("continue with: ") + len("continue with: "):])
+    assert argv[:5] == ["jellysim", "run", "my scene.toml", "--resume", str(out)]
+    with pytest.raises(JellysimError, match=r"holds an interrupted run; continue it with "
+                                            r"--resume '.*my run'"):
+        prepare_out_dir(out)
+    assert (out / CHECKPOINT).exists()   # nothing was touched

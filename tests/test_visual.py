@@ -563,3 +563,22 @@ def test_the_framing_keeps_a_box_corners_inside_the_margin_and_is_tight(size, az
     tan_h = tan_v * size[0] / size[1]
     used = np.maximum(np.abs(rel @ up) / depth / tan_v, np.abs(rel @ right) / depth / tan_h)
     assert np.all(depth > 0) and used.max() <= 0.9 + 1e-9 and used.max() > 0.89
+
+
+def test_overwriting_an_export_folder_keeps_files_that_are_not_its_frames(tmp_path):
+    """Session 10's trial: `export --sequence obj DIR --overwrite` deleted the user's own
+    DIR/skin_final.obj (the glob was skin_*.obj); only numbered frames are replaced now."""
+    from jellysim.cli import cli as main
+
+    out = tmp_path / "objs"
+    run = tmp_path / "run"
+    run_scene(Scene.from_text(SCENE, name="s.toml"), run, progress=False, vtu=False)
+    assert CliRunner().invoke(main, ["export", str(run), "--sequence", "obj", "-o",
+                                     str(out)]).exit_code == 0
+    frames = sorted(out.glob("skin_*.obj"))
+    (out / "skin_final.obj").write_text("# mine\n")
+    r = CliRunner().invoke(main, ["export", str(run), "--sequence", "obj", "-o", str(out),
+                                  "--overwrite"])
+    assert r.exit_code == 0, r.output
+    assert (out / "skin_final.obj").read_text() == "# mine\n"
+    assert sorted(out.glob("skin_[0-9]*.obj")) == frames

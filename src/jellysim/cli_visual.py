@@ -177,11 +177,11 @@ def guard_output(path, overwrite: bool) -> None:
     path = Path(path)
     if path.suffix.lower() == ".pvd":  # its frames go into the sibling folder <stem>/
         guard_file(path, overwrite)
-        guard_folder(path.parent / path.stem, [f"{path.stem}_*.vtu"], overwrite)
+        guard_folder(path.parent / path.stem, [f"{path.stem}_[0-9]*.vtu"], overwrite)
     elif path.suffix.lower() in (".usdc", ".usda", ".usd", ".glb"):
         guard_file(path, overwrite)
     elif output_kind(path) == "pngdir":
-        guard_folder(path, ["frame_*.png"], overwrite)
+        guard_folder(path, ["frame_[0-9]*.png"], overwrite)
     else:
         guard_file(path, overwrite)
 
@@ -334,7 +334,7 @@ def export(trajectory, target, output, sequence, fps, max_frames, overwrite=Fals
                                     "folder; give a folder name (no suffix)")
             from .io.atomic import guard_folder
 
-            guard_folder(out, [f"skin_*.{sequence}"], overwrite)
+            guard_folder(out, [f"skin_[0-9]*.{sequence}"], overwrite)
             paths = export_mesh_sequence(traj, out, fmt=sequence)
             click.echo(f"wrote {len(paths)} {sequence.upper()} files in {out}")
             return

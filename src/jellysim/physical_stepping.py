@@ -223,3 +223,20 @@ def travel_error(sim, failed: int):
         "there as a guard against blow-ups; a body meant to travel that far: [integrator] "
         "runaway_distance in a scene, Simulator(runaway_distance=...) in Python",
         step=failed, status=int(STATUS_RUNAWAY))
+
+
+def blowup_error(sim, failed: int, what: str, status: int):
+    """The :class:`~jellysim.errors.SimulationError` of a physical-path blow-up: its substeps
+    were counted and doubled, so the forces (handles, a squashed body) are the cause."""
+    from .errors import SimulationError
+
+    handles = sim.handles.active
+    cause = ("a force, drag or pin path too strong for the material, or a body squashed inside "
+             "out" if handles else "a body squashed inside out")
+    return SimulationError(
+        f"simulation went unstable at step {failed} (t = {sim.state.t:.6g} s): {what}, with "
+        f"{sim.substeps} substeps per step (doubled up to {sim.MAX_SUBSTEP_DOUBLINGS} times "
+        f"after a blow-up); {cause} does that: more substeps ([integrator] substeps = "
+        f"{4 * sim.substeps}; Python: Simulator(substeps=...)), "
+        + ("gentler handles, " if handles else "") + "a stiffer material or a gentler drop help",
+        step=failed, status=status)

@@ -41,7 +41,7 @@ AUTO_CHECKPOINT_SECONDS = 60.0
 wall-clock time since the last one."""
 
 
-RUN_FILES = ("trajectory.npz", "body.pvd", "body_*.vtu", "skin.pvd", "skin_*.vtu",
+RUN_FILES = ("trajectory.npz", "body.pvd", "body_[0-9]*.vtu", "skin.pvd", "skin_[0-9]*.vtu",
              ".trajectory.npz.*", ".body*", ".skin*", "checkpoint.npz", "checkpoint.final.npz")
 """Names (glob patterns) of the files a run writes into its folder: what ``--overwrite``
 removes before a new run (nothing else in the folder is touched)."""
@@ -59,9 +59,17 @@ def prepare_out_dir(out_dir, *, overwrite: bool = False, owned=RUN_FILES,
     present = sorted(out_dir.iterdir()) if out_dir.is_dir() else []
     if present and not overwrite:
         names = ", ".join(p.name for p in present[:3]) + (", ..." if len(present) > 3 else "")
+        quoted = shlex.quote(str(out_dir))
+        if (out_dir / CHECKPOINT).exists() or (out_dir / STREAM_DIR).is_dir():
+            raise JellysimError(f"{option} {out_dir}: holds an interrupted run; continue it with "
+                                f"--resume {quoted} (and no {option}), or pass --overwrite to "
+                                f"replace it (its frames so far are lost), or choose another "
+                                f"{option}")
+        more = (f"; --resume {quoted} --steps N extends it"
+                if (out_dir / FINAL_CHECKPOINT).exists() else "")
         raise JellysimError(f"{option} {out_dir}: the folder is not empty ({len(present)} "
                             f"entries: {names}); pass --overwrite to replace the run there, "
-                            f"or choose another {option}")
+                            f"or choose another {option}{more}")
     for p in present:
         if p.is_file() and any(fnmatch.fnmatchcase(p.name, pat) for pat in owned):
             p.unlink()
@@ -360,8 +368,9 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                     raise RunInterrupted(
                         f"{how} at step {done} of {total} (t = {sim.state.t:.6g} s); "
                         f"{stream.frames} frames saved in {stream_dir} (jellysim render, "
-                        f"plot and export read it: pass {out_dir}); continue with: jellysim "
-                        f"run {scene.name} --resume {out_dir}" + "".join(
+                        f"plot and export read it: pass {shlex.quote(str(out_dir))}); continue "
+                        f"with: jellysim run {shlex.quote(str(scene.name))} --resume "
+                        f"{shlex.quote(str(out_dir))}" + "".join(
                             f" --set {shlex.quote(item)}"
                             for item in getattr(scene, "overrides", ())),
                         step=done, signal=stop[0], out_dir=out_dir)

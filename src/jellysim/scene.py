@@ -50,6 +50,10 @@ def schema_markdown() -> str:
     return make()
 
 
+MIN_FRAME_RATE = 30.0
+"""Frames per simulated second a run saves at least by default (``[output] every`` unset)."""
+
+
 class Scene:
     """A validated scene: ``scene.params[section][key]`` with every default filled in."""
 
@@ -482,5 +486,11 @@ class Scene:
 
     @property
     def frame_every(self) -> int:
+        """Steps between saved frames: ``[output] every``, else about 100 frames but at
+        least :data:`MIN_FRAME_RATE` frames per simulated second (a smooth video)."""
         every = self.params["output"]["every"]
-        return every if every is not None else max(1, math.ceil(self.steps / 100))
+        if every is not None:
+            return every
+        smooth = max(1, math.floor(1.0 / (MIN_FRAME_RATE * float(self.params["integrator"]["dt"]))
+                                   + 1e-9))
+        return max(1, min(math.ceil(self.steps / 100), smooth))

@@ -21,7 +21,7 @@ from .kernels import (INTEGRATOR_CODES, STATUS_NONFINITE, STATUS_OK, STATUS_RUNA
 from .params import (MAX_ALL_PAIRS_POINTS, GroundModel, GroundParams, ImplicitParams,
                      ImplicitScheme, Integrator, ProvotOrder, ProvotPairs, ProvotParams)
 from .handles import HandleMethods
-from .physical_stepping import PhysicalStepping, travel_error
+from .physical_stepping import PhysicalStepping, blowup_error, travel_error
 from .stability import StabilityEstimate, estimate_stability, implicit_accuracy
 
 __all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads",
@@ -586,12 +586,7 @@ class Simulator(HandleMethods, PhysicalStepping):
                 "implicit step is linearised: try a smaller dt, theta closer to 1 or a tighter "
                 f"CG tolerance ({words})", step=failed, status=int(status))
         if self.physical:  # its substeps were counted and doubled: the forces are the cause
-            raise SimulationError(
-                f"simulation went unstable at step {failed} (t = {s.t:.6g} s): {what}, with "
-                f"{self.substeps} substeps per step (doubled up to {self.MAX_SUBSTEP_DOUBLINGS} "
-                "times after a blow-up); a force, drag or pin path too strong for the material, "
-                "or a body squashed inside out, does that: gentler handles or a stiffer "
-                "material help", step=failed, status=int(status))
+            raise blowup_error(self, failed, what, int(status))
         hint = (f"try dt <= {0.5 * min(self.dt_step, est.dt_max):.3g} s" if est.dt_max > 0
                 else "add damping or use integrator = 'symplectic'")
         raise SimulationError(
