@@ -582,3 +582,26 @@ def test_overwriting_an_export_folder_keeps_files_that_are_not_its_frames(tmp_pa
     assert r.exit_code == 0, r.output
     assert (out / "skin_final.obj").read_text() == "# mine\n"
     assert sorted(out.glob("skin_[0-9]*.obj")) == frames
+
+
+def test_obstacles_are_drawn_and_a_run_without_ground_has_no_floor(tmp_path):
+    """Session 10's trial: a body resting on a [[obstacle]] sphere seemed to float (the
+    sphere was not drawn), and a run with the ground disabled still showed a floor under the
+    falling body.  The obstacle now covers the pixels its silhouette projects to (its grey,
+    distinct from the floor's), and a groundless run has no floor pixel."""
+    from jellysim.render.offscreen import Renderer, RenderOptions
+
+    text = SCENE.replace("steps = 280", "steps = 40").replace("lower = [0.0, 0.25, 0.0]",
+                                                              "lower = [0.0, 0.45, 0.0]")
+    text = text.replace("upper = [0.4, 0.55, 0.4]", "upper = [0.4, 0.75, 0.4]")
+    text += '\n[[obstacle]]\nkind = "sphere"\ncenter = [0.2, 0.2, 0.2]\nradius = 0.2\n'
+    for ground, out in (("", tmp_path / "a"), ("\n[ground]\nenabled = false\n", tmp_path / "b")):
+        run_scene(Scene.from_text(text + ground, name="s.toml"), out, progress=False, vtu=False)
+        t = load_trajectory(out)
+        img = Renderer(t, RenderOptions(size=(160, 96))).render(0).astype(int)
+        grey = (np.abs(img - [0x9d, 0xa3, 0xa8]).max(axis=2) < 40) & (
+            np.abs(img[..., 0] - img[..., 2]) < 20)
+        background = np.abs(img - [0xf4, 0xf1, 0xec]).max(axis=2) < 6
+        assert grey.sum() > 0.02 * grey.size            # the sphere is drawn
+        # a floor fills the view behind the body; without one the background shows
+        assert (background.mean() < 0.05) == (not ground), background.mean()

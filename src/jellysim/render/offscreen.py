@@ -181,8 +181,8 @@ class Renderer:
         self._track = _body_track(traj, self._surface_frames, o.camera)
         gh = ground_height(traj)
         extra = self.floor = None
-        if o.floor:
-            floor_y = gh if gh is not None else float(lo[1])
+        if o.floor and gh is not None:  # no ground in the run: no floor drawn under it
+            floor_y = gh
             ext = float(np.max(hi - lo))
             c = 0.5 * (lo + hi)
             if self._track is not None:  # a floor patch that travels with the camera (it is
@@ -211,6 +211,7 @@ class Renderer:
                 self._floor_y = floor_y + 0.0045 * ext
             else:
                 self._floor_y = floor_y + 0.0005 * ext
+        self._add_obstacles(traj, lo, hi)
         direction = view_direction(o.azimuth, o.elevation)
         if self._track is None:
             self.camera = frame_motion(motion, self.size, extra_points=extra, zoom=o.zoom,
@@ -219,13 +220,13 @@ class Renderer:
             half = self._track[1]
             box = np.array([-half, half])
             box[:, 1] = lo[1], hi[1]
-            if o.floor:
+            if self.floor is not None:
                 box = np.vstack([box, [[-half[0], floor_y, -half[2]],
                                        [half[0], floor_y, half[2]]]])
             self.camera = frame_motion(box, self.size, zoom=o.zoom, direction=direction)
 
         self.shadow = None
-        if o.floor and o.shadow and self._surface_frames is not None:
+        if self.floor is not None and o.shadow and self._surface_frames is not None:
             self.shadow = pv.PolyData(self._shadow_points(0), _faces(faces))
             p.add_mesh(self.shadow, color="#6f685f", lighting=False, name="shadow")
 
@@ -248,6 +249,33 @@ class Renderer:
         self.camera.apply(p)
         if self._track is not None:
             self.set_frame(0)  # the following camera's place at the first frame
+
+    def _add_obstacles(self, traj, lo, hi) -> None:
+        """The run's ``[[obstacle]]`` solids (spheres, boxes) in grey; planes as a patch
+        three times the motion's size around the point nearest its centre."""
+        tables = traj.params.get("obstacle") if isinstance(traj.params, dict) else None
+        if not tables:
+            return
+        from ..scene_obstacles import make_obstacle
+        from ..physics.contact import Box, Sphere
+
+        pv, size = self.pv, 3.0 * max(float(np.max(hi - lo)), 1e-3)
+        for k, table in enumerate(tables):
+            ob = make_obstacle(table)
+            if isinstance(ob, Sphere):
+                mesh = pv.Sphere(radius=float(ob.radius), center=tuple(ob.center),
+                                 theta_resolution=64, phi_resolution=32)
+            elif isinstance(ob, Box):
+                (x0, y0, z0), (x1, y1, z1) = ob.lower, ob.upper
+                mesh = pv.Box(bounds=(x0, x1, y0, y1, z0, z1))
+            else:
+                n = np.asarray(ob.normal, dtype=np.float64)
+                n = n / np.linalg.norm(n)
+                c = 0.5 * (lo + hi)
+                c = c - ((c - np.asarray(ob.point, dtype=np.float64)) @ n) * n
+                mesh = pv.Plane(center=tuple(c), direction=tuple(n), i_size=size, j_size=size)
+            self.plotter.add_mesh(mesh, color="#9da3a8", ambient=0.3, diffuse=0.7,
+                                  specular=0.2, smooth_shading=True, name=f"obstacle{k}")
 
     def _shadow_points(self, f: int) -> np.ndarray:
         pts = np.array(self._surface_frames(f), dtype=np.float64)
