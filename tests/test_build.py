@@ -230,3 +230,43 @@ def test_marching_box_fills_its_mesh_and_sits_on_its_base():
         assert vol == pytest.approx(0.05**3, rel=1e-3)
         assert body.points[:, 1].min() == pytest.approx(0.0, abs=1e-6)
         assert np.ptp(body.points, axis=0) == pytest.approx([0.05] * 3, rel=1e-4)
+
+
+@pytest.mark.parametrize("up", ["z", "-x"])
+def test_a_mesh_with_another_up_axis_stands_up(tmp_path, up):
+    """Session 10's trial: a z-up STL (most CAD exports) landed on its side, and nothing could
+    turn it.  `up` (Python, scene `[body] up`, `jellysim build --up`) turns the mesh's up axis
+    to +y by a proper rotation: a cylinder 5x taller than wide along that axis stands 10 cm
+    tall on y, the same in all three entry points, its faces still wound outward (the mesh's
+    signed volume stays positive, so the skin is not inside out)."""
+    import trimesh
+    from click.testing import CliRunner
+
+    import jellysim as js
+    from jellysim.cli import cli
+    from jellysim.geometry.jellyfile import read_body
+    from jellysim.geometry.mesh import load_mesh, rotate_up
+    from jellysim.scene import Scene
+
+    axis = {"z": [0, 0, 1], "-x": [-1, 0, 0]}[up]
+    cyl = trimesh.creation.cylinder(radius=0.2, height=2.0)          # along +z
+    cyl.apply_transform(trimesh.geometry.align_vectors([0, 0, 1], axis))
+    path = tmp_path / "cyl.stl"
+    cyl.export(path)
+    m = load_mesh(path)
+    v = rotate_up(m.vertices, up)
+    tri = v[np.asarray(m.faces)]
+    signed = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6
+    assert signed == pytest.approx(cyl.volume, rel=1e-6)   # (STL stores float32)
+    body = js.Body.from_mesh(path, size=0.1, points=300, up=up, base=(0, 0, 0))
+    ext = np.ptp(body.points, axis=0)
+    assert ext[1] == pytest.approx(0.1, rel=0.02) and max(ext[0], ext[2]) < 0.025
+    scene = Scene.from_text(f'[material]\npreset = "gelatin"\n[body]\ntype = "mesh"\n'
+                            f'path = "{path.as_posix()}"\npoints = 300\nsize = 0.1\n'
+                            f'up = "{up}"\nbase = [0, 0, 0]\n', name="s.toml")
+    assert np.allclose(scene.build_body().points, body.points)
+    r = CliRunner().invoke(cli, ["build", str(path), "-o", str(tmp_path / "c.jello"), "--size",
+                                 "0.1", "--points", "300", "--up", up])
+    assert r.exit_code == 0, r.output
+    assert np.ptp(read_body(tmp_path / "c.jello").points, axis=0)[1] == pytest.approx(0.1,
+                                                                                        rel=0.02)

@@ -65,7 +65,7 @@ class Body:
     @classmethod
     def from_mesh(cls, mesh, *, size: float | None = 0.1, points: int = 5000,
                   connect: str = "marching", seed: int = 0, density: float | None = None,
-                  base=None, **options) -> "Body":
+                  base=None, up: str = "y", **options) -> "Body":
         """A jello body filling a surface mesh (a path, in any format
         :func:`~jellysim.geometry.load_mesh` reads, a loaded mesh, or a ``(vertices,
         faces)`` pair such as :func:`~jellysim.geometry.shapes.jelly_mould`'s).
@@ -83,14 +83,19 @@ class Body:
         ``density``: [kg/m^3] (default :data:`~jellysim.params.REPORT_DENSITY`): the masses
         are density x the scaled body's enclosed volume (tet bodies: lumped on the corners).
         ``base``: if given, move the body so the bottom centre of its bounding box is here [m]
-        (y is up).  Other keywords go to :func:`jellysim.build.build_body`.
+        (y is up).  ``up``: the mesh's axis that points up (``"z"`` for most CAD / STL files;
+        ``"y"``, ``"x"``, or negated), turned to +y first.  Other keywords go to
+        :func:`jellysim.build.build_body`.
         """
+        from dataclasses import replace
+
         from .build import _mesh_of, build_body
+        from .geometry.mesh import rotate_up
 
         m = _mesh_of(mesh, size)
+        if up != "y":
+            m = replace(m, vertices=rotate_up(m.vertices, up))
         if base is not None:
-            from dataclasses import replace
-
             lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)
             bottom = np.array([0.5 * (lo[0] + hi[0]), lo[1], 0.5 * (lo[2] + hi[2])])
             shift = np.asarray(base, dtype=np.float64).reshape(3) - bottom

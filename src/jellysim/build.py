@@ -182,7 +182,7 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
                seed: int = 0, rule: str = "auto", epsilon: float | None = None,
                min_quality: float | None = None, max_volume: float | None = None,
                size: float | None = None, snap: bool = True,
-               relax: int | None = None) -> Body:
+               relax: int | None = None, up: str = "y") -> Body:
     """A jello :class:`~jellysim.body.Body` from a surface mesh.
 
     The mesh's coordinates are read as metres.  ``size`` scales it first (about the origin)
@@ -196,6 +196,7 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     mesh: a path (any format :func:`~jellysim.geometry.load_mesh` reads), a loaded mesh, or
         a ``(vertices, faces)`` pair (such as :func:`~jellysim.geometry.shapes.jelly_mould`'s).
     size: largest bounding-box extent [m] after scaling (default: the mesh as it is).
+    up: the mesh's axis that points up (``"z"`` for most CAD / STL files), turned to +y.
     points: number of points to sample inside (``radius``/``delaunay``: exactly this many
         before surface points are added; ``marching``/``tetgen``: a target that sets the
         grid size ``h`` / the maximum tet volume).
@@ -242,7 +243,7 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
                        neighbours=neighbours, h=h, surface_vertices=surface_vertices,
                        surface_samples=surface_samples, density=density, seed=seed, rule=rule,
                        epsilon=epsilon, min_quality=min_quality, max_volume=max_volume,
-                       size=size, snap=snap, relax=relax, keep=keep)
+                       size=size, snap=snap, relax=relax, keep=keep, up=up)
     if "mesh" in keep:  # the (scaled) mesh the body fills: its skin in body files
         m = keep["mesh"]
         body.skin_vertices = np.array(m.vertices, dtype=np.float64).reshape(-1, 3)
@@ -255,7 +256,7 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
 
 def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surface_vertices,
                 surface_samples, density, seed, rule, epsilon, min_quality, max_volume,
-                size, snap=True, relax=None, keep=None) -> Body:
+                size, snap=True, relax=None, keep=None, up="y") -> Body:
     from .geometry.connect import choose_radius, radius_springs
     from .geometry.inside import InsideQuery
     from .geometry.sampling import morton_order, relax_interior, sample_inside
@@ -292,6 +293,12 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
     if not (np.isfinite(density) and density > 0):
         raise BuildError(f"density must be a positive number of kg/m^3, got {density}")
     m = _mesh_of(mesh, size)
+    if up != "y":
+        from dataclasses import replace
+
+        from .geometry.mesh import rotate_up
+
+        m = replace(m, vertices=rotate_up(m.vertices, up))
     if keep is not None:
         keep["mesh"] = m
     name = str(m.path) if getattr(m, "path", None) else "mesh"

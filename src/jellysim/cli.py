@@ -225,10 +225,13 @@ def _sayer():
               help="Scale the mesh so its largest extent is SIZE metres (default: its "
                    "coordinates are read as metres).")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@click.option("--up", type=click.Choice(["y", "z", "x", "-y", "-z", "-x"]), default="y",
+              show_default=True, help="The mesh's axis that points up (z for most CAD and "
+              "STL files): turned to +y, jellysim's up.")
 @_max_memory
 @click.option("--overwrite", is_flag=True, help="Replace OUT_FILE if it exists.")
 def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h, snap,
-          surface_vertices, surface_samples, relax, density, size, seed,
+          surface_vertices, surface_samples, relax, density, size, seed, up="y",
           max_memory=None, overwrite=False) -> None:
     """Build a jello body from MESH_FILE and write it to a .jello or .npz file.
 
@@ -255,7 +258,7 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
                               radius=radius, neighbours=neighbours, h=h,
                               surface_vertices=surface_vertices,
                               surface_samples=surface_samples, relax=relax, density=density,
-                              seed=seed, size=size, snap=snap)
+                              seed=seed, size=size, snap=snap, up=up)
         write_body(out_file, body)
     except JellysimError as exc:
         _fail(str(exc))

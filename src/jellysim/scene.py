@@ -295,7 +295,7 @@ class Scene:
             from dataclasses import replace
 
             from .build import build_body
-            from .geometry.mesh import Mesh, load_mesh
+            from .geometry.mesh import Mesh, load_mesh, rotate_up
 
             path = self.resolve(b["path"])
             if not path.exists():
@@ -304,7 +304,7 @@ class Scene:
                 mesh = load_mesh(path)
             except JellysimError as exc:
                 raise SceneError(f"{self.name}: [body] path: {exc}") from None
-            v = np.asarray(mesh.vertices, dtype=np.float64)
+            v = rotate_up(mesh.vertices, b["up"])
             if b["size"] is not None:
                 v = v * (b["size"] / float(np.ptp(v, axis=0).max()))
             v = self._place(v)

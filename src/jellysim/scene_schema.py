@@ -42,6 +42,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                      "[m].", lambda v: v > 0, "a number > 0 (m)"),
         "base": Spec("vec3", None, "Types 'mesh'/'file': move the body so the bottom centre of "
                      "its bounding box is here [m]."),
+        "up": Spec("str", "y", "Type 'mesh': the mesh's axis that points up ('z' for most CAD "
+                   "and STL files), turned to +y before size and base.",
+                   choices=("y", "z", "x", "-y", "-z", "-x")),
         "distribution": Spec("str", "edge", "Random field: 'uniform' or the report's "
                              "edge-favouring (1 + cos(2 pi u)) / 2; or 'grid': a cubic lattice "
                              "of about that many cells, corners included (216: 7^3 points); "

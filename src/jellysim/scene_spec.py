@@ -202,9 +202,10 @@ def grid_radius(points, lower, upper) -> float | None:
 
 
 UNUSED_BY_TYPE = {
-    "file": {"body": ("size", "points", "lower", "upper", "distribution", "sampling"),
+    "file": {"body": ("size", "points", "lower", "upper", "distribution", "sampling", "up"),
              "springs": ("connect", "radius", "neighbours", "h")},
-    "box": {"body": ("path", "size", "sampling", "base"), "springs": ("neighbours", "h")},
+    "box": {"body": ("path", "size", "sampling", "base", "up"),
+            "springs": ("neighbours", "h")},
     "mesh": {"body": ("lower", "upper", "distribution"), "springs": ()},
 }
 """Keys a ``[body] type`` does not read: given in a scene, they are refused rather than

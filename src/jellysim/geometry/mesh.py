@@ -27,7 +27,22 @@ import numpy as np
 
 from jellysim.errors import MeshError
 
-__all__ = ["Mesh", "MeshDefects", "MESH_SUFFIXES", "load_mesh"]
+__all__ = ["Mesh", "MeshDefects", "MESH_SUFFIXES", "UP_AXES", "load_mesh", "rotate_up"]
+
+UP_AXES = {"y": ((1, 0, 0), (0, 1, 0), (0, 0, 1)), "z": ((1, 0, 0), (0, 0, 1), (0, -1, 0)),
+           "x": ((0, -1, 0), (1, 0, 0), (0, 0, 1)), "-y": ((1, 0, 0), (0, -1, 0), (0, 0, -1)),
+           "-z": ((1, 0, 0), (0, 0, -1), (0, 1, 0)), "-x": ((0, 1, 0), (-1, 0, 0), (0, 0, 1))}
+"""For each axis a mesh may have pointing up (CAD and STL files are often z-up), the rotation
+(a proper one: faces keep their winding) that turns it to jellysim's +y up."""
+
+
+def rotate_up(vertices, up: str = "y"):
+    """``vertices`` [m] (n, 3) rotated so the mesh's ``up`` axis (:data:`UP_AXES`) is +y."""
+    if up not in UP_AXES:
+        raise MeshError(f"up must be one of {', '.join(repr(a) for a in UP_AXES)} (the mesh's "
+                        f"axis that points up), got {up!r}")
+    v = np.asarray(vertices, dtype=np.float64)
+    return v if up == "y" else v @ np.asarray(UP_AXES[up], dtype=np.float64).T
 
 _TRIMESH_SUFFIXES = {".obj", ".ply", ".stl", ".off", ".glb", ".gltf"}
 _MESHIO_SUFFIXES = {".vtk", ".vtu", ".vtp"}
