@@ -270,3 +270,25 @@ def test_a_mesh_with_another_up_axis_stands_up(tmp_path, up):
     assert r.exit_code == 0, r.output
     assert np.ptp(read_body(tmp_path / "c.jello").points, axis=0)[1] == pytest.approx(0.1,
                                                                                         rel=0.02)
+
+
+@pytest.mark.parametrize("connect", ["marching", "tetgen"])
+def test_an_inside_out_mesh_is_turned_outward(tmp_path, connect):
+    """Session 10's trial: an icosphere written inside out (faces wound inward) built by
+    TetGen said "no tetrahedron was kept ... more points", and with the other builders kept
+    an inward-wound skin (exports inside out in Blender).  The faces are now turned outward,
+    with a warning: TetGen builds it, and the skin encloses a positive volume, the same
+    ball's within 1 %."""
+    import trimesh
+
+    import jellysim as js
+
+    ball = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    flipped = tmp_path / "ball.obj"
+    trimesh.Trimesh(ball.vertices, ball.faces[:, ::-1], process=False).export(flipped)
+    with pytest.warns(UserWarning, match="wound inward.*turned outward"):
+        body = js.Body.from_mesh(flipped, size=0.08, points=400, connect=connect)
+    tri = body.skin_vertices[body.skin_faces]
+    enclosed = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6
+    assert enclosed == pytest.approx(ball.volume * 0.04 ** 3, rel=0.01)
+    assert body.tets is not None and len(body.tets) > 50

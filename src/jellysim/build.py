@@ -299,9 +299,12 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
         from .geometry.mesh import rotate_up
 
         m = replace(m, vertices=rotate_up(m.vertices, up))
+    name = str(m.path) if getattr(m, "path", None) else "mesh"
+    from .geometry.mesh import outward
+
+    m = outward(m, name)
     if keep is not None:
         keep["mesh"] = m
-    name = str(m.path) if getattr(m, "path", None) else "mesh"
     _warn_defects(m, name)
     extent = float(np.ptp(m.vertices, axis=0).max())
     if size is None and not 1e-3 <= extent <= 10.0:

@@ -295,13 +295,13 @@ class Scene:
             from dataclasses import replace
 
             from .build import build_body
-            from .geometry.mesh import Mesh, load_mesh, rotate_up
+            from .geometry.mesh import Mesh, load_mesh, outward, rotate_up
 
             path = self.resolve(b["path"])
             if not path.exists():
                 raise SceneError(missing_path(self.name, b["path"], path))
             try:
-                mesh = load_mesh(path)
+                mesh = outward(load_mesh(path), str(path))
             except JellysimError as exc:
                 raise SceneError(f"{self.name}: [body] path: {exc}") from None
             v = rotate_up(mesh.vertices, b["up"])

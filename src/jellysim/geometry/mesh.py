@@ -27,7 +27,8 @@ import numpy as np
 
 from jellysim.errors import MeshError
 
-__all__ = ["Mesh", "MeshDefects", "MESH_SUFFIXES", "UP_AXES", "load_mesh", "rotate_up"]
+__all__ = ["Mesh", "MeshDefects", "MESH_SUFFIXES", "UP_AXES", "load_mesh", "outward",
+           "rotate_up"]
 
 UP_AXES = {"y": ((1, 0, 0), (0, 1, 0), (0, 0, 1)), "z": ((1, 0, 0), (0, 0, 1), (0, -1, 0)),
            "x": ((0, -1, 0), (1, 0, 0), (0, 0, 1)), "-y": ((1, 0, 0), (0, -1, 0), (0, 0, -1)),
@@ -575,3 +576,20 @@ def _shell_count(f: np.ndarray, n_vertices: int) -> int:
     g = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_vertices, n_vertices))
     n, _ = connected_components(g, directed=False)
     return int(n)
+
+
+def outward(mesh: "Mesh", name: str = "mesh") -> "Mesh":
+    """``mesh`` with its faces wound outward: a closed mesh whose signed volume is negative
+    (inside out, as some exporters write them) gets every face reversed, with a warning, so
+    that TetGen and the skin (its normals in renders and exports) see it the right way out.
+    The inside test does not depend on the winding, so the body's points do not change."""
+    d = mesh.defects
+    if not (d.watertight and d.volume < 0):
+        return mesh
+    import warnings
+    from dataclasses import replace
+
+    warnings.warn(f"{name}: its faces are wound inward (the mesh is inside out, signed volume "
+                  f"{d.volume:.4g}): turned outward", UserWarning, stacklevel=3)
+    return replace(mesh, faces=np.ascontiguousarray(mesh.faces[:, [0, 2, 1]]),
+                   defects=replace(d, volume=-d.volume))
