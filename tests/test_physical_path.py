@@ -8,6 +8,7 @@ damping ratio) or the same body's own resting state.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -564,3 +565,35 @@ until = 0.123
             run_scene(scene, tmp_path / f"cut{stop}", progress=False, stop_after=stop)
         res = run_scene(scene, tmp_path / f"cut{stop}", progress=False, resume=True)
         assert np.array_equal(load_trajectory(res.trajectory).positions, full.positions)
+
+
+def test_a_dragged_patch_holds_the_body_up_without_turning_a_tet_inside_out():
+    """Session 10's trial: dragging one point of a gelatin cube turned a tet inside out (a
+    point load).  `sim.drag` now grabs the point's tet neighbours too and shares the spring
+    among them.  Lifting the cube 15 cm by the middle of its top: once it hangs still the
+    springs carry its weight, so their mean stretch is M g / k (force balance), and no tet
+    goes below J = 0.3; pulling the single point (radius = 0) the same way inverts one."""
+    import jellysim as js
+
+    def lift(radius):
+        model = js.physical_model(js.Body.box(points=216),
+                                  js.material("gelatin", damping_ratio=0.3))
+        sim = js.Simulator(model, dt=1 / 60, ground=js.GroundParams(model="contact"))
+        x = sim.state.x
+        top = np.flatnonzero(np.isclose(x[:, 1], x[:, 1].max()))
+        c = top[np.argmin(np.linalg.norm(x[top][:, [0, 2]] - x[:, [0, 2]].mean(0), axis=1))]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the single point's inverted tet is said
+            sim.drag(c, x[c] + [0.0, 0.15, 0.0], radius=radius)
+            sim.advance(150)
+        h = sim.handles
+        held = h.drag_weight > 0
+        stretch = (h.drag[1:4] + h.drag_offset[held] - sim.state.x[held]).mean(axis=0)
+        return sim, held.sum(), stretch, model.total_mass * 9.81 / h.drag[4]
+
+    sim, patch, stretch, expect = lift(None)
+    assert patch > 4 and sim.state.x[:, 1].min() > 0.05          # lifted off the plate
+    assert stretch[1] == pytest.approx(expect, rel=0.03) and abs(stretch[0]) < 1e-6
+    assert sim.min_tet_volume_ratio > 0.3
+    single, n, _, _ = lift(0.0)
+    assert n == 1 and single.min_tet_volume_ratio < 0.0

@@ -4,7 +4,8 @@
   targets, linear between keyframes, relative to where the points were when pinned);
 * **point forces**: a constant force [N] on chosen points (a total split evenly);
 * **gravity scale**: per-point factor on gravity (0: weightless, e.g. a buoyant part);
-* **drag**: one point pulled towards a target by a spring (the viewer's mouse).
+* **drag**: a point and the patch around it pulled towards a target by a spring (the
+  viewer's mouse).
 
 Points are chosen with :func:`select_points` (box, sphere or index list).  The arrays live in a
 :class:`Handles` record the :class:`~jellysim.simulator.Simulator` owns; the kernels read them
@@ -132,14 +133,22 @@ class Handles:
     pin_to: np.ndarray
     """Pin targets at its end [m], shape (n, 3)."""
     drag: np.ndarray
-    """``[point, tx, ty, tz, k]``: point (-1: none) pulled to the target [m] by k [N/m]."""
+    """``[point, tx, ty, tz, k]``: point (-1: none) and the patch around it pulled to the
+    target [m] by a spring of total stiffness k [N/m]."""
+    drag_weight: np.ndarray
+    """Share [-] of the drag spring on each point, shape (n,): 1/m on the m points of the
+    grabbed patch (they sum to 1), 0 elsewhere."""
+    drag_offset: np.ndarray
+    """Each grabbed point's offset [m] from the grabbed point when grabbed, shape (n, 3): it
+    is pulled towards the target plus its offset, so the patch keeps its shape."""
     paths: list = field(default_factory=list)
     """``(indices, PinPath)`` of the moving pins."""
 
     @classmethod
     def empty(cls, n: int) -> "Handles":
         return cls(np.ones(n), np.zeros((n, 3)), np.zeros(n, dtype=np.int8), np.zeros((n, 3)),
-                   np.zeros((n, 3)), np.zeros((n, 3)), np.array([-1.0, 0, 0, 0, 0]))
+                   np.zeros((n, 3)), np.zeros((n, 3)), np.array([-1.0, 0, 0, 0, 0]),
+                   np.zeros(n), np.zeros((n, 3)))
 
     @property
     def active(self) -> bool:
@@ -155,13 +164,16 @@ class Handles:
 
     def tuple(self):
         return (self.gravity_scale, self.point_force, self.pinned, self.pin_from, self.pin_to,
-                self.drag)
+                self.drag, self.drag_weight, self.drag_offset)
 
 
 HANDLE_KINDS = {"pin": "fix points, or move them along 'path'",
                 "force": "a constant total 'force' [N] split over the points (released at "
                          "time 'until' [s] if given)",
                 "gravity": "multiply gravity on the points by 'scale'"}
+MAX_DRAG_POINTS = 64
+"""The most points a drag grabs (the nearest to the grabbed point)."""
+
 _HANDLE_KEYS = {"kind", "box", "sphere", "indices", "path", "force", "until", "scale"}
 
 
@@ -356,19 +368,46 @@ class HandleMethods:
         self.handles.gravity_scale[self._point_indices(indices, "set_gravity_scale")] = float(
             scale)
 
-    def drag(self, point: int | None, target=None, stiffness: float | None = None) -> None:
-        """Pull ``point`` towards ``target`` [m] with a spring of ``stiffness`` [N/m]
-        (default: strong enough to move the whole body's weight by 1 cm); ``drag(None)`` (or a
-        ``target`` of ``None``) releases."""
+    def drag(self, point: int | None, target=None, stiffness: float | None = None, *,
+             radius: float | None = None) -> None:
+        """Pull ``point`` and the patch around it towards ``target`` [m] with a spring of total
+        ``stiffness`` [N/m] (default: strong enough to move the whole body's weight by 1 cm)
+        shared evenly by the patch's points, each pulled to the target plus its offset from
+        ``point`` when grabbed (the patch keeps its shape: a pinch spread over its tets, not
+        a point load that turns them inside out).  The patch: ``point`` and its tet
+        neighbours, or with ``radius`` [m] every point that close to it (at most
+        :data:`MAX_DRAG_POINTS`, the nearest).  Calling again with the same ``point`` moves
+        the target (the mouse); ``drag(None)`` (or a ``target`` of ``None``) releases."""
         self._require_physical("dragging")
-        d = self.handles.drag
+        h, d = self.handles, self.handles.drag
         if point is None or target is None:
             d[0] = -1.0
+            h.drag_weight[:] = 0.0
             return
         if stiffness is None:
             stiffness = self.model.total_mass * float(np.linalg.norm(self.model.gravity)) / 0.01
-        d[0] = float(self._point_indices([point], "drag")[0])
-        d[1:4] = _vec3(target, "drag: target [m]")
+        p = int(self._point_indices([point], "drag")[0])
+        goal = _vec3(target, "drag: target [m]")
+        if int(d[0]) != p or radius is not None:  # a new grab: choose the patch
+            x = self.state.x
+            if radius is not None:
+                if not (isinstance(radius, (int, float, np.number)) and np.isfinite(radius)
+                        and radius >= 0):
+                    raise SceneError(f"drag: radius must be a length >= 0 [m], got {radius!r}")
+                patch = np.flatnonzero(np.linalg.norm(x - x[p], axis=1) <= radius)
+            else:
+                tets = self.model.fem.tets
+                patch = np.unique(tets[np.any(tets == p, axis=1)])
+            patch = np.union1d(patch, [p])
+            if patch.size > MAX_DRAG_POINTS:
+                near = np.argsort(np.linalg.norm(x[patch] - x[p], axis=1), kind="stable")
+                patch = np.sort(patch[near[:MAX_DRAG_POINTS]])
+            h.drag_weight[:] = 0.0
+            h.drag_weight[patch] = 1.0 / patch.size
+            h.drag_offset[:] = 0.0
+            h.drag_offset[patch] = x[patch] - x[p]
+        d[0] = float(p)
+        d[1:4] = goal
         d[4] = float(stiffness)
 
 

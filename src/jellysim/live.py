@@ -1,7 +1,8 @@
 """``jellysim view scene.toml``: simulate live in a window and pull the jello with the mouse.
 
-**Right-drag** on the jello grabs the body point nearest to the cursor's ray and pulls it
-towards the cursor with a spring (:meth:`jellysim.simulator.Simulator.drag`), the cursor moving
+**Right-drag** on the jello grabs the body point nearest to the cursor's ray, with its tet
+neighbours, and pulls that patch towards the cursor with a spring shared among its points
+(:meth:`jellysim.simulator.Simulator.drag`: a pinch, not a point load), the cursor moving
 on the plane through the grabbed point that faces the camera; releasing lets go.  Left-drag
 orbits, shift-drag pans, the wheel zooms, ``space`` pauses.  The physical path only (a body
 with a FEM material, e.g. the gelatin preset).

@@ -336,6 +336,7 @@ class PhysicalMethods(PhysicalStepping):
         d = self.handles.drag
         if point is None:
             d[0] = -1.0
+            self.handles.drag_weight[:] = 0.0
             return
         if stiffness is None:
             stiffness = self._total_mass * float(np.linalg.norm(self.info.gravity)) / 0.01
@@ -343,6 +344,9 @@ class PhysicalMethods(PhysicalStepping):
         d[0] = float(rows[0]) if rows.size else -1.0
         d[1:4] = np.asarray(target, dtype=np.float64).reshape(3)
         d[4] = float(stiffness)
+        self.handles.drag_weight[:] = 0.0   # (under MPI the one point, not a patch)
+        self.handles.drag_weight[rows] = 1.0
+        self.handles.drag_offset[:] = 0.0
 
 
 def _rest_thinness(x0):

@@ -10,8 +10,9 @@ tuples (numba compiles tuples of arrays like plain arguments):
   point_tet_ptr, point_tet_slot)``
 * ``model_arrays``: ``(inv_mass, damping, gravity, springs)`` with ``springs`` =
   ``(spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other, use_springs)``
-* ``handles``: ``(gravity_scale, point_force, pinned, pin_from, pin_to, drag)``;
-  ``drag = [point, tx, ty, tz, k]`` (point < 0: none)
+* ``handles``: ``(gravity_scale, point_force, pinned, pin_from, pin_to, drag, drag_weight,
+  drag_offset)``; ``drag = [point, tx, ty, tz, k]`` (point < 0: none): each point of weight
+  w > 0 is pulled by ``k w (target + offset - x)``
 * ``contact_arrays``: ``(obstacle_kind, obstacle_data, rest_speed, center, bound2)``
 * ``scratch``: ``(tet_force, tet_j, fsum, spring_scalar, min_j)``; a ``tet_force`` with no
   rows (what the Simulator passes when it runs one thread) selects
@@ -97,17 +98,19 @@ def _integrate(x, v, a, fsum, model_arrays, handles, dt, frac, center, bound2):
     inv_mass, damping, gravity = model_arrays[0], model_arrays[1], model_arrays[2]
     gscale, fext, pinned, pin_from, pin_to, drag = (handles[0], handles[1], handles[2],
                                                     handles[3], handles[4], handles[5])
-    dp = int(drag[0])
+    dw, doff = handles[6], handles[7]
+    dragging = drag[0] >= 0.0
     nonfinite = 0
     runaway = 0
     for p in prange(x.shape[0]):
         fx = fsum[p, 0] + fext[p, 0]
         fy = fsum[p, 1] + fext[p, 1]
         fz = fsum[p, 2] + fext[p, 2]
-        if p == dp:
-            fx += drag[4] * (drag[1] - x[p, 0])
-            fy += drag[4] * (drag[2] - x[p, 1])
-            fz += drag[4] * (drag[3] - x[p, 2])
+        if dragging and dw[p] > 0.0:
+            kd = drag[4] * dw[p]
+            fx += kd * (drag[1] + doff[p, 0] - x[p, 0])
+            fy += kd * (drag[2] + doff[p, 1] - x[p, 1])
+            fz += kd * (drag[3] + doff[p, 2] - x[p, 2])
         w = inv_mass[p]
         gs = gscale[p]
         a[p, 0] = (fx - damping * v[p, 0]) * w + gs * gravity[0]

@@ -77,7 +77,7 @@ def physical_steps(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arra
 
     inv_mass, damping, gravity, springs = model_arrays
     g, decay, q = fem[8], fem[9], fem[10]
-    gscale, fext, pinned, pin_from, pin_to, drag = handles
+    gscale, fext, pinned, pin_from, pin_to, drag, drag_w, drag_off = handles
     kinds, data, rest_speed, center, bound2 = contact_arrays
     tet_force, tet_j, fsum, spring_scalar, min_j = scratch
     ptr, slot = fem[11], fem[12]
@@ -93,9 +93,8 @@ def physical_steps(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arra
                              stiff, first_ptr, second_ptr, second_slot, second_other,
                              spring_scalar, acc)
             fsum += acc
-        dp = int(drag[0])
-        if dp >= 0:
-            fsum[dp] += drag[4] * (drag[1:4] - x[dp])
+        if drag[0] >= 0:  # the grabbed patch: k w (target + offset - x) on each point
+            fsum += drag[4] * drag_w[:, None] * (drag[1:4] + drag_off - x)
         a[:] = (fsum + fext - damping * v) * inv_mass[:, None] + gscale[:, None] * gravity
         v += dt * a
         x += dt * v

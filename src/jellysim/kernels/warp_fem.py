@@ -36,6 +36,7 @@ GATHER = {"ptr": I32, "slot": I32, "tet_force": ("array", 2), "use_springs": wp.
 POINTS = {"inv_mass": ("array", 1), "damping": FLOAT, "gx": FLOAT, "gy": FLOAT, "gz": FLOAT,
           "gscale": ("array", 1), "fext": ("array", 2), "pinned": I32,
           "pin_from": ("array", 2), "pin_to": ("array", 2), "drag": ("array", 1),
+          "drag_w": ("array", 1), "drag_off": ("array", 2),
           "dt": FLOAT, "cx": FLOAT, "cy": FLOAT, "cz": FLOAT, "bound2": FLOAT}
 
 Tets = precision_structs("FemTets", TETS, __name__)
@@ -216,10 +217,11 @@ def k_fem_integrate(x: A2, v: A2, a: A2, fsum: A2, pt: Any, counts: I32, ctl: I3
     fy = fsum[p, 1] + pt.fext[p, 1]
     fz = fsum[p, 2] + pt.fext[p, 2]
     drag = pt.drag
-    if p == int(drag[0]):
-        fx = fx + drag[4] * (drag[1] - x[p, 0])
-        fy = fy + drag[4] * (drag[2] - x[p, 1])
-        fz = fz + drag[4] * (drag[3] - x[p, 2])
+    if drag[0] >= 0.0 and pt.drag_w[p] > 0.0:  # the grabbed patch (handles.Handles.drag)
+        kd = drag[4] * pt.drag_w[p]
+        fx = fx + kd * (drag[1] + pt.drag_off[p, 0] - x[p, 0])
+        fy = fy + kd * (drag[2] + pt.drag_off[p, 1] - x[p, 1])
+        fz = fz + kd * (drag[3] + pt.drag_off[p, 2] - x[p, 2])
     w = pt.inv_mass[p]
     gs = pt.gscale[p]
     dt = pt.dt

@@ -78,6 +78,7 @@ class _DeviceFem:
         self.pinned = zeros(n, np.int32)
         self.pin_from, self.pin_to = zeros((n, 3)), zeros((n, 3))
         self.drag = zeros(5)
+        self.drag_w, self.drag_off = zeros(n), zeros((n, 3))
         self.ctl = zeros(4, np.int32)
         self.counts = zeros(2, np.int32)
         self.programs: dict = {}
@@ -88,7 +89,7 @@ class _DeviceFem:
 
 
 _IO = ("x", "v", "a", "q", "min_j", "gscale", "fext", "pinned", "pin_from", "pin_to", "drag",
-       "ctl", "counts")
+       "drag_w", "drag_off", "ctl", "counts")
 
 
 def _device_model(wb, fem, inv_mass, springs) -> _DeviceFem:
@@ -132,6 +133,7 @@ def _program(wb, dm: _DeviceFem, key, p):
     pt.gx, pt.gy, pt.gz = p["gravity"]
     pt.gscale, pt.fext, pt.pinned = dm.gscale, dm.fext, dm.pinned
     pt.pin_from, pt.pin_to, pt.drag = dm.pin_from, dm.pin_to, dm.drag
+    pt.drag_w, pt.drag_off = dm.drag_w, dm.drag_off
     pt.dt = p["dt"]
     pt.cx, pt.cy, pt.cz = p["center"]
     pt.bound2 = p["bound2"]
@@ -187,7 +189,7 @@ def physical_steps(wb, nsteps, dt, x, v, a, model_arrays, fem, handles, contact_
     (:class:`~jellysim.kernels.warp_backend.WarpBackend`); returns ``(steps done, status)``."""
     inv_mass, damping, gravity, springs = model_arrays
     g, decay, q = fem[8], fem[9], fem[10]
-    gscale, fext, pinned, pin_from, pin_to, drag = handles
+    gscale, fext, pinned, pin_from, pin_to, drag, drag_w, drag_off = handles
     kinds, data, rest_speed, center, bound2 = contact_arrays
     min_j = scratch[4]
     dm = _device_model(wb, fem, inv_mass, springs)
@@ -201,7 +203,8 @@ def physical_steps(wb, nsteps, dt, x, v, a, model_arrays, fem, handles, contact_
     p["obstacle_kind"], p["obstacle_data"] = ok, od
     prog = _program(wb, dm, key, p)
     host = {"x": x, "v": v, "a": a, "q": q, "min_j": min_j, "gscale": gscale, "fext": fext,
-            "pinned": pinned, "pin_from": pin_from, "pin_to": pin_to, "drag": drag}
+            "pinned": pinned, "pin_from": pin_from, "pin_to": pin_to, "drag": drag,
+            "drag_w": drag_w, "drag_off": drag_off}
     ctl0 = np.array([0, 0, 0, int(nsteps)], dtype=np.int32)
     views = dm.views
     if views is not None:  # CPU device: plain numpy copies into the device memory
