@@ -214,6 +214,9 @@ def test_cli_inspect_a_scene_says_what_it_will_run(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cube.toml"]
     res = CliRunner().invoke(cli, ["inspect", str(tmp_path / "missing.toml")])
     assert res.exit_code != 0 and "missing.toml" in res.output and "Traceback" not in res.output
+    # --set as `jellysim run` takes it: 6^3 cells = 7^3 points (session 10's trial)
+    res = CliRunner().invoke(cli, ["inspect", str(path), "--set", "body.points=216"])
+    assert res.exit_code == 0 and "points       343" in res.output, res.output
 
 
 def test_marching_box_fills_its_mesh_and_sits_on_its_base():

@@ -284,20 +284,25 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
 
 @cli.command()
 @click.argument("path", type=click.Path(dir_okay=False))
-def inspect(path) -> None:
+@click.option("--set", "settings", multiple=True, metavar="SECTION.KEY=VALUE",
+              help="A scene: override one value as `jellysim run --set` does.  Repeatable.")
+def inspect(path, settings=()) -> None:
     """Describe a surface mesh (defects), a body file (.jello/.npz: counts and stats) or a
     scene (.toml: the body it builds, its path, substeps, ground; nothing is run)."""
     from pathlib import Path
 
     suffix = Path(path).suffix.lower()
     try:
+        if settings and suffix != ".toml":
+            raise JellysimError(f"--set overrides a scene's values; {path} is not a scene "
+                                "(.toml)")
         if suffix == ".toml":
             from .scene import Scene
             from .scene_summary import scene_summary
 
             said: list = []
             try:
-                rows = scene_summary(Scene.load(path), said)
+                rows = scene_summary(Scene.load(path, overrides=settings), said)
             finally:
                 for w in said:
                     click.secho(f"warning: {w}", fg="yellow", err=True)
