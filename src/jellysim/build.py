@@ -321,10 +321,16 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
                            inside_fn=None if query is None else query.query, density=density)
         body.meta.update(source=name, connect="tetgen")
         if body.point_count > 2 * points:
+            e = m.vertices[m.faces] - m.vertices[m.faces[:, [1, 2, 0]]]
+            edge = float(np.sqrt(np.einsum("ijk,ijk->ij", e, e)).min())
+            why = (f"it keeps every vertex of the surface ({len(m.vertices)})"
+                   if body.point_count < 2 * len(m.vertices) else
+                   f"it keeps every vertex of the surface ({len(m.vertices)}, the shortest "
+                   f"edge {edge * 1e3:.3g} mm) and adds points so the tets next to the small "
+                   "triangles are well shaped")
             warnings.warn(
-                f"{name}: connect='tetgen' keeps every vertex of the surface ({len(m.vertices)}), "
-                f"so the body has {body.point_count} points for points={points}; its small "
-                "surface tets also shorten the physical path's substep.  Use connect="
+                f"{name}: connect='tetgen' made {body.point_count} points for points={points}: "
+                f"{why}; small tets also shorten the physical path's substep.  Use connect="
                 "'marching' or 'delaunay' (they sample the surface at the point spacing), or "
                 "a coarser surface mesh", UserWarning, stacklevel=3)
         return body
