@@ -21,6 +21,30 @@ class PhysicalStepping:
     ``_k`` (the backend), ``_obstacle_kind``/``_obstacle_data``, ``rest_speed``, ``center``,
     ``runaway_distance`` and ``_scalar`` (set by the Simulator)."""
 
+    def energy(self) -> dict[str, float]:
+        """The body's energies now [J]: ``kinetic`` (sum 1/2 m |v|^2), ``gravity`` (sum
+        -m g . x: zero at x = 0; handles' gravity scales not counted), ``elastic`` (the
+        springs' sum 1/2 k (|x_j - x_i| - L0)^2, plus the tets' stored Stable Neo-Hookean
+        energy on the physical path) and ``total`` (their sum).  Damping, contact friction and
+        handles do work on the body, so only a free, undamped body keeps ``total``, and then
+        as symplectic Euler does: it swings by about omega h (a mode's angular frequency times
+        the substep) around a conserved value, without drift."""
+        m, x, v = self.model, self.state.x, self.state.v
+        mass = np.asarray(m.point_mass, dtype=np.float64)
+        kinetic = 0.5 * float(mass @ np.einsum("ij,ij->i", v, v))
+        gravity = -float(mass @ (x @ np.asarray(m.gravity, dtype=np.float64)))
+        elastic = 0.0
+        if m.spring_count and np.any(m.spring_stiffness != 0):
+            ij = m.spring_ij
+            stretch = np.linalg.norm(x[ij[:, 1]] - x[ij[:, 0]], axis=1) - m.spring_rest_length
+            elastic += 0.5 * float(m.spring_stiffness @ stretch**2)
+        if getattr(m, "fem", None) is not None:
+            from .physics.fem import elastic_energy
+
+            elastic += float(elastic_energy(m.fem, x))
+        return {"kinetic": kinetic, "gravity": gravity, "elastic": elastic,
+                "total": kinetic + gravity + elastic}
+
     SUBSTEP_SAFETY = 0.7
     """Fraction of the linear stability limit ``2 / omega_max`` (at rest) used as the substep.
     Large compression stiffens the material above its rest stiffness, so a chunk of frames in
