@@ -50,6 +50,17 @@ class _Group(click.Group):
 @click.version_option(package_name="jellysim")
 def cli() -> None:
     """jellysim: soft, wobbly bodies as 3D mass-spring networks."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        # SIGTERM (a `timeout`, a job scheduler) stops a command as Ctrl-C does, so its
+        # half-written outputs are cleaned up (`run` saves a checkpoint: runner.py)
+        signal.signal(signal.SIGTERM, _terminate)
+
+
+def _terminate(signum, frame):
+    raise KeyboardInterrupt
 
 
 @cli.command()
