@@ -295,3 +295,21 @@ def test_an_inside_out_mesh_is_turned_outward(tmp_path, connect):
     enclosed = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6
     assert enclosed == pytest.approx(ball.volume * 0.04 ** 3, rel=0.01)
     assert body.tets is not None and len(body.tets) > 50
+
+
+def test_an_inside_out_open_mesh_is_turned_outward_too(tmp_path):
+    """The review of session 10: an open cone (one face missing) written inside out failed
+    with "the surface encloses no volume" (its winding-number inside test depends on the
+    winding), while the same cone the right way out builds.  It is turned outward too and
+    builds the same points."""
+    import trimesh
+
+    import jellysim as js
+
+    cone = trimesh.creation.cone(radius=1.0, height=2.0, sections=32)
+    faces = np.asarray(cone.faces)[1:]                     # open: one face removed
+    ok = js.Body.from_mesh((np.asarray(cone.vertices), faces), size=0.06, points=300)
+    with pytest.warns(UserWarning, match="wound inward"):
+        flipped = js.Body.from_mesh((np.asarray(cone.vertices), faces[:, ::-1]), size=0.06,
+                                    points=300)
+    assert np.allclose(flipped.points, ok.points) and ok.point_count > 50

@@ -483,3 +483,53 @@ def test_an_interrupted_run_in_a_folder_with_a_space_says_how_to_continue_it(tmp
                                             r"--resume '.*my run'"):
         prepare_out_dir(out)
     assert (out / CHECKPOINT).exists()   # nothing was touched
+
+
+def test_extending_a_run_off_its_frame_schedule_repeats_the_longer_run(tmp_path):
+    """The review of session 10: a run of 50 steps saving every 20 ends with an extra frame at
+    step 50; extended to 100 it kept that frame ([0 20 40 50 60 80 100]).  Now the extension's
+    frames are the 100-step run's ([0 20 40 60 80 100]), positions and velocities bitwise (its
+    clock to round-off); a run without ParaView
+    frames (--no-vtu) is extended without them; `--set integrator.steps=N` extends even when N
+    is the scene file's own count (the first run was cut short by --steps)."""
+    scene = Scene.from_text(EXPLICIT, name="scene.toml")         # every = 20, steps = 300
+    ref = load_trajectory(run_scene(scene, tmp_path / "ref", progress=False, steps=100)
+                          .trajectory)
+    out = tmp_path / "run"
+    run_scene(scene, out, progress=False, steps=50, vtu=False)
+    assert load_trajectory(out).steps.tolist() == [0, 20, 40, 50]
+    res = run_scene(scene, out, progress=False, steps=100, resume=True)
+    assert res.resumed_from == 50
+    got = load_trajectory(out)
+    assert np.array_equal(got.steps, ref.steps)
+    assert np.array_equal(got.positions, ref.positions)
+    assert np.array_equal(got.velocities, ref.velocities)
+    # (the clock adds dt x steps per call: 10 + 10 steps, not 20, round differently)
+    np.testing.assert_allclose(got.times, ref.times, rtol=1e-14)
+    assert not (out / "body.pvd").exists()                      # still no ParaView series
+    again = Scene.from_text(EXPLICIT, name="scene.toml", overrides=("integrator.steps=300",))
+    assert again.steps == scene.steps                            # the file's own count
+    res = run_scene(again, out, progress=False, resume=True)
+    assert res.resumed_from == 100 and load_trajectory(out).steps[-1] == 300
+
+
+def test_a_timed_force_is_refused_when_it_would_never_act_and_a_new_force_keeps_its_own(
+        tmp_path):
+    """The review of session 10: `until` shorter than half a step rounds to step 0: the scene
+    now names its [[handle]] and the nearest step (it said "not after t = 0" of a Python call);
+    a force applied again on the same points is not released by the earlier `until`."""
+    import jellysim as js
+
+    text = ('[material]\npreset = "gelatin"\n[body]\npoints = 27\n[integrator]\nsteps = 4\n'
+            '[[handle]]\nkind = "force"\nindices = [0]\nforce = [0.0, 1.0, 0.0]\n'
+            'until = 0.001\n')
+    scene = Scene.from_text(text, name="s.toml")
+    with pytest.raises(SceneError, match=r"\[\[handle\]\] #1 until = 0.001 s falls on step 0"):
+        scene.simulator(scene.build_model())
+    model = js.physical_model(js.Body.box(points=27), js.material("gelatin"))
+    sim = js.Simulator(model, dt=1 / 60)
+    sim.apply_force([0, 1], [0.0, 1.0, 0.0], until=0.05)
+    sim.apply_force([1], [0.0, 2.0, 0.0])                       # replaces point 1's, for good
+    sim.advance(5)
+    assert np.allclose(sim.handles.point_force[0], 0.0)         # released at step 3
+    assert np.allclose(sim.handles.point_force[1], [0.0, 2.0, 0.0])

@@ -257,7 +257,11 @@ def apply_handle_tables(sim, tables, springs_reason: str | None = None) -> None:
         if entry["kind"] == "pin":
             sim.pin(idx, path=entry.get("path"))
         elif entry["kind"] == "force":
-            sim.apply_force(idx, entry["force"], until=entry.get("until"))
+            try:
+                sim.apply_force(idx, entry["force"], until=entry.get("until"))
+            except SceneError as exc:  # name the table, not the Python call
+                raise SceneError(f"{entry['_where']} {str(exc).removeprefix('apply_force: ')}") \
+                    from None
         else:
             sim.set_gravity_scale(idx, entry["scale"])
 
@@ -332,14 +336,9 @@ class HandleMethods:
         self._require_physical("point forces")
         idx = self._point_indices(indices, "apply_force")
         f = _vec3(force, "apply_force: force [N]")
-        if until is not None:
-            if isinstance(until, bool) or not isinstance(until, (int, float, np.number)) or not (
-                    np.isfinite(until) and until >= 0):
-                raise SceneError(f"apply_force: until must be a time >= 0 [s], got {until!r}")
-            release = int(round(float(until) / self.dt))
-            if release <= self.state.step:
-                raise SceneError(f"apply_force: until = {until} s is not after the present "
-                                 f"t = {self.state.t:g} s")
+        release = None if until is None else release_step(until, self.dt, self.state.step)
+        drop_releases(self, idx)  # a force replaced on these points keeps no earlier release
+        if release is not None:
             self.__dict__.setdefault("_releases", []).append((release, idx))
         self.handles.point_force[idx] = f / len(idx) if total else f
 
@@ -391,8 +390,8 @@ class HandleMethods:
         if int(d[0]) != p or radius is not None:  # a new grab: choose the patch
             x = self.state.x
             if radius is not None:
-                if not (isinstance(radius, (int, float, np.number)) and np.isfinite(radius)
-                        and radius >= 0):
+                if isinstance(radius, bool) or not (isinstance(radius, (int, float, np.number))
+                                                    and np.isfinite(radius) and radius >= 0):
                     raise SceneError(f"drag: radius must be a length >= 0 [m], got {radius!r}")
                 patch = np.flatnonzero(np.linalg.norm(x - x[p], axis=1) <= radius)
             else:
@@ -409,6 +408,28 @@ class HandleMethods:
         d[0] = float(p)
         d[1:4] = goal
         d[4] = float(stiffness)
+
+
+def release_step(until, dt: float, step: int) -> int:
+    """The step at which a force applied now (at ``step``) with ``until`` [s] is released:
+    the step nearest to that time; a :class:`SceneError` when it is not a later step."""
+    if isinstance(until, bool) or not isinstance(until, (int, float, np.number)) or not (
+            np.isfinite(until) and until > 0):
+        raise SceneError(f"apply_force: until must be a time > 0 [s], got {until!r}")
+    release = int(round(float(until) / dt))
+    if release <= step:
+        raise SceneError(f"apply_force: until = {until:g} s falls on step {release} (dt = "
+                         f"{dt:g} s, the nearest step), not after the present step {step}: the "
+                         "force would never act; give a later time (at least one step on)")
+    return release
+
+
+def drop_releases(sim, idx) -> None:
+    """Forget pending releases of the points ``idx`` (their force is being replaced)."""
+    pending = getattr(sim, "_releases", None)
+    if pending:
+        sim._releases = [(r, keep) for r, rows in pending
+                         if (keep := np.setdiff1d(rows, idx)).size]
 
 
 def _vec3(value, what: str) -> np.ndarray:

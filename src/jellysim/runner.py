@@ -73,7 +73,7 @@ def prepare_out_dir(out_dir, *, overwrite: bool = False, owned=RUN_FILES,
     for p in present:
         if p.is_file() and any(fnmatch.fnmatchcase(p.name, pat) for pat in owned):
             p.unlink()
-        elif p.is_dir() and p.name == STREAM_DIR:  # an interrupted run's frames
+        elif p.is_dir() and p.name in (STREAM_DIR, f"{STREAM_DIR}.partial"):  # its frames
             import shutil
 
             shutil.rmtree(p)
@@ -130,7 +130,7 @@ def _earlier_run(out_dir: Path) -> list[str]:
     """Names of an earlier run's files in ``out_dir`` (:data:`RUN_FILES`, its frame stream)."""
     return sorted(p.name for p in out_dir.iterdir()
                   if (p.is_file() and any(fnmatch.fnmatchcase(p.name, pat) for pat in RUN_FILES))
-                  or (p.is_dir() and p.name == STREAM_DIR))
+                  or (p.is_dir() and p.name in (STREAM_DIR, f"{STREAM_DIR}.partial")))
 
 
 def _clean(out_dir: Path) -> None:
@@ -141,6 +141,11 @@ def _clean(out_dir: Path) -> None:
         for p in out_dir.glob(pattern):
             if p.is_file():
                 p.unlink()
+    partial = out_dir / f"{STREAM_DIR}.partial"  # a finished run's stream, half reopened
+    if partial.is_dir():
+        import shutil
+
+        shutil.rmtree(partial)
 
 
 LARGE_TRAJECTORY_BYTES = 1 << 30
@@ -249,6 +254,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
     body = model.body
     resumed_from = None
     final_path = out_dir / FINAL_CHECKPOINT
+    extending = False
     if resume:
         finished = finished_run(out_dir)
         if finished and not final_path.exists():
@@ -257,9 +263,12 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                                   "(it failed, or an older jellysim wrote it); run without "
                                   "--resume to start afresh")
         # an extension interrupted before its first checkpoint continues from the final state
-        ck = read_checkpoint(ckpt_path if ckpt_path.exists() or not final_path.exists()
-                             else final_path, scene=scene, model=model)
-        if steps is None and ck.total_steps is not None and scene.steps == ck.scene_steps:
+        from_final = not ckpt_path.exists() and final_path.exists()
+        ck = read_checkpoint(final_path if from_final else ckpt_path, scene=scene, model=model)
+        steps_set = any(o.partition("=")[0].strip() == "integrator.steps"
+                        for o in getattr(scene, "overrides", ()))
+        if (steps is None and ck.total_steps is not None and not steps_set
+                and scene.steps == ck.scene_steps):
             total = ck.total_steps  # finish the run that was asked (its --steps)
         if finished and total <= ck.step:
             raise NothingToResume(
@@ -273,19 +282,25 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                                   f"{ck.total_steps if ck.total_steps is not None else '?'})")
         if ck.frame_every is not None:
             every = ck.frame_every  # frames keep the run's schedule, whatever its new length
-        if not stream_dir.exists() and npz_path.exists():
-            reopen_stream(npz_path, stream_dir)  # a finished run being extended
+        if vtu is None and ck.vtu is not None:
+            write_vtu = ck.vtu  # an extension keeps the run's --no-vtu
+        if not stream_dir.exists() and npz_path.exists():  # a finished run being extended
+            reopen_stream(npz_path, stream_dir, meta=trajectory_meta(
+                model, scene_text=scene.text, params=scene.params, skin=skin))
         s = sim.state
         s.x[:], s.v[:], s.a[:] = ck.x, ck.v, ck.a
         s.t, s.step = ck.t, ck.step
         sim.restore_internal_state(ck.internal)
+        # the finished run's last frame lies off the schedule when its steps were no multiple
+        # of `every`: dropped, so the extension's frames are the longer run's
+        keep = ck.frames - 1 if from_final and ck.step % every else ck.frames
         try:
-            stream = TrajectoryStream(stream_dir, model.point_count, keep=ck.frames)
+            stream = TrajectoryStream(stream_dir, model.point_count, keep=keep)
         except (OSError, ValueError) as exc:
             raise CheckpointError(f"{stream_dir}: cannot continue the trajectory stream "
                                   f"({exc}); start afresh without --resume") from None
-        keep = ck.frames
         resumed_from = ck.step
+        extending = final_path.exists()  # (a fresh run deletes it: this folder's run had ended)
     else:
         for stale in (npz_path, ckpt_path, final_path):
             if stale.exists():
@@ -311,7 +326,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
 
     def checkpoint():
         write_checkpoint(ckpt_path, sim, frames=stream.frames, scene=scene, model=model,
-                         total=total, every=every)
+                         total=total, every=every, vtu=write_vtu)
 
     done = sim.state.step
     if not resume:
@@ -385,7 +400,9 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             emit()
             stream.close()
             finalize_stream(stream_dir, npz_path, status=f"failed: {exc}")
-            for stale in (ckpt_path, final_path):  # a failed run is not extended
+            # a failed run is not extended; a failed extension keeps the end state it started
+            # from (extending again cuts the stream back to that run's frames)
+            for stale in (ckpt_path,) if extending else (ckpt_path, final_path):
                 if stale.exists():
                     stale.unlink()
             # what was said before it failed (a stability warning often explains the failure)
@@ -402,7 +419,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
     frames = stream.frames
     # the end state first (so `--resume --steps N` can extend the run), then the .npz
     write_checkpoint(final_path, sim, frames=frames, scene=scene, model=model, total=total,
-                     every=every)
+                     every=every, vtu=write_vtu)
     path = finalize_stream(stream_dir, npz_path, status="complete")
     if ckpt_path.exists():
         ckpt_path.unlink()

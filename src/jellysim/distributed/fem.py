@@ -32,7 +32,7 @@ from ..params import Integrator
 from ..physical_stepping import PhysicalStepping
 from ..simulator import (COLLAPSE_MIN_POINTS, PHYSICAL_PARALLEL_MIN_TETS, Simulator,
                          StabilityWarning)
-from ..handles import Handles, PinPath
+from ..handles import Handles, PinPath, drop_releases, release_step
 from .partition import partition_points, point_graph
 
 __all__ = ["coupling_pairs", "local_fem", "PhysicalMethods"]
@@ -306,8 +306,9 @@ class PhysicalMethods(PhysicalStepping):
         self._require_physical("point forces")
         rows, count = self._local_rows(indices)
         f = np.asarray(force, dtype=np.float64).reshape(3)
-        if until is not None:
-            release = int(round(float(until) / self.dt))
+        release = None if until is None else release_step(until, self.dt, self.step)
+        drop_releases(self, rows)  # a force replaced on these points keeps no earlier release
+        if release is not None:
             self.__dict__.setdefault("_releases", []).append((release, rows))
         self.handles.point_force[rows] = f / count if total else f
 

@@ -579,12 +579,14 @@ def _shell_count(f: np.ndarray, n_vertices: int) -> int:
 
 
 def outward(mesh: "Mesh", name: str = "mesh") -> "Mesh":
-    """``mesh`` with its faces wound outward: a closed mesh whose signed volume is negative
-    (inside out, as some exporters write them) gets every face reversed, with a warning, so
-    that TetGen and the skin (its normals in renders and exports) see it the right way out.
-    The inside test does not depend on the winding, so the body's points do not change."""
+    """``mesh`` with its faces wound outward: a consistently oriented mesh (no edge traversed
+    the same way by its two faces) whose signed volume is negative (inside out, as some
+    exporters write them) gets every face reversed, with a warning, so that TetGen, the
+    winding-number inside test of open meshes and the skin (its normals in renders and
+    exports) see it the right way out.  (For a closed mesh the parity inside test does not
+    depend on the winding: its body's points do not change.)"""
     d = mesh.defects
-    if not (d.watertight and d.volume < 0):
+    if not (d.volume < 0 and d.inconsistent_edges == 0):
         return mesh
     import warnings
     from dataclasses import replace

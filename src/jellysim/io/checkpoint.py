@@ -15,6 +15,8 @@ Stored arrays:
 ``total_steps``         () i8      steps the run was asked for
 ``scene_steps``         () i8      its scene's ``[integrator] steps`` (a changed one asks for
                                    a longer or shorter run)
+``vtu``                 () bool    whether the run writes its ParaView series (a resume or an
+                                   extension keeps that choice)
 ``scene_sha256``        str        hash of the scene's resolved parameters, all but the run's
                                    length (``[integrator] steps``), so a run can be extended
 ``model_sha256``        str        hash of the built body (rest positions, masses, springs)
@@ -62,6 +64,14 @@ def scene_hash(scene) -> str:
     return h.hexdigest()
 
 
+def _legacy_hash(scene) -> str:
+    """The scene hash of checkpoints written before session 10 (text and every parameter):
+    their runs still resume (not extend: their scene_steps is unknown)."""
+    h = hashlib.sha256(scene.text.encode("utf-8"))
+    h.update(json.dumps(scene.params, sort_keys=True, default=str).encode("utf-8"))
+    return h.hexdigest()
+
+
 def model_hash(model) -> str:
     h = hashlib.sha256()
     for a in (model.point_x0, model.point_mass, model.spring_ij,
@@ -88,10 +98,12 @@ class Checkpoint:
     """The scene's own ``[integrator] steps`` when it was written."""
     frame_every: int | None = None
     """Steps between the run's saved frames, so a longer continuation keeps their schedule."""
+    vtu: bool | None = None
+    """Whether the run writes its ParaView series."""
 
 
 def write_checkpoint(path, sim, *, frames: int, scene, model, total: int | None = None,
-                     every: int | None = None) -> Path:
+                     every: int | None = None, vtu: bool | None = None) -> Path:
     s = sim.state
     arrays = {"state.x": s.x, "state.v": s.v, "state.a": s.a,
               "state.t": np.array(float(s.t)), "state.step": np.array(int(s.step)),
@@ -103,6 +115,8 @@ def write_checkpoint(path, sim, *, frames: int, scene, model, total: int | None 
         arrays["total_steps"] = np.array(int(total))
     if every is not None:
         arrays["frame_every"] = np.array(int(every))
+    if vtu is not None:
+        arrays["vtu"] = np.array(bool(vtu))
     if getattr(scene, "params", None) is not None:
         arrays["scene_steps"] = np.array(int(scene.params["integrator"]["steps"]))
     for k, v in sim.internal_state().items():
@@ -131,17 +145,18 @@ def read_checkpoint(path, *, scene=None, model=None) -> Checkpoint:
             version=str(d["version"]),
             total_steps=int(d["total_steps"]) if "total_steps" in d else None,
             frame_every=int(d["frame_every"]) if "frame_every" in d else None,
-            scene_steps=int(d["scene_steps"]) if "scene_steps" in d else None)
+            scene_steps=int(d["scene_steps"]) if "scene_steps" in d else None,
+            vtu=bool(d["vtu"]) if "vtu" in d else None)
     except (OSError, ValueError, KeyError, EOFError) as exc:
         raise CheckpointError(f"{path}: damaged checkpoint ({exc}); start the run afresh "
                               "(without --resume)") from None
     if ck.version != _version():
         raise CheckpointError(f"{path}: written by jellysim {ck.version}, this is "
                               f"{_version()}; resume with that version or start afresh")
-    if scene is not None and ck.scene_sha256 != scene_hash(scene):
-        raise CheckpointError(f"{path}: written for another scene (its parameters or text "
-                              f"differ from {scene.name}); resume with the same scene file, "
-                              "or start afresh without --resume")
+    if scene is not None and ck.scene_sha256 not in (scene_hash(scene), _legacy_hash(scene)):
+        raise CheckpointError(f"{path}: written for another scene (its parameters differ from "
+                              f"{scene.name}'s, the run's length aside); resume with the same "
+                              "scene file and --set items, or start afresh without --resume")
     if model is not None and ck.model_sha256 != model_hash(model):
         raise CheckpointError(f"{path}: the body built from {getattr(scene, 'name', 'the scene')}"
                               " differs from the checkpoint's (a mesh or body file changed?); "

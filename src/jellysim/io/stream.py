@@ -269,12 +269,13 @@ def finalize_stream(directory, npz_path, status: str) -> Path:
     return Path(npz_path)
 
 
-def reopen_stream(npz_path, directory) -> int:
+def reopen_stream(npz_path, directory, meta: dict | None = None) -> int:
     """Turn a finished ``trajectory.npz`` back into a stream ``directory`` holding all its
     frames (a completed run being extended); returns the frame count.  The arrays are copied
     block by block (memory does not grow with the frame count) into
     ``<directory>.partial``, which is renamed into place only when complete; the ``.npz`` is
-    left as it is (the extended run's end replaces it atomically)."""
+    left as it is (the extended run's end replaces it atomically).  ``meta``: static arrays
+    to write instead of the ``.npz``'s (the extension's scene text and parameters)."""
     npz_path, directory = Path(npz_path), Path(directory)
     part = directory.with_name(directory.name + ".partial")
     if part.exists():
@@ -282,7 +283,8 @@ def reopen_stream(npz_path, directory) -> int:
     part.mkdir()
     frame_names = {f"{name}.npy": (name, dt, w) for name, dt, w in _FRAME_ARRAYS}
     with np.load(npz_path, allow_pickle=False) as z:  # members are read only when asked
-        meta = {k: z[k] for k in z.files if f"{k}.npy" not in frame_names and k != "status"}
+        old = {k: z[k] for k in z.files if f"{k}.npy" not in frame_names and k != "status"}
+    meta = {**old, **(meta or {})}
     frames = None
     with zipfile.ZipFile(npz_path) as zf:
         for member, (_, dt, w) in frame_names.items():

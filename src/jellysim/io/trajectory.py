@@ -114,7 +114,7 @@ def trajectory_meta(model, *, scene_text: str = "", params: dict | None = None,
                 springs=m.spring_ij, rest_length=m.spring_rest_length,
                 stiffness=m.spring_stiffness, gravity=m.gravity,
                 triangles=triangles if triangles is not None else empty3,
-                tets=body.tets if body.tets is not None else empty4,
+                tets=tets if tets is not None else empty4,
                 scene_toml=np.array(scene_text),
                 params_json=np.array(json.dumps(params or {}, sort_keys=True)), **extra)
 

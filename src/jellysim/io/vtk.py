@@ -86,6 +86,14 @@ class PVDSeries:
             text = self.pvd_path.read_text(encoding="utf-8")
             rows = re.findall(r"^    <DataSet .*/>\n", text, flags=re.M)[:keep]
         self.count = len(rows)
+        if keep is not None:  # frames past the kept ones (a resume cut them off): removed
+            k = self.count
+            while True:
+                stale = self._next_path(k)
+                if not stale.is_file():
+                    break
+                stale.unlink()
+                k += 1
         data = (_PVD_HEAD + "".join(rows)).encode("utf-8")
         self._tail = len(data)
         self.directory.mkdir(parents=True, exist_ok=True)
@@ -98,6 +106,10 @@ class PVDSeries:
     @property
     def pvd_path(self) -> Path:
         return self.directory / f"{self.name}.pvd"
+
+    def _next_path(self, k: int) -> Path:
+        fname = f"{self.piece}_{k:05d}.vtu"
+        return self.directory / (f"{self.pieces}/{fname}" if self.pieces else fname)
 
     def _next(self) -> tuple[str, Path]:
         fname = f"{self.piece}_{self.count:05d}.vtu"
