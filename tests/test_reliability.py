@@ -533,3 +533,24 @@ def test_a_timed_force_is_refused_when_it_would_never_act_and_a_new_force_keeps_
     sim.advance(5)
     assert np.allclose(sim.handles.point_force[0], 0.0)         # released at step 3
     assert np.allclose(sim.handles.point_force[1], [0.0, 2.0, 0.0])
+
+
+def test_a_checkpoint_from_before_the_extension_change_still_resumes(tmp_path):
+    """Checkpoints hashed the scene's text and parameters before session 10 (now the
+    parameters but the run's length); the review found such interrupted runs refused as
+    "written for another scene".  The old hash is still accepted."""
+    import numpy as np_
+
+    from jellysim.io.checkpoint import _legacy_hash
+
+    scene = Scene.from_text(EXPLICIT, name="scene.toml")
+    full = load_trajectory(run_scene(scene, tmp_path / "full", progress=False).trajectory)
+    with pytest.raises(RunInterrupted):
+        run_scene(scene, tmp_path / "cut", progress=False, stop_after=2 * scene.frame_every)
+    ck = tmp_path / "cut" / CHECKPOINT
+    with np_.load(ck) as z:
+        d = {k: z[k] for k in z.files}
+    d["scene_sha256"] = np_.array(_legacy_hash(scene))
+    np_.savez(ck, **d)
+    res = run_scene(scene, tmp_path / "cut", progress=False, resume=True)
+    assert np_.array_equal(load_trajectory(res.trajectory).positions, full.positions)

@@ -86,12 +86,16 @@ def _faces(tri: np.ndarray) -> np.ndarray:
     return np.hstack([np.full((len(tri), 1), 3, dtype=np.int64), tri]).ravel()
 
 
+_CORNERS = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+"""Which of (lower, upper) each of a box's eight corners takes per axis."""
+
+
 def _motion_bounds(traj, surface_frames, chunk: int = 32) -> np.ndarray:
     """The eight corners [m] of the bounding box of points and surface in each frame, stacked:
     shape (8 F', 3) (frames with no finite position left out).  Never expands every frame's
     surface at once."""
     corners = []
-    pick = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+    pick = _CORNERS
     for start in range(0, traj.frame_count, chunk):
         sl = slice(start, min(start + chunk, traj.frame_count))
         blocks = [np.asarray(traj.positions[sl], dtype=np.float64)]
@@ -211,7 +215,9 @@ class Renderer:
                 self._floor_y = floor_y + 0.0045 * ext
             else:
                 self._floor_y = floor_y + 0.0005 * ext
-        self._add_obstacles(traj, lo, hi)
+        near = self._add_obstacles(traj, lo, hi)  # the solids the body meets: framed too
+        if near is not None:
+            extra = near if extra is None else np.vstack([extra, near])
         direction = view_direction(o.azimuth, o.elevation)
         if self._track is None:
             self.camera = frame_motion(motion, self.size, extra_points=extra, zoom=o.zoom,
@@ -250,24 +256,31 @@ class Renderer:
         if self._track is not None:
             self.set_frame(0)  # the following camera's place at the first frame
 
-    def _add_obstacles(self, traj, lo, hi) -> None:
+    def _add_obstacles(self, traj, lo, hi):
         """The run's ``[[obstacle]]`` solids (spheres, boxes) in grey; planes as a patch
-        three times the motion's size around the point nearest its centre."""
+        three times the motion's size around the point nearest its centre.  Returns the
+        bounding-box corners [m] (k, 3) of the solids within half the motion's size of it
+        (to keep in the picture), or ``None``."""
         tables = traj.params.get("obstacle") if isinstance(traj.params, dict) else None
         if not tables:
-            return
+            return None
+        reach = 0.5 * float(np.max(hi - lo))
+        near = []
         from ..scene_obstacles import make_obstacle
         from ..physics.contact import Box, Sphere
 
         pv, size = self.pv, 3.0 * max(float(np.max(hi - lo)), 1e-3)
         for k, table in enumerate(tables):
             ob = make_obstacle(table)
+            box = None
             if isinstance(ob, Sphere):
                 mesh = pv.Sphere(radius=float(ob.radius), center=tuple(ob.center),
                                  theta_resolution=64, phi_resolution=32)
+                box = np.array([np.subtract(ob.center, ob.radius), np.add(ob.center, ob.radius)])
             elif isinstance(ob, Box):
                 (x0, y0, z0), (x1, y1, z1) = ob.lower, ob.upper
                 mesh = pv.Box(bounds=(x0, x1, y0, y1, z0, z1))
+                box = np.array([ob.lower, ob.upper], dtype=np.float64)
             else:
                 n = np.asarray(ob.normal, dtype=np.float64)
                 n = n / np.linalg.norm(n)
@@ -276,6 +289,9 @@ class Renderer:
                 mesh = pv.Plane(center=tuple(c), direction=tuple(n), i_size=size, j_size=size)
             self.plotter.add_mesh(mesh, color="#9da3a8", ambient=0.3, diffuse=0.7,
                                   specular=0.2, smooth_shading=True, name=f"obstacle{k}")
+            if box is not None and np.all(box[0] <= hi + reach) and np.all(box[1] >= lo - reach):
+                near.append(box[_CORNERS, [0, 1, 2]])             # its eight corners
+        return np.concatenate(near) if near else None
 
     def _shadow_points(self, f: int) -> np.ndarray:
         pts = np.array(self._surface_frames(f), dtype=np.float64)
