@@ -455,7 +455,7 @@ def test_a_travelling_body_is_followed_not_shrunk_to_a_speck(traj):
     drawn at the size it has when it stays near: the automatic camera follows it across the
     floor (session 9's trial: a body slid 100 m rendered as a speck); a fixed camera, which
     frames the whole path, draws it far smaller.  The body is in the picture, off its border,
-    at every frame."""
+    at every frame, and the floor's tiles show it travelling."""
     import dataclasses
 
     from jellysim.render.offscreen import Renderer, RenderOptions
@@ -477,6 +477,11 @@ def test_a_travelling_body_is_followed_not_shrunk_to_a_speck(traj):
         assert 0.5 * still < red.sum() < 2.0 * still, (f, red.sum(), still)
         assert not np.concatenate([red[0], red[-1], red[:, 0], red[:, -1]]).any()
     assert body_pixels(moved, "fixed", traj.frame_count - 1).sum() < 0.1 * still
+    # the floor's tiles stay on the world, so the following camera's picture shows the
+    # travel: the far floor (the image's top rows) changes between frames
+    r = Renderer(moved, RenderOptions(size=(160, 96), camera="follow"))
+    a, b = (r.render(f)[:12].astype(int) for f in (1, 2))
+    assert np.abs(a - b).mean() > 2.0
 
 
 def test_a_python_run_of_a_tet_body_is_drawn_and_exported_by_its_outer_faces(tmp_path):

@@ -86,6 +86,16 @@ def _faces(tri: np.ndarray) -> np.ndarray:
     return np.hstack([np.full((len(tri), 1), 3, dtype=np.int64), tri]).ravel()
 
 
+def _floor_texture(pv):
+    """Two beige tiles on the diagonal of a 2 x 2 image, repeated, without blending."""
+    light, dark = (0xcf, 0xc8, 0xbd), (0xbd, 0xb5, 0xa8)
+    img = np.array([[light, dark], [dark, light]], dtype=np.uint8)
+    tex = pv.Texture(img)
+    tex.repeat = True
+    tex.interpolate = False
+    return tex
+
+
 _CORNERS = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
 """Which of (lower, upper) each of a box's eight corners takes per axis."""
 
@@ -196,8 +206,14 @@ class Renderer:
             self.floor = pv.Plane(center=(c[0], floor_y, c[2]), direction=(0, 1, 0),
                                   i_size=size, j_size=size, i_resolution=1, j_resolution=1)
             self._floor_points = np.array(self.floor.points)
-            p.add_mesh(self.floor, color="#cfc8bd", ambient=0.35, diffuse=0.7, specular=0.0,
-                       name="floor")
+            if self._track is None:
+                p.add_mesh(self.floor, color="#cfc8bd", ambient=0.35, diffuse=0.7,
+                           specular=0.0, name="floor")
+            else:  # tiles of the body's size, fixed to the world: they show the travel
+                self._tile = ext
+                self._set_floor_tiles(np.zeros(3))
+                p.add_mesh(self.floor, texture=_floor_texture(pv), ambient=0.35, diffuse=0.7,
+                           specular=0.0, name="floor")
             extra = np.array([[lo[0], floor_y, lo[2]], [hi[0], floor_y, hi[2]]])
             if o.plate:
                 x0 = np.asarray(traj.positions[-1])  # under where the body comes to rest
@@ -293,6 +309,13 @@ class Renderer:
                 near.append(box[_CORNERS, [0, 1, 2]])             # its eight corners
         return np.concatenate(near) if near else None
 
+    def _set_floor_tiles(self, shift) -> None:
+        """Move the following camera's floor patch by ``shift`` [m], its texture coordinates
+        (world x, z over the tile size) kept on the world, so the tiles stay where they are."""
+        pts = self._floor_points + shift
+        self.floor.points = pts
+        self.floor.active_texture_coordinates = pts[:, [0, 2]] / self._tile
+
     def _shadow_points(self, f: int) -> np.ndarray:
         pts = np.array(self._surface_frames(f), dtype=np.float64)
         pts[:, 1] = self._floor_y
@@ -304,7 +327,7 @@ class Renderer:
         if self._track is not None:
             shift = self._track[0][f]
             if self.floor is not None:
-                self.floor.points = self._floor_points + shift
+                self._set_floor_tiles(shift)
             c = self.camera
             Camera(tuple(np.add(c.position, shift)), tuple(np.add(c.focal_point, shift)),
                    c.up, c.view_angle).apply(self.plotter)
