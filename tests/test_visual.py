@@ -610,3 +610,24 @@ def test_obstacles_are_drawn_and_a_run_without_ground_has_no_floor(tmp_path):
         assert grey.sum() > 0.02 * grey.size            # the sphere is drawn
         # a floor fills the view behind the body; without one the background shows
         assert (background.mean() < 0.05) == (not ground), background.mean()
+
+
+def test_a_transparent_background_gives_the_jello_alone_for_slides(run_dir, tmp_path):
+    """Session 10's trial: no way to drop the jello onto a slide.  `render --background
+    transparent --no-floor` writes a PNG whose alpha is 0 where nothing is drawn (the corners)
+    and positive on the body (its red pixels); a video, which has no alpha, is refused."""
+    import imageio.v3 as iio
+
+    out = tmp_path / "alone.png"
+    r = CliRunner().invoke(cli, ["render", str(run_dir), "-o", str(out), "--frame", "-1",
+                                 "--size", "160x96", "--background", "transparent",
+                                 "--no-floor", "--quiet"])
+    assert r.exit_code == 0, r.output
+    img = np.asarray(iio.imread(out))
+    assert img.shape == (96, 160, 4)
+    assert img[0, 0, 3] == img[-1, -1, 3] == 0
+    red = img[..., 0].astype(int) > img[..., 1].astype(int) + 60    # the jello's colour
+    assert red.sum() > 100 and np.all(img[red, 3] > 0)
+    r = CliRunner().invoke(cli, ["render", str(run_dir), "-o", str(tmp_path / "v.mp4"),
+                                 "--background", "transparent"])
+    assert r.exit_code != 0 and "no alpha channel" in r.output

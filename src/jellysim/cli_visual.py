@@ -268,9 +268,12 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
               default="auto", show_default=True,
               help="fixed: one view of the whole motion; follow: the camera travels with the "
                    "body; auto: follow a body that travels more than 4 times its size.")
+@click.option("--background", default=None, metavar="COLOR|transparent",
+              help="Background colour (a name or #rrggbb), or 'transparent' for PNG output "
+                   "with an alpha channel (with --no-floor: the jello alone, for slides).")
 def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame, every,
            quiet, overwrite=False, azimuth=None, elevation=None, zoom=1.0,
-           camera_mode="auto"):
+           camera_mode="auto", background=None):
     """Render TRAJECTORY (trajectory.npz) to a video or pictures, off screen."""
     import numpy as np
 
@@ -286,6 +289,14 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
             fps = default_fps(traj.times[frames])
         options = dataclasses.replace(_options(size, color, opacity, show, no_floor,
                                                (azimuth, elevation, zoom)), camera=camera_mode)
+        if background is not None:
+            if background != "transparent":
+                try:
+                    _check_color(background)
+                except click.BadParameter:
+                    raise JellysimError(f"--background {background!r} is not a colour: give "
+                                        "a name (white), #rrggbb or 'transparent'") from None
+            options = dataclasses.replace(options, background=background)
         path = render_trajectory(traj, output, options, fps=fps, frames=frames,
                                  progress=not quiet)
     except JellysimError as exc:

@@ -41,7 +41,8 @@ class RenderOptions:
     plate: bool = False
     """Draw a round white plate on the floor under the body's last position."""
     background: str = "#f4f1ec"
-    """Background colour."""
+    """Background colour, or ``"transparent"`` (PNG output only: an alpha channel, 0 where
+    nothing is drawn; with ``floor = False`` the body alone)."""
     azimuth: float | None = None
     """Camera azimuth [degrees] around the vertical, from +x towards +z (None: 32)."""
     elevation: float | None = None
@@ -188,7 +189,8 @@ class Renderer:
         self.plotter = plotter if plotter is not None else pv.Plotter(
             off_screen=offscreen, window_size=self.size, lighting="light kit")
         p = self.plotter
-        p.set_background(o.background)
+        self._transparent = o.background == "transparent"
+        p.set_background("white" if self._transparent else o.background)
 
         motion = _motion_bounds(traj, self._surface_frames)     # (2 F', 3) box corners
         lo, hi = motion.min(axis=0), motion.max(axis=0)
@@ -345,7 +347,10 @@ class Renderer:
         """Image of frame ``f``, shape (height, width, 3), uint8."""
         self.set_frame(f)
         self.plotter.render()
-        img = self.plotter.screenshot(return_img=True)
+        img = self.plotter.screenshot(return_img=True,
+                                      transparent_background=self._transparent)
+        if self._transparent:  # (height, width, 4): the alpha channel kept
+            return np.ascontiguousarray(img)
         return np.ascontiguousarray(img[..., :3])
 
     def close(self) -> None:

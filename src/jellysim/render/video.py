@@ -77,6 +77,9 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
         raise JellysimError(f"fps must be > 0, got {fps}")
     if kind == "png":
         frames = frames[-1:]
+    if options.background == "transparent" and kind not in ("png", "pngdir"):
+        raise JellysimError(f"{path}: a transparent background needs PNG output (a .png or a "
+                            f"folder of frames): {kind} has no alpha channel")
     with Renderer(traj, options) as r:
         images = _frames_with_progress(r, frames, progress, f"rendering {path.name}")
         if kind == "mp4":
