@@ -631,3 +631,23 @@ def test_a_transparent_background_gives_the_jello_alone_for_slides(run_dir, tmp_
     r = CliRunner().invoke(cli, ["render", str(run_dir), "-o", str(tmp_path / "v.mp4"),
                                  "--background", "transparent"])
     assert r.exit_code != 0 and "no alpha channel" in r.output
+
+
+def test_cli_demo_takes_a_mesh_of_ones_own(tmp_path):
+    """Session 10's trial: no one-liner from "my mesh" to a jiggling video.  `jellysim demo
+    --mesh torus.obj` drops it (10 cm, dessert gelatin) onto the plate: a video of the asked
+    frames, the body 10 cm across and 1 cm above the plate at the start, its skin the mesh;
+    --mesh with --scene cow is refused."""
+    mesh = Path(__file__).parent / "data" / "torus.obj"
+    r = CliRunner().invoke(cli, ["demo", "--mesh", str(mesh), "--out", str(tmp_path),
+                                 "--frames", "3", "--points", "200", "--size", "64x48",
+                                 "--no-usd", "--quiet"])
+    assert r.exit_code == 0, r.output
+    assert _read_video(tmp_path / "demo_torus.mp4").shape == (3, 48, 64, 3)
+    traj = load_trajectory(tmp_path / "demo_torus")
+    skin0 = traj.skin_positions(0)
+    assert np.ptp(skin0, axis=0).max() == pytest.approx(0.1, rel=1e-9)
+    assert skin0[:, 1].min() == pytest.approx(0.01, abs=1e-9)
+    r = CliRunner().invoke(cli, ["demo", "--mesh", str(mesh), "--scene", "cow", "--out",
+                                 str(tmp_path / "b")])
+    assert r.exit_code != 0 and "give one of them" in r.output

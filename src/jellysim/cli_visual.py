@@ -221,16 +221,29 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
 @click.option("--overwrite", is_flag=True,
               help="Replace an earlier demo in OUT (its video, USD and run folder).")
 @click.option("--points", type=click.IntRange(min=50), default=None,
-              help="Grid points inside the shape (default 1500 jelly, 3000 cow; fewer: a "
-                   "quick, coarse run).")
+              help="Grid points inside the shape (default 1500 jelly, 3000 cow, 2000 a "
+                   "mesh; fewer: a quick, coarse run).")
+@click.option("--mesh", type=click.Path(dir_okay=False), default=None,
+              help="Your own surface mesh (OBJ, PLY, STL, ...) as the jello: scaled to 10 cm, "
+                   "dropped 1 cm onto the plate in dessert gelatin (writes demo_<name>.*).")
+@click.option("--up", type=click.Choice(["y", "z", "x", "-y", "-z", "-x"]), default="y",
+              show_default=True, help="--mesh: its axis that points up (z for most CAD / "
+              "STL files).")
 def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
-         precision=None, threads=None, overwrite=False, points=None):
-    """Real gelatin on a plate: writes OUT/demo.mp4 and OUT/demo.usdc."""
+         precision=None, threads=None, overwrite=False, points=None, mesh=None, up="y"):
+    """Real gelatin on a plate: writes OUT/demo.mp4 and OUT/demo.usdc (--mesh: your own
+    shape as the jello)."""
+    import warnings
 
     try:
-        r = run_demo(out_dir, frames=frames, size=_size(size), usd=not no_usd,
-                     progress=not quiet, scene=scene, backend=backend, device=device,
-                     precision=precision, threads=threads, overwrite=overwrite, points=points)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            r = run_demo(out_dir, frames=frames, size=_size(size), usd=not no_usd,
+                         progress=not quiet, scene=scene, backend=backend, device=device,
+                         precision=precision, threads=threads, overwrite=overwrite,
+                         points=points, mesh=mesh, up=up)
+        for w in dict.fromkeys(str(w.message) for w in caught):
+            click.secho(f"warning: {w}", fg="yellow", err=True)
     except JellysimError as exc:
         _fail(str(exc))
     s = r["seconds"]

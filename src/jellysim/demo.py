@@ -50,6 +50,15 @@ DEMO_SHAPES = {
         # 1 cm legs carry ~6 kPa and it slumps to half its height (README, tests/test_bunny.py)
         "material": {"youngs_modulus": 1.0e5},
     },
+    "mesh": {
+        "mesh": "file",         # the user's own (jellysim demo --mesh PATH)
+        "length": 0.10,
+        "drop_height": 0.01,    # dropped 1 cm onto the plate
+        "velocity": [0.0, 0.0, 0.0],
+        "points": 2000,
+        "connect": "marching",
+        "seed": 7,
+    },
 }
 """Geometry of the demo bodies (built by :func:`jellysim.build.build_body`)."""
 DEMO_SHAPE = DEMO_SHAPES["jelly"]
@@ -73,11 +82,18 @@ DEMO_SCENE = {
 """Physical settings of the demo (scene format): 3 s simulated, 60 frames per second."""
 
 
-def demo_mesh(name: str = "jelly"):
+def demo_mesh(name: str = "jelly", mesh=None, up: str = "y"):
     """The demo's surface: vertices [m] (m, 3), faces (f, 3), scaled to the shape's
-    ``length``, standing ``drop_height`` above y = 0, centred in x and z."""
+    ``length``, standing ``drop_height`` above y = 0, centred in x and z.  ``name = "mesh"``:
+    the surface of the file ``mesh`` (any format :func:`~jellysim.geometry.load_mesh`
+    reads), its ``up`` axis turned to +y and its faces outward."""
     shape = DEMO_SHAPES[name]
-    if shape["mesh"] == "mould":
+    if shape["mesh"] == "file":
+        from .geometry.mesh import load_mesh, outward, rotate_up
+
+        m = outward(load_mesh(mesh), str(mesh))
+        v, f = rotate_up(m.vertices, up), m.faces
+    elif shape["mesh"] == "mould":
         from .geometry.shapes import jelly_mould
 
         v, f = jelly_mould()
@@ -94,7 +110,8 @@ def demo_mesh(name: str = "jelly"):
     return v, np.asarray(f, dtype=np.int64)
 
 
-def build_demo_body(name: str = "jelly", points: int | None = None):
+def build_demo_body(name: str = "jelly", points: int | None = None, mesh=None,
+                    up: str = "y"):
     """The demo's jello body and its skin: ``(Body, Skin)``: the surface filled with a
     marching grid (warped onto the surface) by :func:`jellysim.build.build_body`,
     the skin the surface itself bound to the body's tets.  ``points``: grid points inside
@@ -105,10 +122,16 @@ def build_demo_body(name: str = "jelly", points: int | None = None):
     from .geometry.mesh import Mesh
 
     shape = DEMO_SHAPES[name]
-    verts, faces = demo_mesh(name)
+    verts, faces = demo_mesh(name, mesh, up)
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # both surfaces are clean; nothing to report
-        body = build_body(Mesh.from_arrays(verts, faces, name=f"{name}.obj"),
+        # the shipped surfaces are clean; a user's mesh is reported (demo --mesh)
+        warnings.simplefilter("default" if mesh is not None else "ignore")
+        surface = Mesh.from_arrays(verts, faces, name=str(mesh or f"{name}.obj"))
+        if mesh is not None:  # (named by its file in what the build says)
+            from dataclasses import replace
+
+            surface = replace(surface, path=Path(mesh))
+        body = build_body(surface,
                           points=shape["points"] if points is None else int(points),
                           connect=shape["connect"], density=REPORT_DENSITY,
                           seed=shape["seed"])
@@ -120,7 +143,8 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
              progress: bool = True, vtu: bool = False, scene: str = "jelly",
              backend: str | None = None, device: str | None = None,
              precision: str | None = None, threads: int | None = None,
-             overwrite: bool = False, points: int | None = None) -> dict:
+             overwrite: bool = False, points: int | None = None, mesh=None,
+             up: str = "y") -> dict:
     """Simulate a demo scene (``"jelly"``: a fluted gelatin mould slid onto a plate at 0.7 m/s
     from 1 cm; ``"cow"``: Spot, in firm gelatin, set down on it) and write ``<out_dir>/demo.mp4`` (+
     ``demo.usdc``; the cow: ``demo_cow.*``); the run itself goes to ``<out_dir>/demo/``
@@ -129,7 +153,9 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     :class:`~jellysim.errors.SceneError` where the backend lacks the demo's physical path);
     ``threads``: numba threads (default: by problem size).  An earlier demo's outputs there
     are refused (:class:`~jellysim.errors.JellysimError`) unless ``overwrite``, which
-    deletes them first.  ``points``: see :func:`build_demo_body`. Returns the paths written
+    deletes them first.  ``points``: see :func:`build_demo_body`.  ``mesh``: a surface mesh
+    file of one's own instead, scaled to 10 cm, its ``up`` axis turned up, dropped 1 cm onto
+    the plate in dessert gelatin (writes ``demo_<its name>.*``).  Returns the paths written
     and timings [s]."""
     import time
 
@@ -138,10 +164,18 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
 
     t0 = time.perf_counter()
     out_dir = Path(out_dir)
-    if scene not in DEMO_SHAPES:
-        raise JellysimError(f"unknown demo scene {scene!r}; choose one of "
-                            + ", ".join(DEMO_SHAPES))
-    stem = "demo" if scene == "jelly" else f"demo_{scene}"
+    if mesh is not None:
+        if scene != "jelly":
+            raise JellysimError(f"--mesh {mesh} and --scene {scene}: the mesh is the demo's "
+                                "body; give one of them")
+        if not Path(mesh).is_file():
+            raise JellysimError(f"--mesh {mesh}: no such file")
+        scene = "mesh"
+    if scene not in DEMO_SHAPES or scene == "mesh" and mesh is None:
+        raise JellysimError(f"unknown demo scene {scene!r}; choose one of 'jelly', 'cow' "
+                            "(or --mesh PATH)")
+    stem = ("demo" if scene == "jelly" else f"demo_{Path(mesh).stem}" if mesh is not None
+            else f"demo_{scene}")
     old = [out_dir / f"{stem}.mp4", out_dir / f"{stem}.usdc"]
     if not overwrite and any(p.exists() for p in old):
         raise JellysimError(f"--out {out_dir}: holds an earlier demo "
@@ -155,10 +189,12 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
                material=dict(DEMO_SCENE["material"], **shape.get("material", {})))
     sc = Scene.from_dict(raw, name="demo").with_backend(backend, device, precision)
     sc.text = (f"# jellysim demo --scene {scene}: the body is the demo's own "
-               f"(jellysim.demo.build_demo_body('{scene}')), not [body] below\n" + sc.text)
+               f"(jellysim.demo.build_demo_body('{scene}'"
+               + (f", mesh={str(mesh)!r}, up={up!r}" if mesh is not None else "")
+               + "), not [body] below\n" + sc.text)
     if threads is not None:
         sc.params["integrator"]["threads"] = int(threads)
-    body, skin = build_demo_body(scene, points)
+    body, skin = build_demo_body(scene, points, mesh, up)
     steps = sc.steps if frames is None else max(1, int(frames) - 1) * sc.frame_every
     result = run_scene(sc, out_dir / stem, progress=progress, vtu=vtu, steps=steps,
                        skin=skin, body=body)
