@@ -12,7 +12,11 @@ __all__ = ["State"]
 
 @dataclass(eq=False)
 class State:
-    """Mutable simulation state.  The kernels update it in place (no allocation per step)."""
+    """Mutable simulation state.  The kernels update it in place (no allocation per step).
+
+    ``x``: positions [m], (n, 3); ``v``: velocities [m/s], (n, 3); ``a``: the last
+    accelerations [m/s^2], (n, 3) (float64 arrays); ``t``: simulated time [s]; ``step``: time
+    steps taken."""
 
     x: np.ndarray
     """Positions [m], shape (n, 3), float64."""

@@ -121,7 +121,12 @@ def trajectory_meta(model, *, scene_text: str = "", params: dict | None = None,
 
 @dataclass
 class Trajectory:
-    """A loaded trajectory; attributes as in the module table."""
+    """A loaded trajectory (the module table has every array).  Per frame (F frames, n
+    points): ``positions`` [m] (F, n, 3), ``velocities`` [m/s] (F, n, 3), ``times`` [s] (F,),
+    ``steps`` (F,); the body: ``rest_positions`` [m] (n, 3), ``masses`` [kg] (n,),
+    ``springs`` (k, 2), ``rest_length`` [m], ``stiffness`` [N/m], ``triangles`` (surface),
+    ``tets``; the run: ``scene_toml``, ``params``, ``status``; ``skin`` and the method
+    :meth:`skin_positions` (frame) for the deformed skin [m]."""
 
     positions: np.ndarray
     velocities: np.ndarray
