@@ -294,6 +294,8 @@ class Material:
         if self.youngs_modulus < 100.0 or self.youngs_modulus > 1e9:
             import warnings
 
+            from .errors import user_stacklevel
+
             warnings.warn(f"material youngs_modulus = {self.youngs_modulus:g} Pa is outside "
                           "100 Pa .. 1 GPa (gels are 1-100 kPa, rubber about 1 MPa): it is in "
-                          "pascals (10 kPa = 1e4)", UserWarning, stacklevel=3)
+                          "pascals (10 kPa = 1e4)", UserWarning, stacklevel=user_stacklevel())
