@@ -4,6 +4,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import Enum
 
+from .errors import user_stacklevel
+
 __all__ = [
     "Integrator",
     "ProvotPairs",
@@ -293,8 +295,6 @@ class Material:
                              f"{[m.value for m in MaterialModel]}, got {self.model!r}") from None
         if self.youngs_modulus < 100.0 or self.youngs_modulus > 1e9:
             import warnings
-
-            from .errors import user_stacklevel
 
             warnings.warn(f"material youngs_modulus = {self.youngs_modulus:g} Pa is outside "
                           "100 Pa .. 1 GPa (gels are 1-100 kPa, rubber about 1 MPa): it is in "
