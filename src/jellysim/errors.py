@@ -6,17 +6,6 @@ __all__ = ["JellysimError", "SceneError", "SimulationError", "MeshError", "Build
            "ResourceError", "StabilityWarning", "SolverWarning", "did_you_mean"]
 
 
-def user_stacklevel() -> int:
-    """The ``stacklevel`` for :func:`warnings.warn`, called in a jellysim function, that points
-    at the first caller outside the jellysim package (the user's line)."""
-    import sys
-
-    frame, level = sys._getframe(1), 1
-    while frame is not None and frame.f_globals.get("__name__", "").startswith("jellysim"):
-        frame, level = frame.f_back, level + 1
-    return level
-
-
 def did_you_mean(word, choices, fmt: str = "'{}'") -> str:
     """`` (did you mean 'x'?)`` for the choice closest to ``word`` (``fmt`` shapes it:
     ``"[{}]"`` for a section, ``"{!r}"``), or ``""`` when none is close."""

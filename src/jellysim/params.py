@@ -4,8 +4,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import Enum
 
-from .errors import user_stacklevel
-
 __all__ = [
     "Integrator",
     "ProvotPairs",
@@ -298,4 +296,16 @@ class Material:
 
             warnings.warn(f"material youngs_modulus = {self.youngs_modulus:g} Pa is outside "
                           "100 Pa .. 1 GPa (gels are 1-100 kPa, rubber about 1 MPa): it is in "
-                          "pascals (10 kPa = 1e4)", UserWarning, stacklevel=user_stacklevel())
+                          "pascals (10 kPa = 1e4)", UserWarning, stacklevel=_user_stacklevel())
+
+
+def _user_stacklevel() -> int:
+    """The ``stacklevel`` for :func:`warnings.warn`, called in a jellysim function, that points
+    at the first caller outside the jellysim package (the user's line).  (Here, not in
+    :mod:`jellysim.errors`: both are leaf modules, importing nothing of ours.)"""
+    import sys
+
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_globals.get("__name__", "").startswith("jellysim"):
+        frame, level = frame.f_back, level + 1
+    return level
