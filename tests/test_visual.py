@@ -651,3 +651,21 @@ def test_cli_demo_takes_a_mesh_of_ones_own(tmp_path):
     r = CliRunner().invoke(cli, ["demo", "--mesh", str(mesh), "--scene", "cow", "--out",
                                  str(tmp_path / "b")])
     assert r.exit_code != 0 and "give one of them" in r.output
+
+
+def test_render_a_time_window_of_a_run(run_dir, tmp_path):
+    """Session 10's trial: only one frame or every N-th could be rendered.  --start/--end
+    (simulated seconds) render the frames in that window, at real-time speed, and a window
+    with no frame is an error naming the run's span."""
+    traj = load_trajectory(run_dir)
+    t = traj.times
+    want = np.flatnonzero((t >= t[2]) & (t <= t[4]))
+    out = tmp_path / "part"
+    r = CliRunner().invoke(cli, ["render", str(run_dir), "-o", str(out), "--start",
+                                 repr(float(t[2])), "--end", repr(float(t[4])), "--size",
+                                 "64x48", "--quiet"])
+    assert r.exit_code == 0, r.output
+    assert len(list(out.glob("frame_*.png"))) == len(want) == 3
+    r = CliRunner().invoke(cli, ["render", str(run_dir), "-o", str(tmp_path / "x.png"),
+                                 "--start", "99"])
+    assert r.exit_code != 0 and "select no frame" in r.output

@@ -274,6 +274,10 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
               help="Render only this frame (e.g. -1 for the last).")
 @click.option("--every", type=click.IntRange(min=1), default=1, show_default=True,
               help="Use every N-th saved frame.")
+@click.option("--start", type=float, default=None, metavar="SECONDS",
+              help="Render only the frames from this simulated time on.")
+@click.option("--end", type=float, default=None, metavar="SECONDS",
+              help="Render only the frames up to this simulated time.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @_overwrite
 @_camera_options
@@ -286,19 +290,26 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
                    "with an alpha channel (with --no-floor: the jello alone, for slides).")
 def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame, every,
            quiet, overwrite=False, azimuth=None, elevation=None, zoom=1.0,
-           camera_mode="auto", background=None):
+           camera_mode="auto", background=None, start=None, end=None):
     """Render TRAJECTORY (trajectory.npz) to a video or pictures, off screen."""
     import numpy as np
 
     try:
         traj = _load(trajectory)
         guard_output(output, overwrite)
-        frames = np.arange(0, traj.frame_count, every)
+        t = np.asarray(traj.times, dtype=np.float64)
+        lo = -np.inf if start is None else start
+        hi = np.inf if end is None else end
+        window = np.flatnonzero((t >= lo - 1e-9) & (t <= hi + 1e-9))
+        if not len(window):
+            raise JellysimError(f"--start/--end select no frame: the run's frames span "
+                                f"{t[0]:g} .. {t[-1]:g} s")
+        frames = window[::every]
         if frame is not None:
             if not -traj.frame_count <= frame < traj.frame_count:
                 raise JellysimError(f"--frame {frame} is outside [0, {traj.frame_count - 1}]")
             frames = np.array([frame % traj.frame_count])
-        if fps is None and every > 1:
+        if fps is None and (every > 1 or len(frames) < traj.frame_count):
             fps = default_fps(traj.times[frames])
         options = dataclasses.replace(_options(size, color, opacity, show, no_floor,
                                                (azimuth, elevation, zoom)), camera=camera_mode)
