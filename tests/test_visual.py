@@ -669,3 +669,21 @@ def test_render_a_time_window_of_a_run(run_dir, tmp_path):
     r = CliRunner().invoke(cli, ["render", str(run_dir), "-o", str(tmp_path / "x.png"),
                                  "--start", "99"])
     assert r.exit_code != 0 and "select no frame" in r.output
+
+
+def test_a_python_run_of_a_mesh_body_carries_its_smooth_surface(tmp_path):
+    """Session 10's trial: a Python-recorded mould rendered as its jagged marching tets; the
+    Recorder now carries the surface the body was built from (bound to its tets), so the
+    saved trajectory's skin at rest is that surface, vertex for vertex."""
+    import jellysim as js
+    from jellysim.geometry.shapes import jelly_mould
+    from jellysim.io.trajectory import Recorder
+
+    body = js.Body.from_mesh(jelly_mould(), size=0.05, points=300, base=(0, 0, 0))
+    sim = js.Simulator(js.physical_model(body, js.material("gelatin")), dt=1 / 60,
+                       ground=js.GroundParams(model="contact"))
+    rec = Recorder(sim.model)
+    rec.record(sim.state)
+    t = load_trajectory(rec.save(tmp_path / "t.npz"))
+    assert t.skin is not None and t.skin.vertex_count == len(body.skin_vertices)
+    np.testing.assert_allclose(t.skin_positions(0), body.skin_vertices, atol=1e-9)

@@ -96,9 +96,9 @@ class Scene:
         if overrides:   # the recorded text says what ran
             text += "\n# overridden on the command line:\n" + "".join(
                 f"#   --set {item}\n" for item in overrides)
-        given = given_keys(raw, SCHEMA, PRESETS)
+        given = given_keys(raw, SCHEMA, PRESETS, by_value=False)
         try:
-            params = cls._validate(raw, name)
+            params = cls._validate(raw, name, written=True)
         except SceneError as exc:  # say when the bad value came from the command line
             msg = str(exc)
             given = [item for item in overrides
@@ -131,8 +131,8 @@ class Scene:
         return scene
 
     @staticmethod
-    def _validate(raw: dict, name: str) -> dict:
-        user = given_keys(raw, SCHEMA, PRESETS)
+    def _validate(raw: dict, name: str, written: bool = False) -> dict:
+        user = given_keys(raw, SCHEMA, PRESETS, by_value=not written)
         preset = raw.get("material", {}).get("preset") if isinstance(
             raw.get("material"), dict) else None
         if preset is not None:

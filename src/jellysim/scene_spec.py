@@ -269,11 +269,14 @@ def check_given_keys(user: dict, preset_raw: dict, out: dict, name: str, preset)
                          "mass; set [material] density instead")
 
 
-def given_keys(raw: dict, schema: dict, presets: dict) -> dict:
-    """``{section: set of keys}`` of a scene as written (tables only) whose value differs from
-    what the key would be without it: its preset's value where the scene's preset sets it,
-    else the schema's default (so a scene's own full parameters, read back by
-    ``Scene.from_dict``, give nothing)."""
+def given_keys(raw: dict, schema: dict, presets: dict, by_value: bool = True) -> dict:
+    """``{section: set of keys}`` of a scene (tables only): with ``by_value = False`` (a
+    scene file and its ``--set`` items: what the user wrote) every key present; else those
+    whose value differs from what the key would be without it: its preset's value where the
+    scene's preset sets it, else the schema's default (so a scene's own full parameters, read
+    back by ``Scene.from_dict``, give nothing)."""
+    if not by_value:
+        return {s: set(v) for s, v in raw.items() if isinstance(v, dict)}
     material = raw.get("material")
     preset = presets.get(material.get("preset")) if isinstance(material, dict) and isinstance(
         material.get("preset"), str) else None

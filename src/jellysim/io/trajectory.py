@@ -58,8 +58,15 @@ class Recorder:
     ``jellysim run`` streams its frames to disk instead, :mod:`jellysim.io.stream`)."""
 
     def __init__(self, model, *, scene_text: str = "", params: dict | None = None,
-                 skin=None):
+                 skin="auto"):
+        """``skin``: a :class:`~jellysim.skin.Skin` to carry, ``None`` for none, or
+        ``"auto"`` (default): the surface the body was built from (``Body.from_mesh``, a
+        body file), bound to its tets, so renders and exports show the smooth shape."""
         self.model = model
+        if isinstance(skin, str) and skin == "auto":
+            from ..skin import default_skin
+
+            skin = default_skin(None, model.body)
         self.skin = skin
         self.scene_text = scene_text
         self.params = params or {}
