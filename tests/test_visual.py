@@ -687,3 +687,14 @@ def test_a_python_run_of_a_mesh_body_carries_its_smooth_surface(tmp_path):
     t = load_trajectory(rec.save(tmp_path / "t.npz"))
     assert t.skin is not None and t.skin.vertex_count == len(body.skin_vertices)
     np.testing.assert_allclose(t.skin_positions(0), body.skin_vertices, atol=1e-9)
+
+
+def test_plot_refuses_to_replace_a_file_unless_overwrite(run_dir, tmp_path):
+    """Session 10's trial: `jellysim plot -o existing.png` replaced it silently, where render
+    and export refuse; now it refuses too, and --overwrite replaces it."""
+    out = tmp_path / "e.png"
+    out.write_bytes(b"mine")
+    r = CliRunner().invoke(cli, ["plot", str(run_dir), "-o", str(out)])
+    assert r.exit_code != 0 and "--overwrite" in r.output and out.read_bytes() == b"mine"
+    r = CliRunner().invoke(cli, ["plot", str(run_dir), "-o", str(out), "--overwrite"])
+    assert r.exit_code == 0 and out.read_bytes()[:4] == b"\x89PNG"

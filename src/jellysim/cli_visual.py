@@ -439,10 +439,14 @@ def view(trajectory, show, size, color, opacity, no_floor, fps, screenshot, azim
 @click.argument("trajectory", type=click.Path())
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
               help="energy.png or .svg / .pdf")
-def plot(trajectory, output):
+@_overwrite
+def plot(trajectory, output, overwrite=False):
     """Plot energies, centre-of-mass height and largest spring strain of TRAJECTORY."""
 
+    from .io.atomic import guard_file
+
     try:
+        guard_file(output, overwrite)
         where = Path(trajectory)  # a run folder, or its trajectory.npz / .stream
         name = (where if where.is_dir() and where.suffix != ".stream" else where.parent).name
         path = plot_trajectory(_load(trajectory), output, title=name)

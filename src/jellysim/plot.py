@@ -66,8 +66,9 @@ def _tet_energy(traj, x) -> np.ndarray:
 
 
 def plot_trajectory(traj, path, *, title: str | None = None) -> Path:
-    """Draw energies, centre-of-mass height and largest strain against time to ``path``
-    (``.png``, ``.svg`` or ``.pdf``)."""
+    """Draw against time to ``path`` (``.png``, ``.svg`` or ``.pdf``): the kinetic and
+    elastic energies (the wobble's exchange, on their own scale), the gravitational and total
+    energies' change since the start, the centre-of-mass height and the largest strain."""
     path = Path(path)
     if path.suffix.lower() not in (".png", ".svg", ".pdf"):
         raise JellysimError(f"{path}: plot file must end in .png, .svg or .pdf")
@@ -81,22 +82,25 @@ def plot_trajectory(traj, path, *, title: str | None = None) -> Path:
 
     d = diagnostics(traj)
     t = d["time"]
-    fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True, constrained_layout=True)
-    ax = axes[0]
+    fig, axes = plt.subplots(4, 1, figsize=(8, 11), sharex=True, constrained_layout=True)
+    ax = axes[0]  # the wobble's exchange, on its own scale (gravity's would flatten it)
     ax.plot(t, d["kinetic"], label="kinetic")
     if np.any(d["tets"]):
         ax.plot(t, d["tets"] + d["spring"], label="elastic (tets + springs)")
     else:
         ax.plot(t, d["spring"], label="spring")
-    ax.plot(t, d["gravity"], label="gravitational")
-    ax.plot(t, d["total"], "k--", lw=1, label="total")
     ax.set_ylabel("energy [J]")
     ax.legend(loc="best")
-    axes[1].plot(t, d["com_height"], color="C3")
-    axes[1].set_ylabel("centre-of-mass height [m]")
-    axes[2].plot(t, 100 * d["max_strain"], color="C4")
-    axes[2].set_ylabel("largest spring strain [%]")
-    axes[2].set_xlabel("time [s]")
+    ax = axes[1]
+    ax.plot(t, d["gravity"] - d["gravity"][0], label="gravitational")
+    ax.plot(t, d["total"] - d["total"][0], "k--", lw=1, label="total")
+    ax.set_ylabel("change since the start [J]")
+    ax.legend(loc="best")
+    axes[2].plot(t, d["com_height"], color="C3")
+    axes[2].set_ylabel("centre-of-mass height [m]")
+    axes[3].plot(t, 100 * d["max_strain"], color="C4")
+    axes[3].set_ylabel("largest spring strain [%]")
+    axes[3].set_xlabel("time [s]")
     for a in axes:
         a.grid(alpha=0.3)
     status = "" if traj.status == "complete" else f" ({traj.status[:60]})"
