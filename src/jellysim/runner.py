@@ -313,13 +313,18 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                    if write_vtu and skin is not None else None)
     bounds = skin_bounds(scene.params)  # the ground and obstacles the skin is kept out of
 
-    tets = model.fem.tets if getattr(model, "fem", None) is not None else body.tets
+    physical = getattr(model, "fem", None) is not None
+    tets = model.fem.tets if physical else body.tets
+    # a tet body's ParaView cells are its tets alone (colour them by volume_ratio); a springs
+    # body's are its springs (and its tets, if it has some)
+    lines = model.spring_ij[:0] if physical else model.spring_ij
 
     def emit():
         stream.record(sim.state)
         if series is not None:
-            series.add(sim.state.t, sim.state.x, model.spring_ij, velocities=sim.state.v,
-                       triangles=body.triangles, tets=tets, rest=model.point_x0)
+            series.add(sim.state.t, sim.state.x, lines, velocities=sim.state.v,
+                       triangles=None if physical else body.triangles, tets=tets,
+                       rest=model.point_x0)
         if skin_series is not None:
             skin_series.add_surface(sim.state.t, skin.deform(sim.state.x, **bounds),
                                     skin.faces)

@@ -160,8 +160,11 @@ def export_pvd(traj, directory, name: str = "body", *, pieces: str = "") -> list
     body = PVDSeries(directory, name, pieces=pieces)
     tri = traj.triangles if len(traj.triangles) else None
     tets = traj.tets if len(traj.tets) else None
+    springs = traj.springs
+    if tets is not None and (traj.params or {}).get("fem"):  # a physical run: its tets alone
+        springs, tri = springs[:0], None
     for f in range(traj.frame_count):
-        body.add(traj.times[f], traj.positions[f], traj.springs,
+        body.add(traj.times[f], traj.positions[f], springs,
                  velocities=traj.velocities[f], triangles=tri, tets=tets,
                  rest=traj.rest_positions)
     out = [body.pvd_path]
