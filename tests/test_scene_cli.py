@@ -630,3 +630,24 @@ def test_run_result_separates_the_first_steps_start_up():
     assert result((100, 5.9)).startup_seconds() == 0.0  # one call: nothing to compare
     assert result((10, 5.0), steps=120, resumed=20).startup_seconds() == pytest.approx(4.9)
     assert result(None).startup_seconds() == 0.0
+
+
+def test_steps_on_the_command_line_stands_for_a_missing_integrator_steps(tmp_path):
+    """Session 10's trial: `jellysim run s.toml --steps 20` on a scene without [integrator]
+    steps said only "missing value 'steps'".  --steps now gives it (the run takes 20 steps),
+    and without it the error says --steps N."""
+    from click.testing import CliRunner
+
+    from jellysim.cli import cli
+    from jellysim.io.trajectory import load_trajectory
+
+    path = tmp_path / "s.toml"
+    path.write_text("[springs]\nstiffness = 300.0\nradius = 0.16\n[body]\npoints = 60\n"
+                    "lower = [0, 0.05, 0]\nupper = [0.3, 0.35, 0.3]\n[mass]\npoint_mass = "
+                    "0.002\n[integrator]\ndt = 0.001\n[output]\nvtu = false\n")
+    r = CliRunner().invoke(cli, ["run", str(path), "--out", str(tmp_path / "a"), "--steps",
+                                 "20", "--quiet"])
+    assert r.exit_code == 0, r.output
+    assert load_trajectory(tmp_path / "a").steps[-1] == 20
+    r = CliRunner().invoke(cli, ["run", str(path), "--out", str(tmp_path / "b"), "--quiet"])
+    assert r.exit_code != 0 and "missing value 'steps'" in r.output and "--steps N" in r.output

@@ -130,8 +130,13 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     _set_max_memory(max_memory)
     out, fresh, say = None, False, _sayer()
     try:
-        scene = Scene.load(scene_file, overrides=settings).with_backend(backend, device,
-                                                                        precision)
+        try:
+            scene = Scene.load(scene_file, overrides=settings)
+        except JellysimError as exc:  # --steps stands for a missing [integrator] steps
+            if steps is None or "missing value 'steps'" not in str(exc):
+                raise
+            scene = Scene.load(scene_file, overrides=(*settings, f"integrator.steps={steps}"))
+        scene = scene.with_backend(backend, device, precision)
         if threads is not None:
             scene.params["integrator"]["threads"] = threads
         if resume_dir and out_dir and Path(out_dir) != Path(resume_dir):

@@ -110,8 +110,10 @@ def check_table(name: str, label: str, given: dict, keys: dict[str, Spec]) -> di
         elif key in given:
             values[key] = check_value(name, label, key, spec, given[key])
         elif spec.default is REQUIRED:
+            hint = (" (jellysim run --steps N gives it on the command line)"
+                    if (label, key) == ("[integrator]", "steps") else "")
             raise SceneError(f"{name}: {label} missing value '{key}': {spec.doc} "
-                             f"Expected {spec.allowed or spec.kind}.")
+                             f"Expected {spec.allowed or spec.kind}{hint}.")
         else:
             values[key] = spec.default
     return values
