@@ -554,3 +554,14 @@ def test_a_checkpoint_from_before_the_extension_change_still_resumes(tmp_path):
     np_.savez(ck, **d)
     res = run_scene(scene, tmp_path / "cut", progress=False, resume=True)
     assert np_.array_equal(load_trajectory(res.trajectory).positions, full.positions)
+
+
+def test_a_resume_with_another_scene_names_what_differs(tmp_path):
+    """Session 10's trial: resuming without the run's `--set body.points=...` said only
+    "written for another scene"; it now names the key and both values."""
+    scene = Scene.from_text(EXPLICIT, name="scene.toml", overrides=("body.points=40",))
+    with pytest.raises(RunInterrupted):
+        run_scene(scene, tmp_path / "cut", progress=False, stop_after=scene.frame_every)
+    plain = Scene.from_text(EXPLICIT, name="scene.toml")
+    with pytest.raises(CheckpointError, match=r"body\.points: 40 then, 60 now"):
+        run_scene(plain, tmp_path / "cut", progress=False, resume=True)

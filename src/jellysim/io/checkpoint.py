@@ -17,6 +17,7 @@ Stored arrays:
                                    a longer or shorter run)
 ``vtu``                 () bool    whether the run writes its ParaView series (a resume or an
                                    extension keeps that choice)
+``scene_params``        str        those parameters as JSON (a refusal names what differs)
 ``scene_sha256``        str        hash of the scene's resolved parameters, all but the run's
                                    length (``[integrator] steps``), so a run can be extended
 ``model_sha256``        str        hash of the built body (rest positions, masses, springs)
@@ -54,14 +55,35 @@ def _version() -> str:
     return __version__
 
 
-def scene_hash(scene) -> str:
-    """Hash of the resolved parameters (the text's and every ``--set``), without the run's
-    length: a run continued for more steps is the same scene."""
+def _hashed_params(scene) -> str:
+    """The resolved parameters without the run's length, as canonical JSON."""
     params = {k: dict(v) if isinstance(v, dict) else v for k, v in scene.params.items()}
     if isinstance(params.get("integrator"), dict):
         params["integrator"].pop("steps", None)
-    h = hashlib.sha256(json.dumps(params, sort_keys=True, default=str).encode("utf-8"))
-    return h.hexdigest()
+    return json.dumps(params, sort_keys=True, default=str)
+
+
+def scene_hash(scene) -> str:
+    """Hash of the resolved parameters (the text's and every ``--set``), without the run's
+    length: a run continued for more steps is the same scene."""
+    return hashlib.sha256(_hashed_params(scene).encode("utf-8")).hexdigest()
+
+
+def _differences(written: str, scene) -> str:
+    """`` (section.key: <checkpoint's> here, <scene's> now; ...)`` for up to three keys."""
+    try:
+        old, new = json.loads(written), json.loads(_hashed_params(scene))
+    except (ValueError, TypeError):
+        return ""
+    diff = []
+    for section in sorted(set(old) | set(new)):
+        a, b = old.get(section), new.get(section)
+        if isinstance(a, dict) and isinstance(b, dict):
+            diff += [f"{section}.{k}: {a.get(k)!r} then, {b.get(k)!r} now"
+                     for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
+        elif a != b:
+            diff.append(f"{section}: differs")
+    return (" (" + "; ".join(diff[:3]) + ("; ..." if len(diff) > 3 else "") + ")") if diff else ""
 
 
 def _legacy_hash(scene) -> str:
@@ -100,6 +122,8 @@ class Checkpoint:
     """Steps between the run's saved frames, so a longer continuation keeps their schedule."""
     vtu: bool | None = None
     """Whether the run writes its ParaView series."""
+    scene_params: str = ""
+    """The parameters it was written for (JSON, without the run's length)."""
 
 
 def write_checkpoint(path, sim, *, frames: int, scene, model, total: int | None = None,
@@ -109,6 +133,7 @@ def write_checkpoint(path, sim, *, frames: int, scene, model, total: int | None 
               "state.t": np.array(float(s.t)), "state.step": np.array(int(s.step)),
               "frames": np.array(int(frames)),
               "scene_sha256": np.array(scene_hash(scene)),
+              "scene_params": np.array(_hashed_params(scene)),
               "model_sha256": np.array(model_hash(model)),
               "version": np.array(_version())}
     if total is not None:
@@ -146,7 +171,8 @@ def read_checkpoint(path, *, scene=None, model=None) -> Checkpoint:
             total_steps=int(d["total_steps"]) if "total_steps" in d else None,
             frame_every=int(d["frame_every"]) if "frame_every" in d else None,
             scene_steps=int(d["scene_steps"]) if "scene_steps" in d else None,
-            vtu=bool(d["vtu"]) if "vtu" in d else None)
+            vtu=bool(d["vtu"]) if "vtu" in d else None,
+            scene_params=str(d["scene_params"]) if "scene_params" in d else "")
     except (OSError, ValueError, KeyError, EOFError) as exc:
         raise CheckpointError(f"{path}: damaged checkpoint ({exc}); start the run afresh "
                               "(without --resume)") from None
@@ -155,7 +181,8 @@ def read_checkpoint(path, *, scene=None, model=None) -> Checkpoint:
                               f"{_version()}; resume with that version or start afresh")
     if scene is not None and ck.scene_sha256 not in (scene_hash(scene), _legacy_hash(scene)):
         raise CheckpointError(f"{path}: written for another scene (its parameters differ from "
-                              f"{scene.name}'s, the run's length aside); resume with the same "
+                              f"{scene.name}'s, the run's length aside"
+                              f"{_differences(ck.scene_params, scene)}); resume with the same "
                               "scene file and --set items, or start afresh without --resume")
     if model is not None and ck.model_sha256 != model_hash(model):
         raise CheckpointError(f"{path}: the body built from {getattr(scene, 'name', 'the scene')}"
