@@ -813,3 +813,20 @@ def test_a_mesh_or_body_given_as_a_scene_says_how_to_use_it(tmp_path, name, kind
     r = CliRunner().invoke(cli, ["run", str(tmp_path / name), "--quiet"])
     assert r.exit_code != 0 and kind in r.output and "not a scene" in r.output
     assert "[body] type =" in r.output and "Traceback" not in r.output
+
+
+def test_a_body_metres_across_is_said_a_likely_slip_of_units():
+    """Session 10's trial: a 10 m box (`upper = [10, 10, 10]`, meant as cm) and a mesh scaled
+    to `size = 10` ran without a word, where E = 10 Pa is warned about.  Bodies larger than
+    3 m now warn; the report's 1 m cube does not."""
+    import warnings as w
+
+    import jellysim as js
+
+    with pytest.warns(UserWarning, match="10 m across: sizes are in metres"):
+        js.Body.box(upper=(10.0, 10.0, 10.0), points=27)
+    with pytest.warns(UserWarning, match="size is 10 m across"):
+        js.Body.from_mesh(Path(__file__).parent / "data" / "cube.obj", size=10.0, points=64)
+    with w.catch_warnings():
+        w.simplefilter("error")
+        js.Body.box(upper=(1.0, 1.0, 1.0), points=27)

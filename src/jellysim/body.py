@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .params import REPORT_DENSITY
+from .params import REPORT_DENSITY, _user_stacklevel
 
 __all__ = ["Body"]
 
@@ -92,6 +92,8 @@ class Body:
         from .build import _mesh_of, build_body
         from .geometry.mesh import rotate_up
 
+        if size is not None and np.isfinite(size):
+            _warn_size(float(size), "Body.from_mesh: size")
         m = _mesh_of(mesh, size)
         if up != "y":
             m = replace(m, vertices=rotate_up(m.vertices, up))
@@ -150,6 +152,7 @@ class Body:
             # Delaunay tets of the points (a box is convex: nothing to carve), for
             # Material(model='fem'); the springs stay the radius springs
             pts, tets, info = _radius_tets(pts, None, seed=seed, name=name)
+        _warn_size(float(np.max(hi - lo)), f"{name}: the box")
         meta = {"builder": "box", "distribution": distribution, "seed": seed,
                 "connect": "radius", "radius": radius}
         if info is not None:
@@ -173,3 +176,16 @@ class Body:
     @property
     def spring_count(self) -> int:
         return int(self.springs.shape[0])
+
+
+LARGE_BODY = 3.0
+"""A body larger than this [m] is said (sizes are in metres: a slip of units is likely)."""
+
+
+def _warn_size(extent: float, what: str) -> None:
+    if extent > LARGE_BODY:
+        import warnings
+
+        warnings.warn(f"{what} is {extent:g} m across: sizes are in metres (10 cm = 0.1); a "
+                      f"jello this large is likely a slip of units", UserWarning,
+                      stacklevel=_user_stacklevel())

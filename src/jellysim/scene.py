@@ -28,7 +28,7 @@ from .scene_spec import check_table as _table
 from .scene_doc import schema_markdown as make
 from .handles import apply_handle_tables, validate_handle_tables
 from .resources import check_body_memory
-from .body import Body
+from .body import LARGE_BODY, Body
 from .model import finalize
 from .physics.policy import scene_fem_model, scene_material, springs_reason
 from .simulator import Simulator
@@ -305,6 +305,12 @@ class Scene:
             except JellysimError as exc:
                 raise SceneError(f"{self.name}: [body] path: {exc}") from None
             v = rotate_up(mesh.vertices, b["up"])
+            if b["size"] is not None and b["size"] > LARGE_BODY:
+                import warnings
+
+                warnings.warn(f"{self.name}: [body] size = {b['size']:g} m: sizes are in "
+                              "metres (10 cm = 0.1); a jello this large is likely a slip of "
+                              "units", UserWarning, stacklevel=2)
             if b["size"] is not None:
                 v = v * (b["size"] / float(np.ptp(v, axis=0).max()))
             v = self._place(v)
