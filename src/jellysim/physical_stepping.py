@@ -16,6 +16,11 @@ from .physics.fem import FemArrays
 __all__ = ["PhysicalStepping"]
 
 
+SETTLE_TIME = 0.02
+"""[s] Time constant of the extra damping :meth:`PhysicalStepping.settle` adds (every point's
+velocity relaxes as exp(-t / SETTLE_TIME) under it)."""
+
+
 class PhysicalStepping:
     """Mixin: needs ``model``, ``state``, ``handles``, ``dt``, ``substeps``, ``backend``,
     ``_k`` (the backend), ``_obstacle_kind``/``_obstacle_data``, ``rest_speed``, ``center``,
@@ -44,6 +49,45 @@ class PhysicalStepping:
             elastic += float(elastic_energy(m.fem, x))
         return {"kinetic": kinetic, "gravity": gravity, "elastic": elastic,
                 "total": kinetic + gravity + elastic}
+
+    def settle(self, *, max_seconds: float = 10.0, speed: float = 1e-4) -> int:
+        """Let the body come to rest where it is (under gravity, on its ground and obstacles,
+        its handles on) before the run: it is stepped with a strong extra viscous damping
+        (every point's velocity relaxing with a time constant of :data:`SETTLE_TIME` s) until
+        no point moves more than ``speed`` x dt in a step, for three steps, or ``max_seconds`` of
+        simulated time (then a warning).  The settled shape is the start: velocities zero, the
+        clock back to t = 0, step 0 (the material's own damping is untouched).  Physical path
+        only.  Returns the steps taken."""
+        import dataclasses
+        import math
+
+        from .errors import SceneError
+
+        if not self.physical:
+            raise SceneError("settle is for the physical path (a body with a FEM material)")
+        s, model = self.state, self.model
+        mass = np.asarray(model.point_mass, dtype=np.float64)
+        self.model = dataclasses.replace(model, damping=float(model.damping)
+                                         + float(mass.mean()) / SETTLE_TIME)
+        calm, taken = 0, 0
+        try:
+            for taken in range(1, max(1, math.ceil(max_seconds / self.dt)) + 1):
+                before = s.x.copy()
+                self.advance(1)
+                d = s.x - before  # (what moved: a resting contact's velocity is not zero)
+                fastest = float(np.sqrt(np.einsum("ij,ij->i", d, d).max())) / self.dt
+                calm = calm + 1 if fastest < speed else 0
+                if calm >= 3:
+                    break
+            else:
+                warnings.warn(f"settle: the body still moved faster than {speed:g} m/s after "
+                              f"{max_seconds:g} s; it starts from where it was",
+                              StabilityWarning, stacklevel=2)
+        finally:
+            self.model = model
+        s.v[:] = 0.0
+        s.t, s.step = 0.0, 0
+        return taken
 
     SUBSTEP_SAFETY = 0.7
     """Fraction of the linear stability limit ``2 / omega_max`` (at rest) used as the substep.

@@ -229,7 +229,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
         warnings.simplefilter("always")
         try:
             model = scene.build_model(body)
-            sim = scene.simulator(model)
+            sim = scene.simulator(model, settle=not resume)  # (a resume restores the state)
         except JellysimError as exc:  # what the build said may explain it (mesh units)
             exc.run_warnings = [str(w.message) for w in caught]
             raise

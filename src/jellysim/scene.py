@@ -423,9 +423,10 @@ class Scene:
         scene.overrides, scene.given = self.overrides, self.given
         return scene
 
-    def simulator(self, model=None, **overrides):
+    def simulator(self, model=None, *, settle: bool = True, **overrides):
         """A :class:`~jellysim.simulator.Simulator` of the scene: its options, the initial
-        velocity and the ``[[handle]]`` tables applied."""
+        velocity and the ``[[handle]]`` tables applied; with ``[body] settle`` (and
+        ``settle``: a resumed run or ``inspect`` passes False) first settled at rest."""
 
         model = self.build_model() if model is None else model
         try:
@@ -434,11 +435,18 @@ class Scene:
             msg = str(exc)
             raise SceneError(msg if msg.startswith(f"{self.name}:") else
                              f"{self.name}: {msg}") from None
-        self.prepare(sim)
+        self.prepare(sim, settle=settle)
         return sim
 
-    def prepare(self, sim) -> None:
-        """Set the scene's initial velocity and handles on a new simulator."""
+    def prepare(self, sim, *, settle: bool = True) -> None:
+        """Settle the body (``[body] settle``), then set the scene's initial velocity and
+        handles on a new simulator."""
+        if settle and self.params["body"].get("settle"):
+            if not sim.physical:
+                raise SceneError(f"{self.name}: [body] settle is for the physical path (a body "
+                                 "with tets and a FEM material, e.g. [material] preset = "
+                                 "'gelatin'); remove it")
+            sim.settle()
         sim.state.v[:] = np.asarray(self.params["body"]["velocity"], dtype=np.float64)
         if self.params.get("handle"):
             try:

@@ -42,6 +42,10 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                      "[m].", lambda v: v > 0, "a number > 0 (m)"),
         "base": Spec("vec3", None, "Types 'mesh'/'file': move the body so the bottom centre of "
                      "its bounding box is here [m]."),
+        "settle": Spec("bool", False, "Start at rest: before t = 0 the body settles under "
+                       "gravity on its ground and obstacles (strongly damped, then the clock "
+                       "set to 0), so a jello placed unsagged does not bounce through the run. "
+                       "Physical path; serial runs."),
         "up": Spec("str", "y", "Type 'mesh': the mesh's axis that points up ('z' for most CAD "
                    "and STL files), turned to +y before size and base.",
                    choices=("y", "z", "x", "-y", "-z", "-x")),

@@ -37,7 +37,7 @@ def scene_summary(scene, said: list | None = None) -> list[tuple[str, str]]:
         warnings.simplefilter("always")
         try:
             model = scene.build_model()
-            sim = scene.simulator(model)
+            sim = scene.simulator(model, settle=False)  # nothing is run
         except JellysimError:
             if said is not None:  # what the build said may explain the refusal (mesh units)
                 said.extend(dict.fromkeys(str(w.message) for w in caught))

@@ -174,7 +174,9 @@ def prepare(scene, sim) -> None:
 
     import numpy as np
 
-
+    if scene.params["body"].get("settle"):
+        raise SceneError(f"{scene.name}: [body] settle runs serially: settle the body in a "
+                         "serial run (jellysim run without mpiexec) or remove it")
     sim.state.v[:] = np.asarray(scene.params["body"]["velocity"], dtype=np.float64)
     if not scene.params.get("handle"):
         return
