@@ -201,8 +201,9 @@ class Renderer:
             floor_y = gh
             ext = float(np.max(hi - lo))
             c = 0.5 * (lo + hi)
-            if self._track is not None:  # a floor patch that travels with the camera (it is
-                c = np.zeros(3)          # uniform), so the clipping range stays the body's
+            if self._track is not None:  # a floor patch that travels with the camera (its
+                c = np.zeros(3)          # tiles stay on the world), so the clipping range
+                #                          stays the body's
                 ext = 2.0 * float(np.max(self._track[1]))
             size = 100.0 * max(ext, 1e-3)  # its far edge out of the frame
             self.floor = pv.Plane(center=(c[0], floor_y, c[2]), direction=(0, 1, 0),
@@ -245,9 +246,9 @@ class Renderer:
             box = np.array([-half, half])
             box[:, 1] = lo[1], hi[1]
             if self.floor is not None:
-                box = np.vstack([box, [[-half[0], floor_y, -half[2]],
-                                       [half[0], floor_y, half[2]]]])
-            self.camera = frame_motion(box, self.size, zoom=o.zoom, direction=direction)
+                box[0, 1] = min(box[0, 1], floor_y)
+            self.camera = frame_motion(box[_CORNERS, [0, 1, 2]], self.size, zoom=o.zoom,
+                                       direction=direction)
 
         self.shadow = None
         if self.floor is not None and o.shadow and self._surface_frames is not None:
