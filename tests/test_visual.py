@@ -698,3 +698,24 @@ def test_plot_refuses_to_replace_a_file_unless_overwrite(run_dir, tmp_path):
     assert r.exit_code != 0 and "--overwrite" in r.output and out.read_bytes() == b"mine"
     r = CliRunner().invoke(cli, ["plot", str(run_dir), "-o", str(out), "--overwrite"])
     assert r.exit_code == 0 and out.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_runs_rendered_side_by_side_share_one_camera(run_dir, tmp_path):
+    """Session 10's trial: "soft vs firm" had to be assembled by hand.  `render A B` draws the
+    runs side by side, one camera for both (one scale): the same run twice gives two
+    identical halves, each the single run's picture framed with the other's motion; a
+    following camera is refused (the panels would not share a scale)."""
+    import imageio.v3 as iio
+
+    out = tmp_path / "pair.png"
+    r = CliRunner().invoke(cli, ["render", str(run_dir), str(run_dir), "-o", str(out),
+                                 "--frame", "2", "--size", "96x64", "--quiet"])
+    assert r.exit_code == 0, r.output
+    img = np.asarray(iio.imread(out))
+    assert img.shape == (64, 192, 3)
+    assert np.array_equal(img[:, :96], img[:, 96:])
+    red = img[..., 0].astype(int) > img[..., 1].astype(int) + 60
+    assert red[:, :96].sum() > 50
+    r = CliRunner().invoke(cli, ["render", str(run_dir), str(run_dir), "-o",
+                                 str(tmp_path / "f.png"), "--camera", "follow"])
+    assert r.exit_code != 0 and "one fixed camera" in r.output

@@ -92,6 +92,12 @@ def _load(path):
     return load_trajectory(path)
 
 
+def _run_name(trajectory) -> str:
+    """A run's name: its folder's (given the folder, its trajectory.npz or its stream)."""
+    where = Path(trajectory)
+    return (where if where.is_dir() and where.suffix != ".stream" else where.parent).name
+
+
 def check_run_outputs(*, video=None, usd=None, glb=None, overwrite=False) -> None:
     """Before ``jellysim run`` simulates: the --video / --usd / --glb names have a known
     suffix and a folder that can be written (so a long run does not fail at its end)."""
@@ -259,7 +265,7 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
 
 
 @click.command()
-@click.argument("trajectory", type=click.Path())
+@click.argument("trajectory", nargs=-1, required=True, type=click.Path())
 @click.option("-o", "--output", required=True, type=click.Path(),
               help="video.mp4, anim.gif, picture.png (last frame, or --frame) or a folder "
                    "(PNG frames).")
@@ -291,11 +297,14 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
 def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame, every,
            quiet, overwrite=False, azimuth=None, elevation=None, zoom=1.0,
            camera_mode="auto", background=None, start=None, end=None):
-    """Render TRAJECTORY (trajectory.npz) to a video or pictures, off screen."""
+    """Render TRAJECTORY (a run folder or its trajectory.npz) to a video or pictures, off
+    screen.  Several runs are drawn side by side, at one scale, each at the time of the
+    first's frames (soft vs firm)."""
     import numpy as np
 
     try:
-        traj = _load(trajectory)
+        runs = [_load(tr) for tr in trajectory]
+        traj = runs[0]
         guard_output(output, overwrite)
         t = np.asarray(traj.times, dtype=np.float64)
         lo = -np.inf if start is None else start
@@ -321,8 +330,13 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
                     raise JellysimError(f"--background {background!r} is not a colour: give "
                                         "a name (white), #rrggbb or 'transparent'") from None
             options = dataclasses.replace(options, background=background)
+        if len(runs) > 1 and camera_mode == "follow":
+            raise JellysimError("side by side the runs share one fixed camera (one scale): "
+                                "remove --camera follow, or render the runs one at a time")
         path = render_trajectory(traj, output, options, fps=fps, frames=frames,
-                                 progress=not quiet)
+                                 progress=not quiet, beside=runs[1:],
+                                 labels=[_run_name(tr) for tr in trajectory]
+                                 if len(runs) > 1 else None)
     except JellysimError as exc:
         _fail(str(exc))
     click.echo(f"wrote {path}")
@@ -447,9 +461,7 @@ def plot(trajectory, output, overwrite=False):
 
     try:
         guard_file(output, overwrite)
-        where = Path(trajectory)  # a run folder, or its trajectory.npz / .stream
-        name = (where if where.is_dir() and where.suffix != ".stream" else where.parent).name
-        path = plot_trajectory(_load(trajectory), output, title=name)
+        path = plot_trajectory(_load(trajectory), output, title=_run_name(trajectory))
     except JellysimError as exc:
         _fail(str(exc))
     click.echo(f"wrote {path}")

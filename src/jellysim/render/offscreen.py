@@ -160,6 +160,16 @@ def _body_track(traj, surface_frames, mode: str, chunk: int = 32):
     return centre, half
 
 
+def _surface_of(traj, o):
+    """(frames -> surface vertices [m], faces) a renderer draws for ``traj``: its skin, else
+    its surface triangles; ``(None, None)`` for points and springs only."""
+    if o.show_skin and traj.skin is not None:
+        return (lambda f: traj.skin_positions(f)), traj.skin.faces
+    if o.show_skin and len(traj.triangles):
+        return (lambda f: traj.positions[f]), traj.triangles
+    return None, None
+
+
 class Renderer:
     """Draws frames of a :class:`~jellysim.io.trajectory.Trajectory`.
 
@@ -169,7 +179,9 @@ class Renderer:
     """
 
     def __init__(self, traj, options: RenderOptions = RenderOptions(), *, offscreen=True,
-                 plotter=None):
+                 plotter=None, frame_with=(), label: str | None = None):
+        """``frame_with``: other trajectories whose motion the camera frames too (side by
+        side panels at one scale; the camera is then fixed); ``label``: a caption."""
         pv = _import_pyvista(offscreen)
         self.pv = pv
         self.traj = traj
@@ -177,14 +189,7 @@ class Renderer:
         o = options
         self.size = o.even_size()
         self.skin = traj.skin
-        if o.show_skin and self.skin is not None:
-            self._surface_frames = lambda f: traj.skin_positions(f)
-            faces = self.skin.faces
-        elif o.show_skin and len(traj.triangles):
-            self._surface_frames = lambda f: traj.positions[f]
-            faces = traj.triangles
-        else:
-            self._surface_frames, faces = None, None
+        self._surface_frames, faces = _surface_of(traj, o)
         show_points = o.show_points or (self._surface_frames is None and not o.show_springs)
         self.plotter = plotter if plotter is not None else pv.Plotter(
             off_screen=offscreen, window_size=self.size, lighting="light kit")
@@ -192,9 +197,12 @@ class Renderer:
         self._transparent = o.background == "transparent"
         p.set_background("white" if self._transparent else o.background)
 
-        motion = _motion_bounds(traj, self._surface_frames)     # (2 F', 3) box corners
+        motion = _motion_bounds(traj, self._surface_frames)     # (8 F', 3) box corners
+        for other in frame_with:
+            motion = np.vstack([motion, _motion_bounds(other, _surface_of(other, o)[0])])
         lo, hi = motion.min(axis=0), motion.max(axis=0)
-        self._track = _body_track(traj, self._surface_frames, o.camera)
+        self._track = (None if frame_with else
+                       _body_track(traj, self._surface_frames, o.camera))
         gh = ground_height(traj)
         extra = self.floor = None
         if o.floor and gh is not None:  # no ground in the run: no floor drawn under it
@@ -272,6 +280,9 @@ class Renderer:
             p.add_mesh(self.springs, color="#5a1020", opacity=0.35, line_width=1.0,
                        name="springs")
         self.camera.apply(p)
+        if label:
+            p.add_text(label, position="upper_left", font_size=max(8, self.size[1] // 40),
+                       color="#3a3530", name="label")
         if self._track is not None:
             self.set_frame(0)  # the following camera's place at the first frame
 

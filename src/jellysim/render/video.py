@@ -1,6 +1,7 @@
 """Write rendered frames as MP4 (H.264), GIF or a folder of PNG pictures."""
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +30,22 @@ def output_kind(path) -> str:
                         ".png (one frame) or a folder name (PNG frames)")
 
 
+class _SideBySide:
+    """Renderers of several runs as one: frame ``f`` of the first, and of each other its
+    frame nearest in time (the last once it has ended), side by side."""
+
+    def __init__(self, renderers):
+        self.renderers = renderers
+
+    def render(self, f: int) -> np.ndarray:
+        t = float(self.renderers[0].traj.times[f])
+        images = []
+        for r in self.renderers:
+            times = np.asarray(r.traj.times, dtype=np.float64)
+            images.append(r.render(int(np.argmin(np.abs(times - t)))))
+        return np.concatenate(images, axis=1)
+
+
 def _frames_with_progress(renderer, frames, progress: bool, label: str):
     bar = None
     if progress:
@@ -51,7 +68,8 @@ def _frames_with_progress(renderer, frames, progress: bool, label: str):
 
 
 def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
-                      fps: float | None = None, frames=None, progress: bool = False) -> Path:
+                      fps: float | None = None, frames=None, progress: bool = False,
+                      beside=(), labels=None) -> Path:
     """Render a loaded trajectory to ``path``.
 
     Parameters
@@ -63,6 +81,10 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
     fps: frames per second (default: real time, :func:`default_fps`).
     frames: trajectory frame indices to draw (default: all).
     progress: show a progress bar.
+    beside: more trajectories drawn to the right of ``traj``, each at its frame nearest in
+        time to ``traj``'s (its last once it has ended), all panels framed by one camera at
+        one scale (side by side: soft vs firm, damped vs not).
+    labels: a caption per panel (``traj``'s first), or ``None``.
     """
     path = Path(path)
     kind = output_kind(path)
@@ -80,7 +102,14 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
     if options.background == "transparent" and kind not in ("png", "pngdir"):
         raise JellysimError(f"{path}: a transparent background needs PNG output (a .png or a "
                             f"folder of frames): {kind} has no alpha channel")
-    with Renderer(traj, options) as r:
+    runs = [traj, *beside]
+    labels = list(labels) if labels is not None else [None] * len(runs)
+    renderers = [Renderer(t, options, frame_with=[u for u in runs if u is not t] if beside
+                          else (), label=labels[k]) for k, t in enumerate(runs)]
+    with contextlib.ExitStack() as stack:
+        for r in renderers:
+            stack.enter_context(r)
+        r = renderers[0] if not beside else _SideBySide(renderers)
         images = _frames_with_progress(r, frames, progress, f"rendering {path.name}")
         if kind == "mp4":
             import imageio.v2 as iio
