@@ -104,11 +104,10 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
                             f"folder of frames): {kind} has no alpha channel")
     runs = [traj, *beside]
     labels = list(labels) if labels is not None else [None] * len(runs)
-    renderers = [Renderer(t, options, frame_with=[u for u in runs if u is not t] if beside
-                          else (), label=labels[k]) for k, t in enumerate(runs)]
-    with contextlib.ExitStack() as stack:
-        for r in renderers:
-            stack.enter_context(r)
+    with contextlib.ExitStack() as opened:  # every renderer closed, whatever happens
+        renderers = [opened.enter_context(Renderer(
+            t, options, frame_with=[u for u in runs if u is not t] if beside else (),
+            label=labels[k])) for k, t in enumerate(runs)]
         r = renderers[0] if not beside else _SideBySide(renderers)
         images = _frames_with_progress(r, frames, progress, f"rendering {path.name}")
         if kind == "mp4":
