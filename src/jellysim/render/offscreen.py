@@ -101,12 +101,10 @@ _CORNERS = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
 """Which of (lower, upper) each of a box's eight corners takes per axis."""
 
 
-def _motion_bounds(traj, surface_frames, chunk: int = 32) -> np.ndarray:
-    """The eight corners [m] of the bounding box of points and surface in each frame, stacked:
-    shape (8 F', 3) (frames with no finite position left out).  Never expands every frame's
-    surface at once."""
-    corners = []
-    pick = _CORNERS
+def _frame_boxes(traj, surface_frames, chunk: int = 32) -> np.ndarray:
+    """Each frame's bounding box of points and surface [m], shape (F, 2, 3) (lower, upper;
+    NaN for a frame with no finite position).  Never expands every frame's surface at once."""
+    boxes = []
     for start in range(0, traj.frame_count, chunk):
         sl = slice(start, min(start + chunk, traj.frame_count))
         blocks = [np.asarray(traj.positions[sl], dtype=np.float64)]
@@ -116,16 +114,21 @@ def _motion_bounds(traj, surface_frames, chunk: int = 32) -> np.ndarray:
         a = np.where(np.isfinite(a), a, np.nan)
         with warnings.catch_warnings():  # a frame of a failed run may hold no finite point
             warnings.simplefilter("ignore", RuntimeWarning)
-            box = np.stack([np.nanmin(a, axis=1), np.nanmax(a, axis=1)], axis=1)  # (c, 2, 3)
-        box = box[np.all(np.isfinite(box), axis=(1, 2))]
-        corners.append(box[:, pick, [0, 1, 2]].reshape(-1, 3))
-    corners = np.concatenate(corners) if corners else np.zeros((0, 3))
-    if not len(corners):
+            boxes.append(np.stack([np.nanmin(a, axis=1), np.nanmax(a, axis=1)], axis=1))
+    return np.concatenate(boxes) if boxes else np.zeros((0, 2, 3))
+
+
+def _motion_bounds(traj, surface_frames) -> np.ndarray:
+    """The eight corners [m] of the bounding box of points and surface in each frame, stacked:
+    shape (8 F', 3) (frames with no finite position left out)."""
+    box = _frame_boxes(traj, surface_frames)
+    box = box[np.all(np.isfinite(box), axis=(1, 2))]
+    if not len(box):
         raise JellysimError("the trajectory has no finite positions to draw")
-    return corners
+    return box[:, _CORNERS, [0, 1, 2]].reshape(-1, 3)
 
 
-def _body_track(traj, surface_frames, mode: str, chunk: int = 32):
+def _body_track(traj, surface_frames, mode: str):
     """For a following camera: (each frame's horizontal body centre [m], shape (F, 3) with
     y = 0; the half-extents [m] (3,) of the largest box around the body in any frame), or
     ``None`` for a fixed camera (``mode`` "fixed", or "auto" and the body stays near)."""
@@ -133,20 +136,11 @@ def _body_track(traj, surface_frames, mode: str, chunk: int = 32):
         raise JellysimError(f"camera must be 'auto', 'fixed' or 'follow', got {mode!r}")
     if mode == "fixed" or traj.frame_count < 2:
         return None
-    centres, half = [], np.zeros(3)
-    for start in range(0, traj.frame_count, chunk):
-        sl = slice(start, min(start + chunk, traj.frame_count))
-        blocks = [np.asarray(traj.positions[sl], dtype=np.float64)]
-        if surface_frames is not None:
-            blocks.append(np.asarray(surface_frames(sl), dtype=np.float64))
-        a = np.concatenate(blocks, axis=1)                      # (c, m, 3)
-        a = np.where(np.isfinite(a), a, np.nan)
-        with warnings.catch_warnings():  # a frame of a failed run may hold no finite point
-            warnings.simplefilter("ignore", RuntimeWarning)
-            lo, hi = np.nanmin(a, axis=1), np.nanmax(a, axis=1)  # (c, 3)
-            centres.append(0.5 * (lo + hi))
-            half = np.fmax(half, np.nanmax(0.5 * (hi - lo), axis=0))
-    centre = np.concatenate(centres)
+    box = _frame_boxes(traj, surface_frames)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        half = np.nan_to_num(np.nanmax(0.5 * (box[:, 1] - box[:, 0]), axis=0))
+    centre = 0.5 * (box[:, 0] + box[:, 1])
     good = np.all(np.isfinite(centre), axis=1)
     if not good.any():
         return None
