@@ -99,12 +99,9 @@ def test_gif_and_png_frames(traj, tmp_path):
     assert a.std() > 10.0 and np.abs(a - b).mean() > 2.0
 
 
-def test_camera_keeps_every_frame_in_view():
-    from jellysim.render.camera import frame_motion
-
-    rng = np.random.default_rng(0)
-    pts = rng.normal(size=(50, 3)) * [3.0, 0.5, 1.0] + [10, 2, -4]
-    cam = frame_motion(pts, (160, 90))
+def _in_view(cam, pts, size):
+    """Each point's depth along the camera's view [m] and the fraction of the half field of
+    view (vertical or horizontal, whichever is more used) its image lies at: <= 1 in view."""
     pos, focal = np.array(cam.position), np.array(cam.focal_point)
     forward = (focal - pos) / np.linalg.norm(focal - pos)
     up = np.array(cam.up) - forward * (np.array(cam.up) @ forward)
@@ -112,10 +109,19 @@ def test_camera_keeps_every_frame_in_view():
     right = np.cross(forward, up)
     rel = pts - pos
     depth = rel @ forward
-    assert np.all(depth > 0)
     tan_v = np.tan(np.radians(cam.view_angle) / 2)
-    assert np.all(np.abs(rel @ up) / depth <= tan_v)
-    assert np.all(np.abs(rel @ right) / depth <= tan_v * 160 / 90)
+    tan_h = tan_v * size[0] / size[1]
+    return depth, np.maximum(np.abs(rel @ up) / depth / tan_v,
+                             np.abs(rel @ right) / depth / tan_h)
+
+
+def test_camera_keeps_every_frame_in_view():
+    from jellysim.render.camera import frame_motion
+
+    rng = np.random.default_rng(0)
+    pts = rng.normal(size=(50, 3)) * [3.0, 0.5, 1.0] + [10, 2, -4]
+    depth, used = _in_view(frame_motion(pts, (160, 90)), pts, (160, 90))
+    assert np.all(depth > 0) and np.all(used <= 1.0)
 
 
 @pytest.mark.parametrize("azimuth,elevation", [(None, None), (120.0, 5.0), (-45.0, 90.0)])
@@ -557,16 +563,7 @@ def test_the_framing_keeps_a_box_corners_inside_the_margin_and_is_tight(size, az
     lo, hi = np.array([0.0, 0.0, 0.0]), np.array([0.1, 0.1, 0.1])
     corners = np.array([[a[0], b[1], c[2]] for a in (lo, hi) for b in (lo, hi) for c in (lo, hi)])
     cam = frame_motion(corners, size, direction=view_direction(azimuth, elevation))
-    pos, focal = np.array(cam.position), np.array(cam.focal_point)
-    forward = (focal - pos) / np.linalg.norm(focal - pos)
-    up = np.array(cam.up) - forward * (np.array(cam.up) @ forward)
-    up /= np.linalg.norm(up)
-    right = np.cross(forward, up)
-    rel = corners - pos
-    depth = rel @ forward
-    tan_v = np.tan(np.radians(cam.view_angle) / 2)
-    tan_h = tan_v * size[0] / size[1]
-    used = np.maximum(np.abs(rel @ up) / depth / tan_v, np.abs(rel @ right) / depth / tan_h)
+    depth, used = _in_view(cam, corners, size)
     assert np.all(depth > 0) and used.max() <= 0.9 + 1e-9 and used.max() > 0.89
 
 
