@@ -648,6 +648,15 @@ def test_cli_demo_takes_a_mesh_of_ones_own(tmp_path):
     r = CliRunner().invoke(cli, ["demo", "--mesh", str(mesh), "--scene", "cow", "--out",
                                  str(tmp_path / "b")])
     assert r.exit_code != 0 and "give one of them" in r.output
+    # a mesh that cannot be read leaves an earlier demo of that name untouched (the review:
+    # --overwrite deleted it before reading the mesh)
+    bad = tmp_path / "torus2.obj"
+    bad.write_text("garbage\n")
+    (tmp_path / "demo_torus2.mp4").write_bytes(b"keep")
+    r = CliRunner().invoke(cli, ["demo", "--mesh", str(bad), "--out", str(tmp_path),
+                                 "--overwrite", "--quiet"])
+    assert r.exit_code != 0 and (tmp_path / "demo_torus2.mp4").read_bytes() == b"keep"
+    assert not (tmp_path / "demo_torus2").exists()
 
 
 def test_render_a_time_window_of_a_run(run_dir, tmp_path):
@@ -700,8 +709,9 @@ def test_plot_refuses_to_replace_a_file_unless_overwrite(run_dir, tmp_path):
 def test_runs_rendered_side_by_side_share_one_camera(run_dir, tmp_path):
     """Session 10's trial: "soft vs firm" had to be assembled by hand.  `render A B` draws the
     runs side by side, one camera for both (one scale): the same run twice gives two
-    identical halves, each the single run's picture framed with the other's motion; a
-    following camera is refused (the panels would not share a scale)."""
+    identical halves; beside a run 2 m away the first is drawn smaller than alone (the camera
+    frames both motions); a following camera is refused (the panels would not share a
+    scale)."""
     import imageio.v3 as iio
 
     out = tmp_path / "pair.png"
@@ -716,3 +726,20 @@ def test_runs_rendered_side_by_side_share_one_camera(run_dir, tmp_path):
     r = CliRunner().invoke(cli, ["render", str(run_dir), str(run_dir), "-o",
                                  str(tmp_path / "f.png"), "--camera", "follow"])
     assert r.exit_code != 0 and "one fixed camera" in r.output
+    # one scale: beside a run that travels far, the first run is drawn smaller than alone
+    import dataclasses
+
+    from jellysim.render import RenderOptions, render_trajectory
+
+    traj = load_trajectory(run_dir)
+    far = dataclasses.replace(traj, positions=traj.positions + [2.0, 0.0, 0.0])
+    alone = np.asarray(iio.imread(render_trajectory(traj, tmp_path / "a.png", RenderOptions(
+        size=(96, 64)), frames=[2])))
+    pair = np.asarray(iio.imread(render_trajectory(traj, tmp_path / "b.png", RenderOptions(
+        size=(96, 64)), frames=[2], beside=[far])))
+
+    def reds(im):
+        return int((im[..., 0].astype(int) > im[..., 1].astype(int) + 60).sum())
+
+    assert pair.shape == (64, 192, 3) and reds(pair[:, 96:]) > 0
+    assert reds(pair[:, :96]) < 0.5 * reds(alone)

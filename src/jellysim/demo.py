@@ -174,13 +174,15 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     if scene not in DEMO_SHAPES or scene == "mesh" and mesh is None:
         raise JellysimError(f"unknown demo scene {scene!r}; choose one of 'jelly', 'cow' "
                             "(or --mesh PATH)")
-    stem = ("demo" if scene == "jelly" else f"demo_{Path(mesh).stem}" if mesh is not None
-            else f"demo_{scene}")
+    own = Path(mesh).stem if mesh is not None else None
+    stem = ("demo" if scene == "jelly" else f"demo_{scene}" if own is None else
+            f"demo_mesh_{own}" if own in DEMO_SHAPES else f"demo_{own}")  # (not Spot's)
     old = [out_dir / f"{stem}.mp4", out_dir / f"{stem}.usdc"]
     if not overwrite and any(p.exists() for p in old):
         raise JellysimError(f"--out {out_dir}: holds an earlier demo "
                             f"({', '.join(p.name for p in old if p.exists())}); pass "
                             "--overwrite to replace it, or choose another --out")
+    body, skin = build_demo_body(scene, points, mesh, up)  # before anything is cleared
     prepare_out_dir(out_dir / stem, overwrite=overwrite)
     for p in old:
         p.unlink(missing_ok=True)
@@ -194,7 +196,6 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
                + "), not [body] below\n" + sc.text)
     if threads is not None:
         sc.params["integrator"]["threads"] = int(threads)
-    body, skin = build_demo_body(scene, points, mesh, up)
     steps = sc.steps if frames is None else max(1, int(frames) - 1) * sc.frame_every
     result = run_scene(sc, out_dir / stem, progress=progress, vtu=vtu, steps=steps,
                        skin=skin, body=body)

@@ -65,7 +65,12 @@ class PhysicalStepping:
 
         if not self.physical:
             raise SceneError("settle is for the physical path (a body with a FEM material)")
+        if self.handles.paths:
+            raise SceneError("a pin moving along a path cannot be settled with (its path runs "
+                             "on the clock settling uses): settle first, then pin it with its "
+                             "path, or remove settle")
         s, model = self.state, self.model
+        releases = self.__dict__.pop("_releases", None)  # a timed force acts all the settle
         mass = np.asarray(model.point_mass, dtype=np.float64)
         self.model = dataclasses.replace(model, damping=float(model.damping)
                                          + float(mass.mean()) / SETTLE_TIME)
@@ -81,10 +86,12 @@ class PhysicalStepping:
                     break
             else:
                 warnings.warn(f"settle: the body still moved faster than {speed:g} m/s after "
-                              f"{max_seconds:g} s; it starts from where it was",
-                              StabilityWarning, stacklevel=2)
+                              f"{max_seconds:g} s; it starts from where settling left it "
+                              "(at t = 0)", StabilityWarning, stacklevel=2)
         finally:
             self.model = model
+            if releases is not None:
+                self._releases = releases
         s.v[:] = 0.0
         s.t, s.step = 0.0, 0
         return taken

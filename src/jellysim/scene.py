@@ -172,6 +172,10 @@ class Scene:
             raise SceneError(f"{name}: [springs] stiffness and [material] youngs_modulus both "
                              "set; give one (youngs_modulus derives every spring's stiffness)")
         check_given_keys(user, raw, out, name, preset)
+        if out["body"]["settle"] and not _wants_fem(out):
+            raise SceneError(f"{name}: [body] settle is for the physical path (a body with "
+                             "tets and a FEM material, e.g. [material] preset = 'gelatin'); "
+                             "remove it")
         it = out["integrator"]
         if it["name"] == "implicit" and out["provot"]["enabled"] and "provot" in raw and (
                 "enabled" in raw["provot"]):
@@ -439,21 +443,26 @@ class Scene:
         return sim
 
     def prepare(self, sim, *, settle: bool = True) -> None:
-        """Settle the body (``[body] settle``), then set the scene's initial velocity and
-        handles on a new simulator."""
-        if settle and self.params["body"].get("settle"):
-            if not sim.physical:
-                raise SceneError(f"{self.name}: [body] settle is for the physical path (a body "
-                                 "with tets and a FEM material, e.g. [material] preset = "
-                                 "'gelatin'); remove it")
-            sim.settle()
-        sim.state.v[:] = np.asarray(self.params["body"]["velocity"], dtype=np.float64)
-        if self.params.get("handle"):
+        """Set a new simulator's initial velocity and the scene's handles, then settle the
+        body with them on (``[body] settle``; the velocity then set again, off the pins)."""
+        velocity = np.asarray(self.params["body"]["velocity"], dtype=np.float64)
+        sim.state.v[:] = velocity  # (a pin then holds its points still)
+        if self.params.get("handle"):  # on the start positions (a resume too), then settled
             try:
                 apply_handle_tables(sim, self.params["handle"], getattr(
                     self, "_springs_reason", None))
             except SceneError as exc:
                 raise SceneError(f"{self.name}: {exc}") from None
+        if settle and self.params["body"].get("settle"):
+            if not sim.physical:
+                raise SceneError(f"{self.name}: [body] settle is for the physical path (a body "
+                                 "with tets and a FEM material, e.g. [material] preset = "
+                                 "'gelatin'); remove it")
+            try:
+                sim.settle()
+            except SceneError as exc:
+                raise SceneError(f"{self.name}: [body] settle: {exc}") from None
+            sim.state.v[sim.handles.pinned == 0] = velocity
 
     def simulator_kwargs(self, model=None, **overrides) -> dict:
         """The keyword arguments :meth:`simulator` passes to the Simulator (for ``model``)."""

@@ -114,9 +114,11 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
             return
         recorder.record(state)
         if series is not None:
-            series.add(state.t, state.x, model.spring_ij, velocities=state.v,
-                       triangles=model.body.triangles, rest=model.point_x0,
-                       tets=model.fem.tets if model.fem is not None else model.body.tets)
+            physical = model.fem is not None  # its tets alone, as serially
+            series.add(state.t, state.x, model.spring_ij[:0] if physical else model.spring_ij,
+                       velocities=state.v, rest=model.point_x0,
+                       triangles=None if physical else model.body.triangles,
+                       tets=model.fem.tets if physical else model.body.tets)
         if skin_series is not None:
             skin_series.add_surface(state.t, skin.deform(state.x, **bounds), skin.faces)
 

@@ -64,9 +64,13 @@ class Recorder:
         body file), bound to its tets, so renders and exports show the smooth shape."""
         self.model = model
         if isinstance(skin, str) and skin == "auto":
+            from ..errors import BuildError
             from ..skin import default_skin
 
-            skin = default_skin(None, model.body)
+            try:
+                skin = default_skin(None, model.body)
+            except BuildError:  # a surface that does not bind: drawn by its tets instead
+                skin = None
         self.skin = skin
         self.scene_text = scene_text
         self.params = params or {}
