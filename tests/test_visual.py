@@ -678,6 +678,9 @@ def test_render_a_time_window_of_a_run(run_dir, tmp_path):
     r = CliRunner().invoke(cli, ["render", str(run_dir), "-o", str(tmp_path / "x.png"),
                                  "--start", "99"])
     assert r.exit_code != 0 and "select no frame" in r.output
+    r = CliRunner().invoke(cli, ["render", str(run_dir), "-o", str(tmp_path / "y.png"),
+                                 "--start", "0.2", "--end", "0.1"])
+    assert r.exit_code != 0 and "is after --end" in r.output
 
 
 def test_a_python_run_of_a_mesh_body_carries_its_smooth_surface(tmp_path):

@@ -309,6 +309,8 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
         t = np.asarray(traj.times, dtype=np.float64)
         lo = -np.inf if start is None else start
         hi = np.inf if end is None else end
+        if lo > hi:
+            raise JellysimError(f"--start {start:g} s is after --end {end:g} s: swap them")
         window = np.flatnonzero((t >= lo - 1e-9) & (t <= hi + 1e-9))
         if not len(window):
             raise JellysimError(f"--start/--end select no frame: the run's frames span "
