@@ -343,19 +343,8 @@ class HandleMethods:
         self.handles.point_force[idx] = f / len(idx) if total else f
 
     def _advance_scheduled(self, steps: int) -> None:
-        """``advance(steps)``, stopping at each step where a timed force ends to release it
-        (a release already due, as after a resume past it, is made first)."""
-        end = self.state.step + steps
-        while True:
-            due = [r for r in getattr(self, "_releases", ()) if r[0] <= self.state.step]
-            for r in due:
-                self.handles.point_force[r[1]] = 0.0
-                self._releases.remove(r)
-            later = [r[0] for r in getattr(self, "_releases", ()) if r[0] < end]
-            stop = min(later, default=end)
-            if stop <= self.state.step:
-                return
-            self._advance_chunk(stop - self.state.step)
+        """``advance(steps)``, stopping where a timed force ends (:func:`advance_releasing`)."""
+        advance_releasing(self, steps, lambda: self.state.step, self._advance_chunk)
 
     def set_gravity_scale(self, indices, scale: float) -> None:
         """Gravity on the points is multiplied by ``scale`` [-]."""
@@ -422,6 +411,21 @@ def release_step(until, dt: float, step: int) -> int:
                          f"{dt:g} s, the nearest step), not after the present step {step}: the "
                          "force would never act; give a later time (at least one step on)")
     return release
+
+
+def advance_releasing(sim, steps: int, step, chunk) -> None:
+    """Take ``steps`` steps by ``chunk(n)``, stopping at each step where a timed force ends
+    to release it (``sim._releases``: (step, rows) pairs; ``step()``: the present step); a
+    release already due, as after a resume past it, is made first.  Serial and MPI alike."""
+    end = step() + steps
+    while True:
+        for r in [r for r in getattr(sim, "_releases", ()) if r[0] <= step()]:
+            sim.handles.point_force[r[1]] = 0.0
+            sim._releases.remove(r)
+        stop = min([r[0] for r in getattr(sim, "_releases", ()) if r[0] < end], default=end)
+        if stop <= step():
+            return
+        chunk(stop - step())
 
 
 def drop_releases(sim, idx) -> None:

@@ -32,7 +32,7 @@ from ..params import Integrator
 from ..physical_stepping import PhysicalStepping
 from ..simulator import (COLLAPSE_MIN_POINTS, PHYSICAL_PARALLEL_MIN_TETS, Simulator,
                          StabilityWarning)
-from ..handles import Handles, PinPath, drop_releases, release_step
+from ..handles import Handles, PinPath, advance_releasing, drop_releases, release_step
 from .partition import partition_points, point_graph
 
 __all__ = ["coupling_pairs", "local_fem", "PhysicalMethods"]
@@ -313,18 +313,8 @@ class PhysicalMethods(PhysicalStepping):
         self.handles.point_force[rows] = f / count if total else f
 
     def _advance_scheduled(self, steps: int, chunk) -> None:
-        """``chunk(n)`` until ``steps`` are taken, stopping where a timed force ends to
-        release it (a release already due, as after a resume past it, first)."""
-        end = self.step + steps
-        while True:
-            for r in [r for r in getattr(self, "_releases", ()) if r[0] <= self.step]:
-                self.handles.point_force[r[1]] = 0.0
-                self._releases.remove(r)
-            stop = min([r[0] for r in getattr(self, "_releases", ()) if r[0] < end],
-                       default=end)
-            if stop <= self.step:
-                return
-            chunk(stop - self.step)
+        """``chunk(n)`` until ``steps`` are taken, stopping where a timed force ends."""
+        advance_releasing(self, steps, lambda: self.step, chunk)
 
     def set_gravity_scale(self, indices, scale: float) -> None:
         """:meth:`Simulator.set_gravity_scale` with global point indices."""

@@ -107,14 +107,17 @@ class PVDSeries:
     def pvd_path(self) -> Path:
         return self.directory / f"{self.name}.pvd"
 
-    def _next_path(self, k: int) -> Path:
+    def _frame_name(self, k: int) -> str:
+        """Frame ``k``'s file, relative to the ``.pvd``."""
         fname = f"{self.piece}_{k:05d}.vtu"
-        return self.directory / (f"{self.pieces}/{fname}" if self.pieces else fname)
+        return f"{self.pieces}/{fname}" if self.pieces else fname
+
+    def _next_path(self, k: int) -> Path:
+        return self.directory / self._frame_name(k)
 
     def _next(self) -> tuple[str, Path]:
-        fname = f"{self.piece}_{self.count:05d}.vtu"
+        fname = self._frame_name(self.count)
         if self.pieces:
-            fname = f"{self.pieces}/{fname}"
             (self.directory / self.pieces).mkdir(parents=True, exist_ok=True)
         return fname, self.directory / fname
 
