@@ -118,25 +118,23 @@ def _frame_boxes(traj, surface_frames, chunk: int = 32) -> np.ndarray:
     return np.concatenate(boxes) if boxes else np.zeros((0, 2, 3))
 
 
-def _motion_bounds(traj, surface_frames) -> np.ndarray:
-    """The eight corners [m] of the bounding box of points and surface in each frame, stacked:
-    shape (8 F', 3) (frames with no finite position left out)."""
-    box = _frame_boxes(traj, surface_frames)
+def _motion_bounds(box) -> np.ndarray:
+    """The eight corners [m] of each frame's box (:func:`_frame_boxes`), stacked: shape
+    (8 F', 3) (frames with no finite position left out)."""
     box = box[np.all(np.isfinite(box), axis=(1, 2))]
     if not len(box):
         raise JellysimError("the trajectory has no finite positions to draw")
     return box[:, _CORNERS, [0, 1, 2]].reshape(-1, 3)
 
 
-def _body_track(traj, surface_frames, mode: str):
+def _body_track(box, mode: str):
     """For a following camera: (each frame's horizontal body centre [m], shape (F, 3) with
     y = 0; the half-extents [m] (3,) of the largest box around the body in any frame), or
     ``None`` for a fixed camera (``mode`` "fixed", or "auto" and the body stays near)."""
     if mode not in ("auto", "fixed", "follow"):
         raise JellysimError(f"camera must be 'auto', 'fixed' or 'follow', got {mode!r}")
-    if mode == "fixed" or traj.frame_count < 2:
+    if mode == "fixed" or len(box) < 2:
         return None
-    box = _frame_boxes(traj, surface_frames)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         half = np.nan_to_num(np.nanmax(0.5 * (box[:, 1] - box[:, 0]), axis=0))
@@ -191,12 +189,13 @@ class Renderer:
         self._transparent = o.background == "transparent"
         p.set_background("white" if self._transparent else o.background)
 
-        motion = _motion_bounds(traj, self._surface_frames)     # (8 F', 3) box corners
+        boxes = _frame_boxes(traj, self._surface_frames)  # (the surface expanded once)
+        motion = _motion_bounds(boxes)                         # (8 F', 3) box corners
         for other in frame_with:
-            motion = np.vstack([motion, _motion_bounds(other, _surface_of(other, o)[0])])
+            motion = np.vstack([motion, _motion_bounds(
+                _frame_boxes(other, _surface_of(other, o)[0]))])
         lo, hi = motion.min(axis=0), motion.max(axis=0)
-        self._track = (None if frame_with else
-                       _body_track(traj, self._surface_frames, o.camera))
+        self._track = None if frame_with else _body_track(boxes, o.camera)
         gh = ground_height(traj)
         extra = self.floor = None
         if o.floor and gh is not None:  # no ground in the run: no floor drawn under it
