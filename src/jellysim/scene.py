@@ -98,7 +98,7 @@ class Scene:
                 f"#   --set {item}\n" for item in overrides)
         given = given_keys(raw, SCHEMA, PRESETS, by_value=False)
         try:
-            params = cls._validate(raw, name, written=True)
+            params = cls._validate(raw, name, user=given)
         except SceneError as exc:  # say when the bad value came from the command line
             msg = str(exc)
             given = [item for item in overrides
@@ -126,13 +126,15 @@ class Scene:
         dictionary written as TOML."""
         raw = plain(raw)  # tuples, numpy arrays and numpy scalars as the TOML reader's values
         given = given_keys(raw, SCHEMA, PRESETS)
-        scene = cls(cls._validate(raw, name), text=as_toml(raw), name=name)
+        scene = cls(cls._validate(raw, name, user=given), text=as_toml(raw), name=name)
         scene.given = given
         return scene
 
     @staticmethod
-    def _validate(raw: dict, name: str, written: bool = False) -> dict:
-        user = given_keys(raw, SCHEMA, PRESETS, by_value=not written)
+    def _validate(raw: dict, name: str, user: dict | None = None) -> dict:
+        """The scene's parameters; ``user``: its given keys (:func:`given_keys`: a file's
+        written keys, a dictionary's by value; default: by value)."""
+        user = given_keys(raw, SCHEMA, PRESETS) if user is None else user
         preset = raw.get("material", {}).get("preset") if isinstance(
             raw.get("material"), dict) else None
         if preset is not None:
