@@ -191,6 +191,7 @@ def validate_handle_tables(entries, name: str) -> list[dict]:
     out = []
     for k, entry in enumerate(entries, start=1):
         where = f"{name}: [[handle]] #{k}"
+        entry = {key: v for key, v in entry.items() if key != "_where"}  # a validated table
         extra = sorted(set(entry) - _HANDLE_KEYS)
         if extra:
             hint = did_you_mean(extra[0], sorted(_HANDLE_KEYS))

@@ -51,7 +51,7 @@ def validate_obstacles(entries, name: str) -> list[dict]:
                 raise SceneError(f"{name}: {where} missing value '{key}' (needed for kind "
                                  f"= {kind!r}): {OBSTACLE_SCHEMA[key].doc}")
         extra = [key for key in ("point", "normal", "center", "radius", "lower", "upper")
-                 if key in entry and key not in OBSTACLE_KEYS[kind]]
+                 if entry.get(key) is not None and key not in OBSTACLE_KEYS[kind]]
         if extra:
             raise SceneError(f"{name}: {where} '{extra[0]}' is not used by kind = {kind!r};"
                              f" it takes {', '.join(OBSTACLE_KEYS[kind])}")
