@@ -638,7 +638,7 @@ def test_the_simulators_energy_is_conserved_in_free_flight_and_an_undamped_wobbl
     assert min(elastic) < 0.2 * max(elastic)       # it swings: energy moves to motion and back
 
 
-def test_a_settled_jello_starts_at_rest_instead_of_bouncing(tmp_path):
+def test_a_settled_jello_starts_at_rest_instead_of_bouncing(tmp_path, capsys):
     """Session 10's trial: a gelatin cube placed on the plate starts unsagged, so undamped it
     bounces +-2 mm for the whole run, over the wobble a lecture wants to show.  `[body]
     settle = true` lets it come to rest before t = 0 (extra damping, then the clock reset):
@@ -656,14 +656,17 @@ def test_a_settled_jello_starts_at_rest_instead_of_bouncing(tmp_path):
     for settle in ("", "settle = true\n"):
         scene = Scene.from_text(text.format(settle=settle), name="s.toml")
         t = load_trajectory(run_scene(scene, tmp_path / f"r{len(settle)}",
-                                      progress=False).trajectory)
+                                      progress=True).trajectory)
+        assert ("settling" in capsys.readouterr().err) == bool(settle)  # (it takes a while)
         m = t.masses
         com[bool(settle)] = (t.positions[:, :, 1] @ m) / m.sum()
         if settle:
             assert t.times[0] == 0.0 and t.positions[0, :, 1].max() < 0.1 - 1e-4
             with pytest.raises(RunInterrupted):
                 run_scene(scene, tmp_path / "cut", progress=False, stop_after=20)
-            again = run_scene(scene, tmp_path / "cut", progress=False, resume=True)
+            capsys.readouterr()
+            again = run_scene(scene, tmp_path / "cut", progress=True, resume=True)
+            assert "settl" not in capsys.readouterr().err  # a resume does not settle again
             assert np.array_equal(load_trajectory(again.trajectory).positions, t.positions)
     assert np.ptp(com[True]) < 0.01 * np.ptp(com[False])
 

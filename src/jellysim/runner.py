@@ -18,6 +18,7 @@ from __future__ import annotations
 import fnmatch
 import shlex
 import signal
+import sys
 import threading
 import time
 import warnings
@@ -229,7 +230,15 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
         warnings.simplefilter("always")
         try:
             model = scene.build_model(body)
+            settling = progress and not resume and bool(scene.params["body"].get("settle"))
+            if settling:  # (it can take a while: say so)
+                print("settling the body at rest before t = 0 ([body] settle) ...",
+                      file=sys.stderr, flush=True)
+            start = time.perf_counter()
             sim = scene.simulator(model, settle=not resume)  # (a resume restores the state)
+            if settling:
+                print(f"settled in {time.perf_counter() - start:.3g} s", file=sys.stderr,
+                      flush=True)
         except JellysimError as exc:  # what the build said may explain it (mesh units)
             exc.run_warnings = [str(w.message) for w in caught]
             raise
