@@ -197,6 +197,36 @@ def test_mpiexec_run_is_bitwise_equal_to_serial(tmp_path, scene, ranks):
 
 
 @needs_mpi
+def test_mpiexec_run_takes_the_command_lines_overrides(tmp_path):
+    """Session 11's trial: under mpiexec `run` dropped `--set` (and --threads, --backend): it
+    ran the scene as written.  The overrides now apply: bitwise the serial run of the
+    overridden scene, which differs from the scene as written; --resume, not done under
+    mpiexec, is refused once, by rank 0, instead of starting a new run."""
+    path = DATA / "paper_springs.toml"
+    sets = ("provot.loops=1", "physics.damping=0.2", "integrator.steps=40")
+    ref_dir, plain_dir = tmp_path / "serial", tmp_path / "plain"
+    run_scene(Scene.load(path, overrides=sets), ref_dir, progress=False, vtu=False)
+    run_scene(Scene.load(path, overrides=("integrator.steps=40",)), plain_dir, progress=False,
+              vtu=False)
+    ref, plain = (load_trajectory(d / "trajectory.npz") for d in (ref_dir, plain_dir))
+    assert not np.array_equal(ref.positions, plain.positions)
+    args = [a for s in sets for a in ("--set", s)]
+    proc, _ = _mpirun(2, "-m", "jellysim.cli", "run", str(path), "--out",
+                      str(tmp_path / "mpi"), "--quiet", "--threads", "1", *args)
+    assert proc.returncode == 0, proc.stderr
+    got = load_trajectory(tmp_path / "mpi" / "trajectory.npz")
+    assert np.array_equal(got.positions, ref.positions)
+    assert np.array_equal(got.velocities, ref.velocities)
+    assert not list((tmp_path / "mpi").glob("*.vtu"))  # the scene's vtu = false kept
+    proc, _ = _mpirun(2, "-m", "jellysim.cli", "run", str(path), "--resume",
+                      str(tmp_path / "mpi"), "--steps", "60", "--quiet")
+    assert proc.returncode == 2 and proc.stderr.count("error:") == 1
+    assert "--resume" in proc.stderr and "not done under mpiexec" in proc.stderr
+    assert np.array_equal(load_trajectory(tmp_path / "mpi" / "trajectory.npz").positions,
+                          got.positions)
+
+
+@needs_mpi
 def test_mpiexec_counts_the_springs_auto_substeps_like_serial(tmp_path):
     """substeps = 'auto' on the springs' symplectic path: every rank takes the substep count
     the serial run takes (from the global model's stability estimate), bitwise the same run."""

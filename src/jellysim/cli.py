@@ -120,16 +120,9 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         check_run_outputs(video=video, usd=usd, glb=glb, overwrite=overwrite)
     except JellysimError as exc:
         _fail(str(exc))
-    if launched_under_mpi():
-        return cli_run(scene_file, out_dir, steps=steps, no_vtu=no_vtu, quiet=quiet,
-                       partition=partition, video=video, usd=usd, glb=glb,
-                       overwrite=overwrite, say=_sayer())
+    def load():
+        from .scene import Scene
 
-    from .scene import Scene
-
-    _set_max_memory(max_memory)
-    out, fresh, say = None, False, _sayer()
-    try:
         try:
             scene = Scene.load(scene_file, overrides=settings)
         except JellysimError as exc:  # --steps stands for a missing [integrator] steps
@@ -139,6 +132,26 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         scene = scene.with_backend(backend, device, precision)
         if threads is not None:
             scene.params["integrator"]["threads"] = threads
+        return scene
+
+    _set_max_memory(max_memory)
+    if launched_under_mpi():
+        def load_distributed():  # (an error here is printed once, by rank 0)
+            for given, flag in ((resume_dir, "--resume"),
+                                (checkpoint_every, "--checkpoint-every")):
+                if given is not None:
+                    raise JellysimError(f"{flag}: checkpoints and resuming are not done under "
+                                        "mpiexec yet (docs/mpi.md); run without mpiexec, or "
+                                        f"without {flag}")
+            return load()
+
+        return cli_run(scene_file, out_dir, steps=steps, no_vtu=no_vtu, quiet=quiet,
+                       partition=partition, video=video, usd=usd, glb=glb,
+                       overwrite=overwrite, say=_sayer(), load=load_distributed)
+
+    out, fresh, say = None, False, _sayer()
+    try:
+        scene = load()
         if resume_dir and out_dir and Path(out_dir) != Path(resume_dir):
             raise JellysimError(f"--resume {resume_dir} and --out {out_dir} differ: a run "
                                 "resumes in its own directory (give only --resume)")

@@ -204,8 +204,9 @@ def prepare(scene, sim) -> None:
 
 def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
             partition="morton", video=None, usd=None, glb=None, overwrite=False,
-            say=None) -> None:
-    """The body of ``jellysim run`` under ``mpiexec``: errors agreed by all ranks (bad scene,
+            say=None, load=None) -> None:
+    """The body of ``jellysim run`` under ``mpiexec`` (``load``: makes the scene with the
+    command line's overrides; default: the file as written): errors agreed by all ranks (bad scene,
     blow-up) are printed once by rank 0; any other error is printed as ``rank R: ...`` by the
     rank that hit it, which then aborts the whole job."""
     import click
@@ -225,7 +226,7 @@ def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
         sys.exit(code)
 
     try:
-        scene = Scene.load(scene_file)
+        scene = Scene.load(scene_file) if load is None else load()
         out = Path(out_dir) if out_dir else Path("out") / Path(scene_file).stem
         result = run_scene_distributed(scene, out, comm=comm, progress=not quiet,
                                        vtu=False if no_vtu else None, steps=steps,
