@@ -157,6 +157,52 @@ def test_camera_options_set_the_view_direction_and_keep_the_motion_in_view(azimu
         0.5 * np.linalg.norm(pos - focal), rel=1e-12)
 
 
+def test_a_run_saved_faster_than_a_screen_plays_in_real_time(traj, tmp_path):
+    """Session 11's trial: the default rate was clamped to 60 frames/s, so a run saved at 100
+    frames/s played 1.67x slow in its USD and its video, and a 60 frames/s GIF was written with
+    1/100 s delays, which browsers play at 1/10 s (6x slow).  Each now lasts the simulated
+    time: the video and GIF show every k-th frame, the USD stage keeps every frame at the
+    run's own rate.  (The same frames saved at 100 frames/s: `times` scaled.)"""
+    import dataclasses
+
+    from PIL import Image
+    from pxr import Usd
+
+    from jellysim.io.timing import real_time_playback
+    from jellysim.io.usd import export_usd
+    from jellysim.render import RenderOptions, render_trajectory
+
+    fast = dataclasses.replace(traj, times=traj.times[0] + np.arange(traj.frame_count) / 100.0)
+    span = traj.frame_count / 100.0  # the frames' simulated time, the last one's included
+    import imageio.v2 as iio2
+
+    mp4 = render_trajectory(fast, tmp_path / "fast.mp4", RenderOptions(size=SIZE))
+
+    reader = iio2.get_reader(mp4, format="FFMPEG")
+    shown, fps = reader.count_frames(), reader.get_meta_data()["fps"]
+    reader.close()
+    assert fps <= 60 and shown / fps == pytest.approx(span, abs=1.0 / 100.0 + 1e-9)
+    gif = render_trajectory(fast, tmp_path / "fast.gif", RenderOptions(size=SIZE))
+    with Image.open(gif) as im:
+        delays = []
+        for k in range(im.n_frames):
+            im.seek(k)
+            delays.append(im.info["duration"])
+    assert min(delays) >= 20  # browsers slow anything shorter
+    assert sum(delays) / 1000.0 == pytest.approx(span, abs=1.0 / 100.0 + 1e-9)
+    stage = Usd.Stage.Open(str(export_usd(fast, tmp_path / "fast.usdc")))
+    assert stage.GetTimeCodesPerSecond() == 100.0
+    assert (stage.GetEndTimeCode() - stage.GetStartTimeCode()) / 100.0 == pytest.approx(
+        fast.times[-1] - fast.times[0], rel=1e-12)
+    for rate in (24.0, 30.0, 60.0, 100.0, 144.0, 1000.0):   # any rate, for any length
+        times = np.arange(601) / rate
+        for gif_kind in (False, True):
+            frames, fps = real_time_playback(times, np.arange(601), gif=gif_kind)
+            assert fps <= (50 if gif_kind else 60)
+            per_frame = 1.0 / fps - (frames[1] - frames[0]) / rate  # played - simulated [s]
+            assert abs(per_frame) <= (0.005 if gif_kind else 1e-12)
+
+
 def test_usd_has_one_time_sample_per_frame_equal_to_the_skin(traj, tmp_path):
     from pxr import Usd, UsdGeom
 

@@ -15,7 +15,7 @@ from .errors import JellysimError
 from .render.offscreen import RenderOptions
 from .io.trajectory import load_trajectory
 from .demo import run_demo
-from .render.video import default_fps, render_trajectory
+from .render.video import render_trajectory
 from .viewer import view_trajectory
 from .plot import plot_trajectory
 from .io.usd import export_usd
@@ -272,7 +272,8 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
 @_show
 @_size_opt
 @click.option("--fps", type=click.FloatRange(min=0.1), default=None,
-              help="Frames per second (default: real time).")
+              help="Frames per second (default: real time; a run saved faster than 60 "
+                   "frames/s, 50 for a GIF, shows every k-th frame; at least 5).")
 @_color
 @_opacity
 @_floor
@@ -320,8 +321,6 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
             if not -traj.frame_count <= frame < traj.frame_count:
                 raise JellysimError(f"--frame {frame} is outside [0, {traj.frame_count - 1}]")
             frames = np.array([frame % traj.frame_count])
-        if fps is None and (every > 1 or len(frames) < traj.frame_count):
-            fps = default_fps(traj.times[frames])
         options = dataclasses.replace(_options(size, color, opacity, show, no_floor,
                                                (azimuth, elevation, zoom)), camera=camera_mode)
         if background is not None:

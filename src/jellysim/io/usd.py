@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import JellysimError
 from .atomic import atomic_path
-from .timing import default_fps
+from .timing import frame_rate
 
 __all__ = ["export_usd", "surface_of"]
 
@@ -60,7 +60,7 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello") -> 
     if path.suffix.lower() not in (".usdc", ".usda", ".usd"):
         raise JellysimError(f"{path}: a USD file name must end in .usdc, .usda or .usd")
     frames, faces = surface_of(traj)
-    fps = default_fps(traj.times) if fps is None else float(fps)
+    fps = (frame_rate(traj.times) or 30.0) if fps is None else float(fps)  # real time
     with atomic_path(path) as tmp:
         tmp.unlink()
         stage = Usd.Stage.CreateNew(str(tmp))

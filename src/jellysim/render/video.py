@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import JellysimError
 from ..io.atomic import atomic_path
-from ..io.timing import default_fps
+from ..io.timing import default_fps, real_time_playback
 from .offscreen import RenderOptions, Renderer
 
 __all__ = ["default_fps", "render_trajectory", "output_kind"]
@@ -78,7 +78,8 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
     path: ``.mp4`` (H.264, yuv420p), ``.gif``, ``.png`` (one picture: the last of ``frames``)
         or a folder (``frame_00000.png``, ...).
     options: :class:`RenderOptions`.
-    fps: frames per second (default: real time, :func:`default_fps`).
+    fps: frames per second (default: real time, :func:`~jellysim.io.timing.real_time_playback`:
+        a run saved faster than 60 frames/s, 50 for a GIF, shows every k-th of ``frames``).
     frames: trajectory frame indices to draw (default: all).
     progress: show a progress bar.
     beside: more trajectories drawn to the right of ``traj``, each at its frame nearest in
@@ -94,7 +95,9 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
     if len(frames) == 0 or frames.min() < -traj.frame_count or (
             frames.max() >= traj.frame_count):
         raise JellysimError(f"frames must lie in [0, {traj.frame_count - 1}]")
-    fps = default_fps(traj.times) if fps is None else float(fps)
+    if fps is None:  # real time: every k-th frame of a run saved faster than a screen shows
+        frames, fps = real_time_playback(traj.times, frames, gif=kind == "gif")
+    fps = float(fps)
     if not fps > 0:
         raise JellysimError(f"fps must be > 0, got {fps}")
     if kind == "png":
