@@ -203,6 +203,30 @@ def test_a_run_saved_faster_than_a_screen_plays_in_real_time(traj, tmp_path):
             assert abs(per_frame) <= (0.005 if gif_kind else 1e-12)
 
 
+def test_an_export_of_a_body_turned_inside_out_says_so(traj, tmp_path):
+    """Session 11's trial: the report's step (examples/paper_cube.toml) mirrors the cube as it
+    lands (positions-only Provot over all pairs keeps every distance, which a reflection keeps
+    too), so its exported skin pointed inward from then on, silently.  The enclosed volume of
+    the exported surface is checked per frame: a mirrored copy of a run is reported from its
+    first mirrored frame, the run itself not; the paper cube's export warns and is written."""
+    import dataclasses
+
+    from jellysim.io.usd import inside_out_note
+
+    assert inside_out_note(traj) is None
+    flipped = traj.positions.copy()
+    flipped[3:, :, 0] *= -1.0                     # frames 3.. mirrored in x
+    note = inside_out_note(dataclasses.replace(traj, positions=flipped))
+    assert f"inside out in {traj.frame_count - 3} of {traj.frame_count} frames" in note
+    assert f"t = {traj.times[3]:.3g} s" in note
+    run_scene(Scene.load(Path(__file__).parents[1] / "examples" / "paper_cube.toml"),
+              tmp_path / "paper", progress=False, vtu=False, steps=70)
+    r = CliRunner().invoke(cli, ["export", str(tmp_path / "paper"), "-o",
+                                 str(tmp_path / "paper.glb")])
+    assert r.exit_code == 0 and "inside out" in r.output
+    assert (tmp_path / "paper.glb").stat().st_size > 0
+
+
 def test_usd_has_one_time_sample_per_frame_equal_to_the_skin(traj, tmp_path):
     from pxr import Usd, UsdGeom
 

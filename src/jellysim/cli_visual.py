@@ -160,11 +160,21 @@ def write_run_outputs(trajectory, *, video=None, usd=None, glb=None, progress=Tr
     traj = _load(trajectory)
     if video:
         out.append(render_trajectory(traj, video, progress=progress))
+    if usd or glb:
+        _warn_inside_out(traj)
     if usd:
         out.append(export_usd(traj, usd))
     if glb:
         out.append(export_glb(traj, glb))
     return out
+
+
+def _warn_inside_out(traj) -> None:
+    from .io.usd import inside_out_note
+
+    note = inside_out_note(traj)
+    if note:
+        click.secho(f"warning: {note}", fg="yellow", err=True)
 
 
 _overwrite = click.option("--overwrite", is_flag=True,
@@ -378,6 +388,8 @@ def export(trajectory, target, output, sequence, fps, max_frames, overwrite=Fals
         _fail("--max-frames applies to .glb exports (one morph target per frame): remove it")
     try:
         traj = _load(trajectory)
+        if suffix != ".pvd" or sequence:  # (ParaView shows both sides)
+            _warn_inside_out(traj)
         if sequence:
             if out.suffix and not out.is_dir():
                 raise JellysimError(f"{out}: --sequence writes one file per frame into a "

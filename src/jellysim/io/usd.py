@@ -49,6 +49,31 @@ def surface_of(traj):
                         "export it as ParaView (.pvd) instead")
 
 
+def inside_out_note(traj) -> str | None:
+    """A warning when the surface to export (:func:`surface_of`) encloses a negative volume in
+    some frame while it encloses a positive one in the first: the body passed through itself
+    and its faces point inward there.  ``None`` when no frame is inside out."""
+    try:
+        frames, faces = surface_of(traj)
+    except JellysimError:
+        return None
+    faces = np.asarray(faces, dtype=np.int64)
+
+    def volume(v):  # [m^3], the divergence theorem over the triangles
+        a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
+        return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6.0
+
+    if not volume(frames[0]) > 0:
+        return None
+    bad = [k for k in range(1, len(frames)) if volume(frames[k]) < 0]
+    if not bad:
+        return None
+    return (f"the exported surface is inside out in {len(bad)} of {len(frames)} frames (from "
+            f"t = {float(traj.times[bad[0]]):.3g} s): the body passed through itself (the "
+            "report's step does this to the paper cube as it lands, docs/physics.md section 4);"
+            " a viewer that hides back faces shows little of it there")
+
+
 def export_usd(traj, path, *, fps: float | None = None, name: str = "jello") -> Path:
     """Write the skin of a loaded trajectory as a USD stage with time-sampled points."""
     try:
