@@ -3,8 +3,8 @@
 A preset is a partial scene: its values fill every key the scene file leaves out (the scene's
 own values win).  :data:`PRESETS` maps the name to that partial scene.
 
-* ``gelatin``: density 1141 kg/m^3 (the report's figure, section 6.4) and Young's modulus
-  E = 10 kPa.  Source for E: J. E. Bonavia (2025), compression tests of gelatin gels,
+* ``gelatin``: density 1141 kg/m^3 (the figure for Jello the report found, section 6.4,
+  where it says its program's density did not match it) and Young's modulus E = 10 kPa.  Source for E: J. E. Bonavia (2025), compression tests of gelatin gels,
   arXiv:2512.20502: instantaneous moduli follow a power law in the water:gelatin ratio, from
   277 +/- 30 kPa at 2:1 down to 4.34 +/- 0.64 kPa at 20:1; the power law through those two
   points (exponent -1.8) gives 7-11 kPa at 15:1-12:1, a firm dessert gelatin.  10 kPa is
@@ -24,7 +24,8 @@ own values win).  :data:`PRESETS` maps the name to that partial scene.
   10 cm cube of 1000 cells, :data:`GELATIN_BOX`, unless its corners or points are given),
   both carrying tets, unless the scene names its springs (``connect``, ``radius`` or
   ``neighbours``) or a random distribution.
-* ``paper-2010``: the report's section 5.1 run: k = 2 N/m, delta = 0.8 kg/s, tau = 0.1 %, one
+* ``paper-2010``: the report's section 5.1 run: the body's mass split evenly over its points
+  (section 4; whatever the builder: tet builders otherwise lump it by tet volume), k = 2 N/m, delta = 0.8 kg/s, tau = 0.1 %, one
   all-pairs Provot loop (the report's hack of section 4.1/5.2), the mu/nu ground (mu = 0.1,
   nu = 0.2), the report's integrator at dt = 0.01 s, and the report's step exactly (section
   4.1, checked to 1e-12 m by ``tests/test_paper_step.py``): Provot visits the points in order

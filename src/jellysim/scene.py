@@ -379,6 +379,10 @@ class Scene:
                     masses = density * pv if pv is not None else point_masses(body, density)
                 body = replace(body, stiffness=calibrate_springs(
                     body, mat["youngs_modulus"], point_volume=pv), masses=masses)
+            if mat.get("preset") == "paper-2010" and body.masses is not None:
+                from dataclasses import replace  # the report splits the mass evenly, whatever
+                                                 # the builder (tet bodies lump it by volume)
+                body = replace(body, masses=None)
             return finalize(body, stiffness=self.params["springs"]["stiffness"],
                             density=density if body.masses is None else None,
                             point_mass=m["point_mass"] if body.masses is None else None,
