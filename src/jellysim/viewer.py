@@ -10,9 +10,11 @@ import dataclasses
 import os
 import sys
 
+import numpy as np
+
 from .errors import JellysimError
 from .render.offscreen import RenderOptions, Renderer
-from .render.video import default_fps
+from .io.timing import real_time_playback
 
 __all__ = ["has_display", "view_trajectory"]
 
@@ -41,7 +43,11 @@ def view_trajectory(traj, options=None, *, fps: float | None = None,
     r = Renderer(traj, dataclasses.replace(options, camera="fixed"), offscreen=False)
     p = r.plotter
     last = traj.frame_count - 1
-    fps = default_fps(traj.times) if fps is None else float(fps)
+    stride = 1  # real time: a run saved faster than 60 frames/s steps k frames a tick
+    if fps is None:
+        shown, fps = real_time_playback(traj.times, np.arange(traj.frame_count))
+        stride = int(shown[1] - shown[0]) if len(shown) > 1 else 1
+    fps = float(fps)
     state = {"frame": 0, "playing": bool(autoplay)}
     text = p.add_text("", position="upper_left", font_size=10, name="time")
 
@@ -67,7 +73,7 @@ def view_trajectory(traj, options=None, *, fps: float | None = None,
 
     def tick(_step=None) -> None:
         if state["playing"] and last > 0:
-            f = (state["frame"] + 1) % (last + 1)
+            f = (state["frame"] + stride) % (last + 1)
             show(f)
             if slider is not None:
                 slider.GetRepresentation().SetValue(f)
