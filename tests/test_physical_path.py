@@ -198,7 +198,7 @@ def test_sliding_block_stops_where_coulomb_says(case):
     a 4 x 2 x 4 cm block damped near its own wobble (zeta 0.05 at 20 Hz, e = 0), and a
     longer 6 x 3 x 12 cm one with the preset's own damping (0.02 at 5 Hz) and e = 0.3, which
     rocks more as it slides (+1.4 %; at mu = 0.4 a session 11 audit measured +3-5.5 %,
-    docs/physics.md section 3)."""
+    docs/physics.md section 2)."""
     mu, v0 = 0.3, 1.0
     if case == "damped":
         body = _box((4, 2, 4), (0.04, 0.02, 0.04))
