@@ -648,6 +648,29 @@ def test_the_simulators_energy_is_conserved_in_free_flight_and_an_undamped_wobbl
     assert min(elastic) < 0.2 * max(elastic)       # it swings: energy moves to motion and back
 
 
+def test_volume_ratios_are_each_tets_volume_over_its_rest_volume():
+    """sim.volume_ratios() (session 11's audit: only the running minimum was public): 1 at
+    rest, s^3 when the body is scaled by s, -1 for every tet of a mirror image; and settle
+    refuses a body nothing holds up (it fell for 10 s before it warned)."""
+    from jellysim.errors import SceneError
+
+    model = physical_model(_box((2, 3, 2), (0.02, 0.03, 0.02)), gelatin())
+    sim = Simulator(model, dt=1 / 60)
+    x0 = model.point_x0.copy()
+    assert np.allclose(sim.volume_ratios(), 1.0, rtol=0, atol=1e-12)
+    assert sim.volume_ratios().shape == (model.fem.tet_count,)
+    sim.state.x[:] = 1.1 * x0
+    assert np.allclose(sim.volume_ratios(), 1.1**3, rtol=1e-12)
+    sim.state.x[:] = x0 * [-1.0, 1.0, 1.0]
+    assert np.allclose(sim.volume_ratios(), -1.0, rtol=1e-12)
+    sim.state.x[:] = x0
+    with pytest.raises(SceneError, match="nothing holds the body up"):
+        sim.settle()
+    assert sim.state.step == 0 and np.array_equal(sim.state.x, x0)
+    held = Simulator(model, dt=1 / 60, ground=_ground())
+    assert held.settle() < 600                       # it comes to rest on the ground
+
+
 def test_a_settled_jello_starts_at_rest_instead_of_bouncing(tmp_path, capsys):
     """Session 10's trial: a gelatin cube placed on the plate starts unsagged, so undamped it
     bounces +-2 mm for the whole run, over the wobble a lecture wants to show.  `[body]

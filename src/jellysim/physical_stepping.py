@@ -50,6 +50,19 @@ class PhysicalStepping:
         return {"kinetic": kinetic, "gravity": gravity, "elastic": elastic,
                 "total": kinetic + gravity + elastic}
 
+    def volume_ratios(self) -> np.ndarray:
+        """Each tet's volume ratio ``J = det F`` now (its volume over its rest volume), shape
+        (t,) [-]: below 0 the tet is inside out.  (:attr:`min_tet_volume_ratio` keeps the
+        smallest J reached at any substep so far.)  Physical path only."""
+        from .errors import SceneError
+        from .geometry.tetra import tet_signed_volumes
+
+        if not self.physical:
+            raise SceneError("volume_ratios: this body has no tets on the physical path (a "
+                             "FEM material); it runs on springs")
+        fem = self.model.fem
+        return tet_signed_volumes(self.state.x, fem.tets) / fem.rest_volume
+
     def settle(self, *, max_seconds: float = 10.0, speed: float = 1e-4) -> int:
         """Let the body come to rest where it is (under gravity, on its ground and obstacles,
         its handles on) before the run: it is stepped with a strong extra viscous damping
@@ -65,6 +78,12 @@ class PhysicalStepping:
 
         if not self.physical:
             raise SceneError("settle is for the physical path (a body with a FEM material)")
+        gravity = np.asarray(self.model.gravity, dtype=np.float64)
+        if np.any(gravity != 0.0) and not self.obstacles and not np.any(self.handles.pinned):
+            raise SceneError("settle: nothing holds the body up (no ground, no obstacle, no "
+                             "pin), so under gravity it would fall for ever: give it a ground "
+                             "(GroundParams(model='contact'); a scene's [ground]), an obstacle "
+                             "or a pin, or remove settle")
         if self.handles.paths:
             raise SceneError("a pin moving along a path cannot be settled with (its path runs "
                              "on the clock settling uses): settle first, then pin it with its "
