@@ -565,3 +565,42 @@ def test_a_resume_with_another_scene_names_what_differs(tmp_path):
     plain = Scene.from_text(EXPLICIT, name="scene.toml")
     with pytest.raises(CheckpointError, match=r"body\.points: 40 then, 60 now"):
         run_scene(plain, tmp_path / "cut", progress=False, resume=True)
+
+
+def test_overwrite_never_deletes_a_live_run_or_a_run_for_a_scene_that_cannot_start(tmp_path):
+    """Session 11's hostile trial: `run --overwrite` deleted the files of a run still going
+    there (which then died with nothing left), and `run BAD.toml -o GOOD --overwrite` deleted
+    the good run before the bad scene was refused (a handle holding no point, a body below
+    the ground).  A live run's folder is now refused before anything is touched, naming its
+    process, and an earlier run's files go only once the new run's body and simulator are
+    made: every file stays, byte for byte, when the new run cannot start."""
+    from click.testing import CliRunner
+
+    from jellysim.cli import cli
+    from jellysim.io.lock import LOCK_NAME
+
+    good = tmp_path / "good.toml"
+    good.write_text(EXPLICIT.replace("steps = 300", "steps = 40").replace("vtu = false",
+                                                                            "vtu = true"))
+    out = tmp_path / "run"
+    r = CliRunner().invoke(cli, ["run", str(good), "-o", str(out), "--quiet"])
+    assert r.exit_code == 0, r.output
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert "trajectory.npz" in before and any(n.endswith(".vtu") for n in before)
+    bad = tmp_path / "bad.toml"
+    below = EXPLICIT.replace("lower = [0.0, 0.05, 0.0]", "lower = [0.0, -0.05, 0.0]")
+    held = EXPLICIT + '[[handle]]\nkind = "gravity"\nscale = 0.0\nindices = [999]\n'
+    for text in (below, held):
+        bad.write_text(text)
+        r = CliRunner().invoke(cli, ["run", str(bad), "-o", str(out), "--overwrite"])
+        assert r.exit_code != 0
+        assert {p.name: p.read_bytes() for p in out.iterdir()} == before, r.output
+    lock = out / LOCK_NAME  # a live run (this process) writing there
+    lock.write_text(f"{os.getpid()} {__import__('socket').gethostname()}\n")
+    r = CliRunner().invoke(cli, ["run", str(good), "-o", str(out), "--overwrite"])
+    assert r.exit_code != 0 and f"another jellysim run (process {os.getpid()})" in r.output
+    assert "interrupted" not in r.output
+    lock.unlink()
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    r = CliRunner().invoke(cli, ["run", str(good), "-o", str(out), "--overwrite", "--quiet"])
+    assert r.exit_code == 0, r.output  # (a scene that starts does replace it)

@@ -159,8 +159,9 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
                else Path("out") / Path(scene_file).stem)
         fresh = not out.exists()
         if not resume_dir:
-            prepare_out_dir(out, overwrite=overwrite)
+            prepare_out_dir(out, overwrite=overwrite, delete=False)  # (run_scene deletes
         result = run_scene(scene, out, progress=not quiet, vtu=False if no_vtu else None,
+                           overwrite=overwrite,  # an earlier run once the new one can start)
                            steps=steps, resume=resume_dir is not None,
                            checkpoint_every=checkpoint_every, notify=say)
     except NothingToResume as exc:

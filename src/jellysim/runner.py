@@ -28,7 +28,7 @@ from pathlib import Path
 from .errors import (BuildError, CheckpointError, JellysimError, NothingToResume, OutputError,
                      ResourceError, RunInterrupted, SimulationError)
 from .io.checkpoint import CHECKPOINT, FINAL_CHECKPOINT, read_checkpoint, write_checkpoint
-from .io.lock import claim
+from .io.lock import claim, refuse_if_held
 from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream, reopen_stream
 from .io.trajectory import skin_bounds, trajectory_meta
 from .io.vtk import PVDSeries
@@ -49,14 +49,19 @@ removes before a new run (nothing else in the folder is touched)."""
 
 
 def prepare_out_dir(out_dir, *, overwrite: bool = False, owned=RUN_FILES,
-                    option: str = "--out") -> Path:
+                    option: str = "--out", delete: bool = True, held: bool = False) -> Path:
     """Make ``out_dir`` ready for a run: create it; if it already holds files, refuse
     (:class:`~jellysim.errors.JellysimError`) unless ``overwrite``, and then delete the files
     an earlier run wrote there (names matching ``owned``), so no stale frame survives.
-    Files that are not a run's are kept.  Returns the folder."""
+    Files that are not a run's are kept; ``delete=False`` only checks (the caller deletes
+    once the new run is known to start).  A live run writing there is refused first
+    (:func:`jellysim.io.lock.refuse_if_held`; ``held``: the caller holds the folder's lock).
+    Returns the folder."""
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise JellysimError(f"{option} {out_dir}: exists and is not a folder")
+    if out_dir.is_dir() and not held:
+        refuse_if_held(out_dir)
     present = sorted(out_dir.iterdir()) if out_dir.is_dir() else []
     if present and not overwrite:
         names = ", ".join(p.name for p in present[:3]) + (", ..." if len(present) > 3 else "")
@@ -71,7 +76,7 @@ def prepare_out_dir(out_dir, *, overwrite: bool = False, owned=RUN_FILES,
         raise JellysimError(f"{option} {out_dir}: the folder is not empty ({len(present)} "
                             f"entries: {names}); pass --overwrite to replace the run there, "
                             f"or choose another {option}{more}")
-    for p in present:
+    for p in present if delete else ():
         if p.is_file() and any(fnmatch.fnmatchcase(p.name, pat) for pat in owned):
             p.unlink()
         elif p.is_dir() and p.name in (STREAM_DIR, f"{STREAM_DIR}.partial"):  # its frames
@@ -113,10 +118,11 @@ class RunResult:
         return max(0.0, seconds - steps * later_seconds / later_steps)
 
 
-def refuse_earlier_run(out_dir: Path, overwrite: bool, option: str = "overwrite=True") -> None:
+def refuse_earlier_run(out_dir: Path, overwrite: bool, option: str = "overwrite=True", *,
+                       delete: bool = True) -> None:
     """An earlier run's files in ``out_dir`` (:data:`RUN_FILES`): an
     :class:`~jellysim.errors.OutputError` unless ``overwrite``, and then they are deleted
-    (no stale frame survives); other files are kept."""
+    (no stale frame survives; ``delete=False``: later, by the caller); other files are kept."""
     earlier = _earlier_run(out_dir)
     if earlier and not overwrite:
         names = ", ".join(earlier[:3]) + (", ..." if len(earlier) > 3 else "")
@@ -124,7 +130,8 @@ def refuse_earlier_run(out_dir: Path, overwrite: bool, option: str = "overwrite=
                           "replace it" + (", resume=True to continue it" if option ==
                                           "overwrite=True" else "") + ", or choose another "
                           "folder")
-    prepare_out_dir(out_dir, overwrite=True)
+    if delete:
+        prepare_out_dir(out_dir, overwrite=True, held=True)
 
 
 def _earlier_run(out_dir: Path) -> list[str]:
@@ -203,8 +210,8 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     out_dir.mkdir(parents=True, exist_ok=True)
     lock = claim(out_dir)  # before anything there is touched: one run per folder
     try:
-        if not resume:
-            refuse_earlier_run(out_dir, overwrite)
+        if not resume:  # (its files go once the new run's body and simulator are made)
+            refuse_earlier_run(out_dir, overwrite, delete=False)
         return _run(scene, out_dir, progress=progress, vtu=vtu, steps=steps, skin=skin,
                     body=body, resume=resume, checkpoint_every=checkpoint_every,
                     stop_after=stop_after, handle_signals=handle_signals, notify=notify)
@@ -239,6 +246,8 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             if settling:
                 print(f"settled in {time.perf_counter() - start:.3g} s", file=sys.stderr,
                       flush=True)
+            if not resume:  # the new run starts: an earlier run's files go (refused unless
+                prepare_out_dir(out_dir, overwrite=True, held=True)  # overwrite, in run_scene)
         except JellysimError as exc:  # what the build said may explain it (mesh units)
             exc.run_warnings = [str(w.message) for w in caught]
             raise

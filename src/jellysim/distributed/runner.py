@@ -17,7 +17,7 @@ import warnings
 from pathlib import Path
 
 from ..errors import BuildError, JellysimError, SceneError, SimulationError
-from ..runner import RunResult, refuse_earlier_run
+from ..runner import RunResult, prepare_out_dir, refuse_earlier_run
 from ..io.lock import claim
 from ..io.trajectory import Recorder, skin_bounds
 from ..io.vtk import PVDSeries
@@ -44,7 +44,7 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
         out_dir.mkdir(parents=True, exist_ok=True)
         lock = claim(out_dir)
         try:
-            refuse_earlier_run(out_dir, overwrite, "--overwrite")
+            refuse_earlier_run(out_dir, overwrite, "--overwrite", delete=False)
         except JellysimError:
             lock.unlink(missing_ok=True)
             raise
@@ -53,14 +53,15 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
     lock = on_root(comm, claim_folder, share=False)  # a refusal is raised on every rank
     try:
         return _run_distributed(scene, out_dir, comm, progress=progress, vtu=vtu, steps=steps,
-                                partition=partition, skin=skin, notify=notify)
+                                partition=partition, skin=skin, notify=notify,
+                                overwrite=overwrite)
     finally:
         if lock is not None:
             lock.unlink(missing_ok=True)
 
 
 def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partition, skin,
-                     notify=None):
+                     notify=None, overwrite=False):
     """:func:`run_scene_distributed` once rank 0 holds the folder."""
     rank, size = comm.Get_rank(), comm.Get_size()
 
@@ -96,6 +97,8 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
     recorder = series = skin_series = None
     if rank == 0:
         out_dir.mkdir(parents=True, exist_ok=True)
+        if overwrite:  # the new run starts: the earlier one's files go
+            prepare_out_dir(out_dir, overwrite=True, held=True)
         if isinstance(skin, str) and skin == "auto":
             try:
                 skin = default_skin(scene, model.body)

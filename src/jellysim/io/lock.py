@@ -12,7 +12,7 @@ from pathlib import Path
 
 from ..errors import OutputError
 
-__all__ = ["LOCK_NAME", "claim"]
+__all__ = ["LOCK_NAME", "claim", "refuse_if_held"]
 
 LOCK_NAME = ".jellysim.lock"
 """The lock file in the output folder: ``"<pid> <host>"`` of the run writing there."""
@@ -30,6 +30,36 @@ def _alive(pid: int) -> bool:
     return True
 
 
+def _holder(out_dir: Path, path: Path, host: str):
+    """``(error, stale)``: the :class:`OutputError` of a live run holding ``path`` (else
+    ``None``), and whether the lock is a killed run's (its process gone)."""
+    try:
+        pid_text, _, owner = path.read_text().strip().partition(" ")
+        pid = int(pid_text)
+    except (OSError, ValueError):
+        return None, False  # gone, unreadable or being written: look again
+    if owner != host:
+        return OutputError(
+            f"{out_dir}: a jellysim run on {owner} (process {pid}) is writing here; "
+            f"choose another --out, or delete {path} if no run is active"), False
+    if _alive(pid):
+        return OutputError(
+            f"{out_dir}: another jellysim run (process {pid}) is writing here; wait "
+            "for it or stop it (Ctrl-C: it can be resumed with --resume), or choose "
+            "another --out"), False
+    return None, True
+
+
+def refuse_if_held(out_dir: Path) -> None:
+    """Raise the :class:`OutputError` of :func:`claim` if a live run holds ``out_dir``,
+    touching nothing (a check before anything there is deleted)."""
+    path = Path(out_dir) / LOCK_NAME
+    if path.exists():
+        error, _ = _holder(Path(out_dir), path, socket.gethostname())
+        if error is not None:
+            raise error
+
+
 def claim(out_dir: Path) -> Path:
     """Create ``out_dir / LOCK_NAME`` for this process and return its path (the caller
     deletes it when done), or raise :class:`OutputError` if a live run holds the folder."""
@@ -39,21 +69,10 @@ def claim(out_dir: Path) -> Path:
         try:
             fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
         except FileExistsError:
-            try:
-                pid_text, _, owner = path.read_text().strip().partition(" ")
-                pid = int(pid_text)
-            except (OSError, ValueError):
-                pid, owner = None, host  # unreadable or being written: look again
-            if pid is not None and owner != host:
-                raise OutputError(
-                    f"{out_dir}: a jellysim run on {owner} (process {pid}) is writing here; "
-                    f"choose another --out, or delete {path} if no run is active") from None
-            if pid is not None and _alive(pid):
-                raise OutputError(
-                    f"{out_dir}: another jellysim run (process {pid}) is writing here; wait "
-                    "for it or stop it (Ctrl-C: it can be resumed with --resume), or choose "
-                    "another --out") from None
-            if pid is not None:
+            error, stale = _holder(Path(out_dir), path, host)
+            if error is not None:
+                raise error from None
+            if stale:
                 path.unlink(missing_ok=True)  # its process is gone: a killed run's lock
             continue
         with os.fdopen(fd, "w") as f:
