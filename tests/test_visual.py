@@ -659,6 +659,48 @@ def test_overwriting_an_export_folder_keeps_files_that_are_not_its_frames(tmp_pa
     assert sorted(out.glob("skin_[0-9]*.obj")) == frames
 
 
+def test_a_refused_render_or_recording_deletes_and_replaces_nothing(run_dir, traj, tmp_path):
+    """Session 11's hostile trial: `render RUN -o pngs --overwrite --start 50` deleted the old
+    PNG frames, then refused (no frame after 50 s); `Recorder.save` silently replaced a `jellysim
+    run`'s trajectory.npz (its checkpoint and ParaView frames then belonged to another run);
+    a Recorder saved before any record() made a file render and export crashed on.  Each is
+    refused now before anything is touched."""
+    from jellysim.errors import OutputError
+    from jellysim.io.trajectory import Recorder
+    from jellysim.simulator import Simulator
+
+    pngs = tmp_path / "pngs"
+    r = CliRunner().invoke(cli, ["render", str(run_dir), "-o", str(pngs), "--size", "48x32",
+                                 "--every", "3"])
+    assert r.exit_code == 0, r.output
+    before = {p.name: p.read_bytes() for p in pngs.iterdir()}
+    for bad in (["--start", "50"], ["--frame", "99"], ["--background", "nocolour"]):
+        r = CliRunner().invoke(cli, ["render", str(run_dir), "-o", str(pngs), "--overwrite",
+                                     *bad])
+        assert r.exit_code != 0
+        assert {p.name: p.read_bytes() for p in pngs.iterdir()} == before, bad
+    model = Scene.from_text(SCENE, name="s.toml").build_model()
+    rec = Recorder(model)
+    with pytest.raises(OutputError, match="no frame recorded"):
+        rec.save(tmp_path / "empty.npz")
+    assert not (tmp_path / "empty.npz").exists()
+    other = Scene.from_text(SCENE.replace("points = 120", "points = 50"),
+                            name="t.toml").build_model()
+    with pytest.raises(ValueError, match="this recorder's model has 120 points"):
+        rec.record(Simulator(other, dt=1e-3).state)
+    rec.record(Simulator(model, dt=1e-3).state)
+    run_npz = run_dir / "trajectory.npz"
+    kept = run_npz.read_bytes()
+    with pytest.raises(OutputError, match=r"jellysim run's trajectory \(.* beside it"):
+        rec.save(run_npz)
+    assert run_npz.read_bytes() == kept
+    mine = tmp_path / "mine" / "trajectory.npz"   # a recording of one's own: saved again
+    mine.parent.mkdir()
+    rec.save(mine)
+    rec.record(Simulator(model, dt=1e-3).state)
+    assert load_trajectory(rec.save(mine)).frame_count == 2
+
+
 def test_obstacles_are_drawn_and_a_run_without_ground_has_no_floor(tmp_path):
     """Session 10's trial: a body resting on a [[obstacle]] sphere seemed to float (the
     sphere was not drawn), and a run with the ground disabled still showed a floor under the

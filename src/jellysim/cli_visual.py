@@ -89,7 +89,11 @@ def _options(size, color, opacity, show, no_floor, camera=(None, None, 1.0)):
 
 
 def _load(path):
-    return load_trajectory(path)
+    traj = load_trajectory(path)
+    if traj.frame_count == 0:  # (a Recorder saved before any record())
+        raise JellysimError(f"{path}: the trajectory holds no frame: nothing to show or "
+                            "export (record at least one state before saving)")
+    return traj
 
 
 def _run_name(trajectory) -> str:
@@ -316,7 +320,6 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
     try:
         runs = [_load(tr) for tr in trajectory]
         traj = runs[0]
-        guard_output(output, overwrite)
         t = np.asarray(traj.times, dtype=np.float64)
         lo = -np.inf if start is None else start
         hi = np.inf if end is None else end
@@ -344,6 +347,7 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
         if len(runs) > 1 and camera_mode == "follow":
             raise JellysimError("side by side the runs share one fixed camera (one scale): "
                                 "remove --camera follow, or render the runs one at a time")
+        guard_output(output, overwrite)  # (after the checks: a refusal deletes nothing)
         path = render_trajectory(traj, output, options, fps=fps, frames=frames,
                                  progress=not quiet, beside=runs[1:],
                                  labels=[_run_name(tr) for tr in trajectory]
@@ -395,7 +399,9 @@ def export(trajectory, target, output, sequence, fps, max_frames, overwrite=Fals
                 raise JellysimError(f"{out}: --sequence writes one file per frame into a "
                                     "folder; give a folder name (no suffix)")
             from .io.atomic import guard_folder
+            from .io.usd import surface_of
 
+            surface_of(traj)  # (no surface to write: refused before old frames go)
             guard_folder(out, [f"skin_[0-9]*.{sequence}"], overwrite)
             paths = export_mesh_sequence(traj, out, fmt=sequence)
             click.echo(f"wrote {len(paths)} {sequence.upper()} files in {out}")

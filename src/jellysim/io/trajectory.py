@@ -80,13 +80,37 @@ class Recorder:
         self.steps: list[int] = []
 
     def record(self, state) -> None:
+        """Keep ``state``'s positions, velocities, time and step (a state of this model)."""
+        n = self.model.point_count
+        if np.shape(state.x) != (n, 3) or np.shape(state.v) != (n, 3):
+            raise ValueError(f"Recorder.record: the state has {np.shape(state.x)} positions; "
+                             f"this recorder's model has {n} points (record the state of the "
+                             "simulator built from the same model)")
         self.positions.append(state.x.copy())
         self.velocities.append(state.v.copy())
         self.times.append(float(state.t))
         self.steps.append(int(state.step))
 
-    def save(self, path, *, status: str = "complete") -> Path:
+    def save(self, path, *, status: str = "complete", overwrite: bool = False) -> Path:
+        """Write the frames to ``path`` (``.npz``; atomically).  A file there from an earlier
+        save is replaced; one in the folder of a ``jellysim run`` (its checkpoint, frame
+        stream, ParaView series or lock beside it, which would no longer match) is refused
+        unless ``overwrite``."""
+        from ..errors import OutputError
+
         n = self.model.point_count
+        if not self.times:
+            raise OutputError(f"{path}: no frame recorded: call record(sim.state) at least "
+                              "once before save")
+        path = Path(path)
+        if path.exists() and not overwrite:
+            beside = [name for name in ("checkpoint.npz", "checkpoint.final.npz",
+                                        "trajectory.stream", "body.pvd", ".jellysim.lock")
+                      if (path.parent / name).exists()]
+            if beside:
+                raise OutputError(f"{path}: is a jellysim run's trajectory ({beside[0]} beside "
+                                  "it would no longer match): save elsewhere, or pass "
+                                  "overwrite=True to replace it")
         meta = trajectory_meta(self.model, scene_text=self.scene_text, params=self.params,
                                skin=self.skin)
         with atomic_path(path) as tmp:
