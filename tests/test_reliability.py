@@ -604,3 +604,23 @@ def test_overwrite_never_deletes_a_live_run_or_a_run_for_a_scene_that_cannot_sta
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
     r = CliRunner().invoke(cli, ["run", str(good), "-o", str(out), "--overwrite", "--quiet"])
     assert r.exit_code == 0, r.output  # (a scene that starts does replace it)
+
+
+def test_a_resume_refuses_a_frame_stream_cut_short(tmp_path):
+    """Session 11's hostile trial: a stream whose positions.npy lost its tail (a crash, a
+    copy cut short) was accepted by --resume, which extended the file with zeros: 392 frames
+    of the body at the origin, silently.  The resume now refuses it, naming the file and how
+    many frames it holds, and leaves the folder as it was."""
+    scene = Scene.from_text(EXPLICIT, name="scene.toml")
+    out = tmp_path / "cut"
+    with pytest.raises(RunInterrupted):
+        run_scene(scene, out, progress=False, stop_after=scene.steps // 2)
+    pos = out / STREAM_DIR / "positions.npy"
+    size = pos.stat().st_size
+    with open(pos, "r+b") as fh:
+        fh.truncate(size - 3 * 60 * 3 * 8)  # three frames' data gone
+    cut = pos.read_bytes()
+    with pytest.raises(CheckpointError, match=r"positions.npy: is cut short: its data hold "
+                                              r"\d+ of the \d+ frames the checkpoint needs"):
+        run_scene(scene, out, progress=False, resume=True)
+    assert pos.read_bytes() == cut and (out / CHECKPOINT).exists()

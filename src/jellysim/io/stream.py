@@ -97,6 +97,12 @@ class GrowingNpy:
                 os.close(self.fd)
                 raise ValueError(f"{self.path}: holds {shape} {dtype_}, expected at least "
                                  f"{keep} rows of {self.row_shape} {self.dtype}")
+            held = (os.fstat(self.fd).st_size - HEADER_BYTES) // max(1, self.row_bytes)
+            if held < keep:  # cut short (a crash, a copy): extending it would read as zeros
+                os.close(self.fd)
+                raise ValueError(f"{self.path}: is cut short: its data hold {max(0, held)} of "
+                                 f"the {keep} frames the checkpoint needs (a crash or a copy cut "
+                                 "short)")
             self.rows = int(keep)
             os.ftruncate(self.fd, HEADER_BYTES + self.rows * self.row_bytes)
             self.commit()
