@@ -292,3 +292,52 @@ def test_cli_build_defaults_to_the_python_body(tmp_path):
                                    "marching", "--radius", "0.012", "-o",
                                    str(tmp_path / "m.jello")])
     assert res.exit_code != 0 and "radius (of the radius springs) applies to" in res.output
+
+
+def test_the_python_api_refuses_what_a_scene_refuses():
+    """Session 11's hostile trial: Python accepted what a scene refuses (ProvotParams(tau=2,
+    loops=-3), GroundParams(mu=5, nu=-1): mu > 1 multiplied a sliding speed), truncated
+    substeps=1.5, took a negative drag stiffness, and failed deep inside on Body(points=list),
+    physical_model(body, "gelatin"), obstacles=js.Plane(...), a body starting inside an
+    obstacle, and a NaN put in sim.state.x.  Each is a clear error now, naming the parameter;
+    the natural spellings work."""
+    import jellysim as js
+    from jellysim.errors import SceneError
+    from jellysim.params import ProvotParams
+
+    for bad, match in ((dict(tau=2.0), "provot tau"), (dict(loops=-3), "provot loops"),
+                       (dict(pairs="al"), r"provot pairs must be one of \['springs', 'all'\]")):
+        with pytest.raises(ValueError, match=match):
+            ProvotParams(**bad)
+    for bad, match in ((dict(mu=5.0), "ground mu"), (dict(nu=-1.0), "ground nu")):
+        with pytest.raises(ValueError, match=match):
+            js.GroundParams(**bad)
+    with pytest.raises(ValueError, match="ground friction must be a number >= 0"):
+        js.GroundParams(model="contact", friction=float("nan"))
+    body = js.Body(points=[[0.0, 0.0, 0.0], [0.01, 0.0, 0.0]], springs=[[0, 1]])
+    assert body.points.dtype == np.float64 and "volume unknown" in repr(body)
+    with pytest.raises(ValueError, match=r"points must have shape \(n, 3\)"):
+        js.Body(points=np.zeros(3), springs=[])
+    with pytest.raises(ValueError, match="springs must be a .* integer point indices"):
+        js.Body(points=np.zeros((2, 3)), springs=[[0, 1.5]])
+    cube = js.Body.box(points=27)                         # (27 cells: 64 points)
+    model = js.physical_model(cube, "gelatin")            # a preset's name works
+    assert model.point_mass.sum() == pytest.approx(1141.0 * 1e-3, rel=1e-9)
+    with pytest.raises(TypeError, match="material must be a jellysim.Material"):
+        js.physical_model(cube, 3)
+    with pytest.raises(SceneError, match="substeps must be an integer"):
+        js.Simulator(model, dt=1 / 60, substeps=1.5)
+    one = js.Simulator(model, dt=1 / 60, obstacles=js.Sphere(center=(0.05, 0.3, 0.05),
+                                                            radius=0.1))
+    assert len(one.obstacles) == 1                       # one obstacle, not a list, works
+    with pytest.raises(TypeError, match=r"obstacles\[0\] is 'plane'"):
+        js.Simulator(model, dt=1 / 60, obstacles=["plane"])
+    with pytest.raises(SceneError, match=r"obstacle #1 .*: 64 of 64 points of the body start "
+                                         r"inside this obstacle"):
+        js.Simulator(model, dt=1 / 60, obstacles=[js.Box(lower=(-1, -1, -1), upper=(1, 1, 1))])
+    sim = js.Simulator(model, dt=1 / 60, ground=js.GroundParams(model="contact"))
+    with pytest.raises(SceneError, match="drag: stiffness must be a spring constant > 0"):
+        sim.drag(0, (0.0, 0.2, 0.0), stiffness=-5.0)
+    sim.state.x[3, 1] = np.nan
+    with pytest.raises(SceneError, match=r"sim.state.x holds NaN or infinite values at 1 points"):
+        sim.advance(1)

@@ -150,7 +150,7 @@ def _implicit_sim(backend, threads=None, n=300, scheme="theta"):
     return Simulator(m, dt=1 / 60, integrator="implicit", backend=backend, threads=threads,
                      ground=contact_ground(0.3, 0.6),
                      implicit=ImplicitParams(theta=0.7, scheme=scheme),
-                     obstacles=[Sphere(center=(0.5, -0.3, 0.5), radius=0.45)])
+                     obstacles=[Sphere(center=(0.5, -0.41, 0.5), radius=0.43)])  # top: 2 cm
 
 
 @pytest.mark.parametrize("scheme", ["theta", "bdf2"])

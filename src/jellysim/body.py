@@ -62,6 +62,25 @@ class Body:
     skin_vertices: np.ndarray | None = None
     skin_faces: np.ndarray | None = None
 
+    def __post_init__(self):  # a list or a (3,) array for points was an error much later
+        try:
+            pts = np.asarray(self.points, dtype=np.float64)
+            springs = np.asarray(self.springs)
+        except (TypeError, ValueError):
+            raise ValueError("Body: points must be an (n, 3) array of positions [m] and springs "
+                             "a (k, 2) array of point indices") from None
+        if pts.ndim != 2 or pts.shape[1] != 3:
+            raise ValueError(f"Body: points must have shape (n, 3) [m], got {pts.shape}")
+        if springs.size == 0:
+            springs = springs.reshape(0, 2).astype(np.int64)
+        if springs.ndim != 2 or springs.shape[1] != 2 or springs.dtype.kind not in "iu":
+            raise ValueError(f"Body: springs must be a (k, 2) array of integer point indices, "
+                             f"got shape {springs.shape} of {springs.dtype}")
+        if self.volume is not None and not (np.isfinite(self.volume) and self.volume > 0):
+            raise ValueError(f"Body: volume must be > 0 [m^3] (or None: unknown), got "
+                             f"{self.volume!r}")
+        self.points, self.springs = pts, springs
+
     @classmethod
     def from_mesh(cls, mesh, *, size: float | None = 0.1, points: int = 5000,
                   connect: str = "marching", seed: int = 0, density: float | None = None,
@@ -166,8 +185,9 @@ class Body:
         lo, hi = self.points.min(axis=0), self.points.max(axis=0)
         size = " x ".join(f"{e:.4g}" for e in hi - lo)
         how = self.meta.get("connect") or self.meta.get("builder") or ""
+        volume = "unknown" if self.volume is None else f"{self.volume:.4g} m^3"
         return (f"Body({self.point_count} points, {len(self.springs)} springs, {tets} tets, "
-                f"{size} m, volume {self.volume:.4g} m^3" + (f", {how}" if how else "") + ")")
+                f"{size} m, volume {volume}" + (f", {how}" if how else "") + ")")
 
     @property
     def point_count(self) -> int:

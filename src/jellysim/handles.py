@@ -345,6 +345,14 @@ class HandleMethods:
 
     def _advance_scheduled(self, steps: int) -> None:
         """``advance(steps)``, stopping where a timed force ends (:func:`advance_releasing`)."""
+        s = self.state
+        for name, a in (("x", s.x), ("v", s.v)):
+            if steps and not np.all(np.isfinite(a)):  # (set by hand: not the step's doing)
+                bad = int(np.sum(~np.isfinite(a).all(axis=-1)))
+                what = "positions [m]" if name == "x" else "velocities [m/s]"
+                raise SceneError(f"advance: sim.state.{name} holds NaN or infinite values at "
+                                 f"{bad} points before the step (set by hand, or left by an "
+                                 f"earlier blow-up): give finite {what}")
         advance_releasing(self, steps, lambda: self.state.step, self._advance_chunk)
 
     def set_gravity_scale(self, indices, scale: float) -> None:
@@ -375,6 +383,10 @@ class HandleMethods:
             return
         if stiffness is None:
             stiffness = self.model.total_mass * float(np.linalg.norm(self.model.gravity)) / 0.01
+        if isinstance(stiffness, bool) or not (isinstance(stiffness, (int, float, np.number))
+                                               and np.isfinite(stiffness) and stiffness > 0):
+            raise SceneError(f"drag: stiffness must be a spring constant > 0 [N/m], got "
+                             f"{stiffness!r}")
         p = int(self._point_indices([point], "drag")[0])
         goal = _vec3(target, "drag: target [m]")
         if int(d[0]) != p or radius is not None:  # a new grab: choose the patch

@@ -1,6 +1,8 @@
 """Closed choices (Enums) and option records shared by the simulator, scenes and the CLI."""
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass
 from enum import Enum
 
@@ -115,6 +117,21 @@ class ProvotParams:
     Provot keeps the velocity it gained falling, and the body creeps through its own springs
     (try ``velocity_update = false`` on the paper cube: it flattens)."""
 
+    def __post_init__(self):  # what a scene's [provot] table is checked for, in Python too
+        for name, enum in (("pairs", ProvotPairs), ("order", ProvotOrder)):
+            try:
+                object.__setattr__(self, name, enum(getattr(self, name)))
+            except ValueError:
+                raise ValueError(f"provot {name} must be one of {[e.value for e in enum]}, got "
+                                 f"{getattr(self, name)!r}") from None
+        _check_range("provot tau", self.tau, 0.0, 1.0, "a fraction of the rest length in "
+                     "(0, 1)", open_low=True, open_high=True)
+        if (isinstance(self.loops, bool) or not isinstance(self.loops, numbers.Integral)
+                or self.loops < 1):
+            raise ValueError(f"provot loops must be an integer >= 1, got {self.loops!r}")
+        _check_range("provot tolerance", self.tolerance, 0.0, float("inf"), "a distance >= 0 "
+                     "[m]")
+
 
 @dataclass(frozen=True)
 class GroundParams:
@@ -143,6 +160,13 @@ class GroundParams:
     where the pressure does; the point can still lift off).  Explicit integrators only."""
 
     def __post_init__(self):
+        for name in ("mu", "nu", "restitution"):  # (as a scene's [ground] is checked)
+            _check_range(f"ground {name}", getattr(self, name), 0.0, 1.0, "a number in [0, 1]")
+        _check_range("ground friction", self.friction, 0.0, float("inf"), "a number >= 0")
+        if self.static_friction is not None:
+            _check_range("ground static_friction", self.static_friction, 0.0, float("inf"),
+                         "a number >= 0")
+        _check_range("ground height", self.height, -float("inf"), float("inf"), "a height [m]")
         try:
             object.__setattr__(self, "model", GroundModel(self.model))
         except ValueError:
@@ -162,6 +186,18 @@ class GroundParams:
             raise ValueError(f"ground {', '.join(f'{k} = {v}' for k, v in contact.items())}: "
                              "used by the contact ground only; give model = 'contact' (the "
                              "paper ground's rule has mu and nu)")
+
+
+def _check_range(what, value, low, high, expected, *, open_low=False, open_high=False):
+    """``value`` a finite real number within [low, high] (open ends where asked), else a
+    ValueError naming ``what`` and the ``expected`` range."""
+    ok = (not isinstance(value, bool) and isinstance(value, numbers.Real)
+          and math.isfinite(value))
+    if ok:
+        ok = ((low < value) if open_low else (low <= value)) and (
+            (value < high) if open_high else (value <= high))
+    if not ok:
+        raise ValueError(f"{what} must be {expected}, got {value!r}")
 
 
 _GROUND_DEFAULTS = {"mu": 0.1, "nu": 0.2, "restitution": CONTACT_RESTITUTION,

@@ -22,6 +22,7 @@ from .params import (MAX_ALL_PAIRS_POINTS, GroundModel, GroundParams, ImplicitPa
                      ImplicitScheme, Integrator, ProvotOrder, ProvotPairs, ProvotParams)
 from .handles import HandleMethods
 from .physical_stepping import PhysicalStepping, blowup_error, travel_error
+from .physics.contact import user_obstacles
 from .stability import StabilityEstimate, estimate_stability, implicit_accuracy
 
 __all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads",
@@ -217,13 +218,10 @@ class Simulator(HandleMethods, PhysicalStepping):
             self.needed_substeps = self._springs_auto_substeps(model, dt)
         if substeps == "auto":
             substeps = self.needed_substeps
-        try:
-            self.substeps = int(substeps)
-        except (TypeError, ValueError):
-            raise SceneError(f"substeps must be an integer >= 1 or 'auto', got {substeps!r}") \
-                from None
-        if self.substeps < 1:
-            raise SceneError(f"substeps must be an integer >= 1 or 'auto', got {substeps}")
+        if isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer)) or (
+                substeps < 1):  # (1.5 was truncated to 1)
+            raise SceneError(f"substeps must be an integer >= 1 or 'auto', got {substeps!r}")
+        self.substeps = int(substeps)
         if self.physical and self.substeps < self.needed_substeps:
             warnings.warn(
                 f"substeps = {self.substeps} gives a substep of {dt / self.substeps:.3g} s, above "
@@ -236,7 +234,10 @@ class Simulator(HandleMethods, PhysicalStepping):
                 raise SceneError("Provot strain limiting is a crutch of the explicit "
                                  "integrators and is not applied by integrator = 'implicit'; "
                                  "disable it ([provot] enabled = false)")
-        self.obstacles = tuple(obstacles)
+        try:  # (a body starting inside one is refused; a resumed state may touch them)
+            self.obstacles = user_obstacles(obstacles, model.point_x0 if state is None else None)
+        except ValueError as exc:
+            raise SceneError(str(exc)) from None
         if ground.enabled and GroundModel(ground.model) is GroundModel.CONTACT:
             from .physics.contact import Plane
 

@@ -117,3 +117,41 @@ def pack_obstacles(obstacles) -> tuple[np.ndarray, np.ndarray]:
     kind = np.array([r[0] for r in rows], dtype=np.int32)
     data = np.array([r[1] for r in rows], dtype=np.float64).reshape(len(rows), 9)
     return kind, np.ascontiguousarray(data)
+
+
+def user_obstacles(obstacles, x0=None) -> tuple:
+    """``obstacles`` (one :class:`Plane`/:class:`Sphere`/:class:`Box` or a sequence of them)
+    as a tuple, checked: anything else is a ``TypeError``; with ``x0`` (the body's starting
+    positions [m], (n, 3)) a body starting inside an obstacle is a ``ValueError`` (the
+    contact would throw its points out at once), saying by how much."""
+    if isinstance(obstacles, _Surface):
+        obstacles = (obstacles,)
+    try:
+        obstacles = tuple(obstacles)
+    except TypeError:
+        raise TypeError(f"obstacles must be a list of jellysim.Plane / Sphere / Box, got "
+                        f"{type(obstacles).__name__}") from None
+    for k, o in enumerate(obstacles):
+        if not isinstance(o, _Surface):
+            raise TypeError(f"obstacles[{k}] is {o!r}: give a jellysim.Plane, Sphere or Box "
+                            "(e.g. js.Sphere(center=(0, 0.05, 0), radius=0.05))")
+    if x0 is None or not len(obstacles):
+        return obstacles
+    x = np.asarray(x0, dtype=np.float64)
+    tol = max(1e-9, 1e-6 * float(np.ptp(x, axis=0).max()))
+    for k, o in enumerate(obstacles):
+        kind, v = o.row()
+        if kind == 0:
+            n = np.asarray(v[3:6])
+            depth = -(x - np.asarray(v[:3])) @ n
+        elif kind == 1:
+            depth = v[3] - np.linalg.norm(x - np.asarray(v[:3]), axis=1)
+        else:
+            depth = np.minimum(x - np.asarray(v[:3]), np.asarray(v[3:6]) - x).min(axis=1)
+        inside = depth > tol
+        if inside.any():
+            raise ValueError(f"obstacle #{k + 1} ({o!r}): {int(inside.sum())} of "
+                             f"{len(x)} points of the body start inside this obstacle (up to "
+                             f"{float(depth.max()):.3g} m deep): its contact would throw them "
+                             "out at once; move the body or the obstacle")
+    return obstacles

@@ -32,7 +32,7 @@ def physical_model(body, material: Material = Material(), *, gravity=GRAVITY,
     Parameters
     ----------
     body: :class:`~jellysim.body.Body` (needs tets for ``MaterialModel.FEM``).
-    material: :class:`~jellysim.params.Material`.
+    material: :class:`~jellysim.params.Material`, or a preset's name (``"gelatin"``).
     gravity: [m/s^2], shape (3,).
     damping: the report's velocity damping delta [kg/s] (0 for a real material).
     point_volume: [m^3], shape (n,): volumes owned by the points (springs model only; default
@@ -44,6 +44,14 @@ def physical_model(body, material: Material = Material(), *, gravity=GRAVITY,
     if not isinstance(body, Body):
         raise TypeError(f"physical_model takes a Body (Body.from_mesh, build_body, read_body), "
                         f"got {type(body).__name__}: pass the body itself, not finalize(body)")
+    if isinstance(material, str):  # a preset's name: physical_model(body, "gelatin")
+        from ..presets import material as named
+
+        material = named(material)
+    if not isinstance(material, Material):
+        raise TypeError(f"physical_model: material must be a jellysim.Material (e.g. "
+                        f"js.material('gelatin')) or a preset's name, got "
+                        f"{type(material).__name__}")
     given = body.meta.get("density_given")
     if given is not None and not np.isclose(given, material.density, rtol=1e-9):
         warnings.warn(f"the body was built with density = {given:g} kg/m^3 but the material's is "
