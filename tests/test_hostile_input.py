@@ -750,6 +750,7 @@ _GEL = '[material]\npreset = "gelatin"\n[body]\npoints = 27\n'
     ('[mass]\ndensity = 500\n', r"\[mass\] density is not used.*from the preset 'gelatin'"
                                 r".*set \[material\] density"),
     ('[provot]\nenabled = true\n', r"\[provot\] enabled = true.*not used by the physical"),
+    ('[provot]\npairs = "all"\n', r'\[provot\] pairs = "all".*not used by the physical'),
     ('[springs]\nstiffness = 50\n', r"stiffness is not used with \[material\] preset = "
                                     r"'gelatin'"),
     ('[ground]\nmodel = "paper"\n', r"model = 'paper'.*springs path only.*fall through"),

@@ -6,6 +6,7 @@ format (generated from the same schema: ``jellysim scene-help``).
 """
 from __future__ import annotations
 
+import json
 import math
 import tomllib
 from pathlib import Path
@@ -489,10 +490,14 @@ class Scene:
                     f"{self.name}: [integrator] name = {it['name']!r}: a fem material is "
                     "integrated by symplectic substeps; set name = 'symplectic' (or [material] "
                     "model = 'springs' for the springs path)")
-            if self.params["provot"]["enabled"] and "enabled" in self.given.get("provot", ()):
-                raise SceneError(f"{self.name}: [provot] enabled = true: Provot's strain "
-                                 "limiting is not used by the physical (tet) path, whose tets "
-                                 "keep their shape; remove it (or [material] model = "
+            written = [k for k in self.given.get("provot", ())
+                       if not (k == "enabled" and not self.params["provot"]["enabled"])]
+            if written:  # (any key but enabled = false: it would change nothing)
+                key = written[0]
+                value = self.params["provot"][key]
+                raise SceneError(f"{self.name}: [provot] {key} = {json.dumps(value)}: Provot's "
+                                 "strain limiting is not used by the physical (tet) path, whose "
+                                 "tets keep their shape; remove it (or [material] model = "
                                  "'springs' for the springs path)")
             if self.params["ground"]["model"] == "paper" and self.params["ground"]["enabled"]:
                 what = ("model = 'paper' (the report's mu/nu rule)" if "model" in
