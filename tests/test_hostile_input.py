@@ -831,3 +831,24 @@ def test_a_body_metres_across_is_said_a_likely_slip_of_units():
     with w.catch_warnings():
         w.simplefilter("error")
         js.Body.box(upper=(1.0, 1.0, 1.0), points=27)
+
+
+def test_unit_slips_and_empty_bodies_are_said_once(tmp_path):
+    """Session 11's hostile trial: `[material] density = 1.141` (g/cm^3) ran silently, 8,775
+    substeps per frame; the Young's modulus warning was printed twice (once raw, from
+    click's line); `--set springs.radius=0.001` made 600 loose particles without a word.  Each
+    is now one warning naming the value and the unit."""
+    from click.testing import CliRunner
+
+    from jellysim.cli import cli
+
+    scene = tmp_path / "slip.toml"
+    scene.write_text('[material]\npreset = "gelatin"\ndensity = 1.141\nyoungs_modulus = 10\n'
+                     '[body]\npoints = 27\n[integrator]\nsteps = 2\n')
+    r = CliRunner().invoke(cli, ["run", str(scene), "-o", str(tmp_path / "o"), "--quiet"])
+    assert r.exit_code == 0, r.output
+    assert r.output.count("density = 1.141 kg/m^3 is outside") == 1
+    assert r.output.count("youngs_modulus = 10 Pa is outside") == 1
+    with pytest.warns(UserWarning, match=r"has no spring \(600 points"):
+        Scene.load(Path(__file__).parents[1] / "examples" / "paper_cube.toml",
+                   overrides=("springs.radius=0.001",)).build_model()

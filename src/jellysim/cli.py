@@ -120,15 +120,24 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         check_run_outputs(video=video, usd=usd, glb=glb, overwrite=overwrite)
     except JellysimError as exc:
         _fail(str(exc))
+    say = _sayer()
+
     def load():
+        import warnings
+
         from .scene import Scene
 
-        try:
-            scene = Scene.load(scene_file, overrides=settings)
-        except JellysimError as exc:  # --steps stands for a missing [integrator] steps
-            if steps is None or "missing value 'steps'" not in str(exc):
-                raise
-            scene = Scene.load(scene_file, overrides=(*settings, f"integrator.steps={steps}"))
+        with warnings.catch_warnings(record=True) as caught:  # said once, as the run's are
+            warnings.simplefilter("always")
+            try:
+                scene = Scene.load(scene_file, overrides=settings)
+            except JellysimError as exc:  # --steps stands for a missing [integrator] steps
+                if steps is None or "missing value 'steps'" not in str(exc):
+                    raise
+                scene = Scene.load(scene_file, overrides=(*settings,
+                                                          f"integrator.steps={steps}"))
+        for w in caught:
+            say(str(w.message))
         scene = scene.with_backend(backend, device, precision)
         if threads is not None:
             scene.params["integrator"]["threads"] = threads
@@ -147,9 +156,9 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 
         return cli_run(scene_file, out_dir, steps=steps, no_vtu=no_vtu, quiet=quiet,
                        partition=partition, video=video, usd=usd, glb=glb,
-                       overwrite=overwrite, say=_sayer(), load=load_distributed)
+                       overwrite=overwrite, say=say, load=load_distributed)
 
-    out, fresh, say = None, False, _sayer()
+    out, fresh = None, False
     try:
         scene = load()
         if resume_dir and out_dir and Path(out_dir) != Path(resume_dir):

@@ -327,6 +327,12 @@ class Material:
         except ValueError:
             raise ValueError(f"material model must be one of "
                              f"{[m.value for m in MaterialModel]}, got {self.model!r}") from None
+        if self.density < 100.0 or self.density > 25000.0:
+            import warnings
+
+            warnings.warn(f"material density = {self.density:g} kg/m^3 is outside 100 .. 25,000 "
+                          "kg/m^3 (gelatin 1141, water 1000, steel 7850): it is in kg/m^3 (1.141 "
+                          "would be g/cm^3)", UserWarning, stacklevel=_user_stacklevel())
         if self.youngs_modulus < 100.0 or self.youngs_modulus > 1e9:
             import warnings
 

@@ -384,10 +384,18 @@ class Scene:
                 from dataclasses import replace  # the report splits the mass evenly, whatever
                                                  # the builder (tet bodies lump it by volume)
                 body = replace(body, masses=None)
-            return finalize(body, stiffness=self.params["springs"]["stiffness"],
-                            density=density if body.masses is None else None,
-                            point_mass=m["point_mass"] if body.masses is None else None,
-                            damping=ph["damping"], gravity=ph["gravity"])
+            model = finalize(body, stiffness=self.params["springs"]["stiffness"],
+                             density=density if body.masses is None else None,
+                             point_mass=m["point_mass"] if body.masses is None else None,
+                             damping=ph["damping"], gravity=ph["gravity"])
+            if model.spring_count == 0 and model.point_count > 1:
+                import warnings
+
+                warnings.warn(f"{self.name}: the body has no spring ({model.point_count} "
+                              "points, none within [springs] radius of another): they fall as "
+                              "loose particles; a larger radius joins them", UserWarning,
+                              stacklevel=2)
+            return model
         except ValueError as exc:
             raise SceneError(f"{self.name}: {exc}") from None
 
