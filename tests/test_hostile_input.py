@@ -852,3 +852,26 @@ def test_unit_slips_and_empty_bodies_are_said_once(tmp_path):
     with pytest.warns(UserWarning, match=r"has no spring \(600 points"):
         Scene.load(Path(__file__).parents[1] / "examples" / "paper_cube.toml",
                    overrides=("springs.radius=0.001",)).build_model()
+
+
+def test_scene_files_as_editors_save_them_and_odd_command_lines(tmp_path):
+    """Session 11's hostile trial: a scene saved with a UTF-8 byte-order mark was "not valid
+    TOML (line 1, column 1)", a Latin-1 comment named no line, `--max-memory abc` printed
+    Python's float error and `-o ''` silently wrote to out/<scene>.  The BOM is read; the
+    others name the line, the flag and the fix."""
+    from click.testing import CliRunner
+
+    from jellysim.cli import cli
+
+    text = '[material]\npreset = "gelatin"\n[integrator]\nsteps = 2\n'
+    bom = tmp_path / "bom.toml"
+    bom.write_bytes(b"\xef\xbb\xbf" + text.encode())
+    assert Scene.load(bom).params == Scene.from_text(text).params
+    latin = tmp_path / "latin.toml"
+    latin.write_bytes(b"# jello\n# caf\xe9\n" + text.encode())
+    with pytest.raises(SceneError, match=r"latin.toml:2: not UTF-8 text \(byte 0xe9\)"):
+        Scene.load(latin)
+    r = CliRunner().invoke(cli, ["run", str(bom), "--max-memory", "abc"])
+    assert r.exit_code == 2 and "--max-memory: memory size 'abc': expected" in r.output
+    r = CliRunner().invoke(cli, ["run", str(bom), "-o", ""])
+    assert r.exit_code == 2 and "--out is empty" in r.output

@@ -116,6 +116,9 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 
     from .cli_visual import check_run_outputs
 
+    for given, flag in ((out_dir, "--out"), (resume_dir, "--resume")):
+        if given is not None and not str(given).strip():
+            _fail(f"{flag} is empty: give a folder name (without {flag}: out/<scene name>)")
     try:
         check_run_outputs(video=video, usd=usd, glb=glb, overwrite=overwrite)
     except JellysimError as exc:

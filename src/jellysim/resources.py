@@ -35,7 +35,10 @@ def parse_size(text) -> int:
     else:
         t = str(text).strip().upper().removesuffix("B").removesuffix("I")
         scale = {"K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}.get(t[-1:], 1)
-        value = float(t[:-1] if scale > 1 else t) * scale
+        try:
+            value = float(t[:-1] if scale > 1 else t) * scale
+        except ValueError:
+            value = float("nan")
     if not (value > 0 and value < 1e20):
         raise ValueError(f"memory size {text!r}: expected a positive size such as 4G")
     return int(value)

@@ -79,10 +79,15 @@ class Scene:
                              "spot_drop.toml shows one); `jellysim build` makes a body of "
                              "a mesh, `jellysim render` draws a run")
         try:
-            text = path.read_text(encoding="utf-8")
+            data = path.read_bytes()
+            text = data.decode("utf-8-sig")  # (a byte-order mark, as some editors save)
         except FileNotFoundError:
             raise SceneError(f"{path}: scene file not found") from None
-        except (OSError, UnicodeDecodeError) as exc:
+        except UnicodeDecodeError as exc:
+            line = data[:exc.start].count(b"\n") + 1
+            raise SceneError(f"{path}:{line}: not UTF-8 text (byte {data[exc.start]:#04x}): save "
+                             "the scene file as UTF-8") from None
+        except OSError as exc:
             raise SceneError(f"{path}: cannot read the scene file ({exc})") from None
         return cls.from_text(text, name=str(path), overrides=overrides)
 
