@@ -875,3 +875,15 @@ def test_scene_files_as_editors_save_them_and_odd_command_lines(tmp_path):
     assert r.exit_code == 2 and "--max-memory: memory size 'abc': expected" in r.output
     r = CliRunner().invoke(cli, ["run", str(bom), "-o", ""])
     assert r.exit_code == 2 and "--out is empty" in r.output
+
+
+def test_two_pins_on_the_same_points_are_refused():
+    """Session 11's hostile trial: two [[handle]] pins selecting the same points ran with the
+    second silently replacing the first (the body held at 2 cm, not at the 5 cm asked).  The
+    overlap is refused, naming both tables."""
+    text = (_GEL + '[[handle]]\nkind = "pin"\nbox = [[-1, 0.09, -1], [1, 1, 1]]\n'
+            '[[handle]]\nkind = "pin"\nindices = [0, 63]\npath = [[0, 0, 0, 0], [1, 0, 0.02, 0]]\n')
+    scene = Scene.from_text(text, name="s.toml")
+    with pytest.raises(SceneError, match=r"\[\[handle\]\] #2 pins 1 point\(s\) that \[\[handle\]\] "
+                                         r"#1 already pins \(point 63\)"):
+        scene.simulator(scene.build_model())

@@ -249,6 +249,7 @@ def apply_handle_tables(sim, tables, springs_reason: str | None = None) -> None:
         raise SceneError(f"[[handle]] needs the physical (FEM) path, but this body runs on "
                          f"springs: {springs_reason}")
     x = sim.state.x
+    pinned_by = {}  # point -> the pin table holding it
     for entry in tables:
         sphere = entry.get("sphere")
         idx = select_points(x, box=entry.get("box"),
@@ -256,6 +257,12 @@ def apply_handle_tables(sim, tables, springs_reason: str | None = None) -> None:
                                                                 sphere["radius"]),
                             indices=entry.get("indices"), what=entry["_where"])
         if entry["kind"] == "pin":
+            both = [int(i) for i in idx if int(i) in pinned_by]
+            if both:  # (the later pin silently replaced the earlier on those points)
+                raise SceneError(f"{entry['_where']} pins {len(both)} point(s) that "
+                                 f"{pinned_by[both[0]]} already pins (point {both[0]}): a point "
+                                 "follows one pin; make the selections disjoint")
+            pinned_by.update({int(i): entry["_where"] for i in idx})
             sim.pin(idx, path=entry.get("path"))
         elif entry["kind"] == "force":
             try:
