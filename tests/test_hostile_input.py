@@ -887,3 +887,17 @@ def test_two_pins_on_the_same_points_are_refused():
     with pytest.raises(SceneError, match=r"\[\[handle\]\] #2 pins 1 point\(s\) that \[\[handle\]\] "
                                          r"#1 already pins \(point 63\)"):
         scene.simulator(scene.build_model())
+
+
+def test_a_scene_body_that_cannot_be_built_names_the_scene_keys():
+    """Session 11's hostile trial: a scene's `[springs] h = 1.0` failed with "marching_grid: no
+    tetrahedron was kept", naming a function and no key of the file.  The error now names
+    the scene and the keys the build read."""
+    mesh = Path(__file__).parent / "data" / "sphere.obj"
+    scene = Scene.from_text(f'[material]\npreset = "gelatin"\n[body]\ntype = "mesh"\n'
+                            f'path = "{mesh}"\n[springs]\nh = 1.0\n[integrator]\nsteps = 2\n',
+                            name="coarse.toml")
+    with pytest.raises(SceneError, match=r'coarse.toml: building the body \(\[springs\] connect '
+                                         r'= "marching", .*\[springs\] h = 1.0\): .*no '
+                                         r'tetrahedron was kept'):
+        scene.build_body()

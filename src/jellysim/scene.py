@@ -331,12 +331,19 @@ class Scene:
             mat = self.params["material"]
             density = mat["density"] if mat["density"] is not None else (
                 self.params["mass"]["density"])
-            return build_body(placed, points=b["points"], connect=s["connect"],
-                              sampling=b["sampling"], radius=s["radius"],
-                              neighbours=s["neighbours"], h=s["h"], density=density,
-                              seed=b["seed"],
-                              surface_samples=b["surface_samples"], relax=b["relax"],
-                              snap=s["snap"] is not False)
+            try:
+                return build_body(placed, points=b["points"], connect=s["connect"],
+                                  sampling=b["sampling"], radius=s["radius"],
+                                  neighbours=s["neighbours"], h=s["h"], density=density,
+                                  seed=b["seed"],
+                                  surface_samples=b["surface_samples"], relax=b["relax"],
+                                  snap=s["snap"] is not False)
+            except (JellysimError, ValueError) as exc:  # name the scene keys, not the call
+                keys = ", ".join(f"[{t}] {k} = {json.dumps(v)}" for t, k, v in (
+                    ("springs", "connect", s["connect"]), ("body", "points", b["points"]),
+                    ("body", "sampling", b["sampling"]), ("springs", "h", s["h"]),
+                    ("springs", "radius", s["radius"])) if v is not None)
+                raise SceneError(f"{self.name}: building the body ({keys}): {exc}") from None
         try:
             return Body.box(b["lower"], b["upper"], points=b["points"],
                             distribution=b["distribution"], radius=s["radius"], seed=b["seed"],
