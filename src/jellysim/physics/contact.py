@@ -60,6 +60,13 @@ class _Surface:
         return [float(self.restitution), float(mu_s), float(self.friction)]
 
 
+def _v3(value, what) -> np.ndarray:
+    try:
+        return np.asarray(value, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be 3 numbers (x, y, z), got {value!r}") from None
+
+
 @dataclass(frozen=True, kw_only=True)
 class Plane(_Surface):
     """The half-space behind a plane through ``point`` [m] with outward ``normal``."""
@@ -68,11 +75,11 @@ class Plane(_Surface):
     normal: tuple = (0.0, 1.0, 0.0)
 
     def row(self):
-        nrm = np.asarray(self.normal, dtype=np.float64).reshape(3)
+        nrm = _v3(self.normal, "a plane's normal")
         length = float(np.linalg.norm(nrm))
         if not length > 0:
             raise ValueError("a plane's normal must be a non-zero vector")
-        return 0, [*np.asarray(self.point, float).reshape(3), *(nrm / length),
+        return 0, [*_v3(self.point, "a plane's point [m]"), *(nrm / length),
                    *self._material()]
 
 
@@ -86,7 +93,7 @@ class Sphere(_Surface):
     def row(self):
         if not self.radius > 0:
             raise ValueError(f"a sphere's radius must be > 0 m, got {self.radius}")
-        return 1, [*np.asarray(self.center, float).reshape(3), float(self.radius), 0.0, 0.0,
+        return 1, [*_v3(self.center, "a sphere's center [m]"), float(self.radius), 0.0, 0.0,
                    *self._material()]
 
 
@@ -98,8 +105,8 @@ class Box(_Surface):
     upper: tuple = (1.0, 1.0, 1.0)
 
     def row(self):
-        lo = np.asarray(self.lower, float).reshape(3)
-        hi = np.asarray(self.upper, float).reshape(3)
+        lo = _v3(self.lower, "a box's lower corner [m]")
+        hi = _v3(self.upper, "a box's upper corner [m]")
         if not np.all(hi > lo):
             raise ValueError(f"a box's upper corner {hi.tolist()} must exceed {lo.tolist()}")
         return 2, [*lo, *hi, *self._material()]

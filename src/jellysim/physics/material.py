@@ -85,7 +85,9 @@ def point_volumes(body: Body, *, density: float | None = None) -> np.ndarray:
     if body.masses is not None and density:
         return np.asarray(body.masses, dtype=np.float64) / density
     if body.volume is None:
-        raise ValueError("cannot derive point volumes: the body has no tets and no volume")
+        raise ValueError("cannot derive point volumes: the body has no tets and no volume "
+                         "(a body file: add a 'volume' line, a mass column or tets; a scene: "
+                         "[mass] point_mass; Python: Body(..., volume=...))")
     return np.full(n, float(body.volume) / n)
 
 
