@@ -624,3 +624,33 @@ def test_a_resume_refuses_a_frame_stream_cut_short(tmp_path):
                                               r"\d+ of the \d+ frames the checkpoint needs"):
         run_scene(scene, out, progress=False, resume=True)
     assert pos.read_bytes() == cut and (out / CHECKPOINT).exists()
+
+
+def test_a_full_disk_says_where_and_how_to_go_on(tmp_path, monkeypatch):
+    """Session 11's hostile trial: a disk filling up mid-run printed only "No space left on
+    device" and left the stream's status "running".  The error now names the file, the step
+    and the fix (free space, fewer frames, then --resume), the status says it stopped, and
+    the resumed run is bitwise the uninterrupted one."""
+    import errno
+
+    from jellysim.errors import OutputError
+    from jellysim.io.vtk import PVDSeries
+
+    scene = Scene.from_text(EXPLICIT.replace("vtu = false", "vtu = true"), name="scene.toml")
+    ref = load_trajectory(run_scene(scene, tmp_path / "ref", progress=False).trajectory)
+    real, calls = PVDSeries.add, [0]
+
+    def add(self, *a, **k):
+        calls[0] += 1
+        if calls[0] == 6:
+            raise OSError(errno.ENOSPC, "No space left on device", str(self.pvd_path))
+        return real(self, *a, **k)
+
+    monkeypatch.setattr(PVDSeries, "add", add)
+    out = tmp_path / "full"
+    with pytest.raises(OutputError, match=r"No space left on device writing .*body.pvd at step "
+                                          r"100 of 300: free space .*--resume"):
+        run_scene(scene, out, progress=False, checkpoint_every=40)
+    assert "stopped at step 100" in (out / STREAM_DIR / "status.txt").read_text()
+    monkeypatch.setattr(PVDSeries, "add", real)
+    _same(load_trajectory(run_scene(scene, out, progress=False, resume=True).trajectory), ref)

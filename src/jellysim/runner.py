@@ -160,19 +160,22 @@ LARGE_TRAJECTORY_BYTES = 1 << 30
 """A run whose trajectory will exceed this says so before it starts."""
 
 
-def _check_disk(out_dir: Path, total: int, every: int, n: int, messages: list) -> None:
-    """Refuse a run whose trajectory cannot fit the free disk space; note a large one."""
+def _check_disk(out_dir: Path, total: int, every: int, n: int, messages: list, *,
+                frame_bytes: int = 0) -> None:
+    """Refuse a run whose trajectory (``frame_bytes``: its ParaView frames, bytes each)
+    cannot fit the free disk space; note a large one."""
     import shutil
 
-
     frames = total // every + 2
-    need = frames * n * 48 * 2  # positions + velocities, then the final .npz copy
+    need = frames * n * 48 * 2 + frames * frame_bytes  # the stream, then the final .npz copy
     free = shutil.disk_usage(out_dir).free
     gib = need / (1 << 30)
     if need > free:
-        raise ResourceError(f"{out_dir}: the trajectory ({frames:,} frames of {n:,} points) "
-                            f"needs about {gib:.3g} GiB on disk, {free / (1 << 30):.3g} GiB "
-                            "free; save fewer frames ([output] every) or free space")
+        what = (f"its ParaView frames ({frames:,} of {frame_bytes / (1 << 20):.3g} MiB)"
+                if frame_bytes else f"the trajectory ({frames:,} frames of {n:,} points)")
+        raise ResourceError(f"{out_dir}: {what} need about {gib:.3g} GiB on disk, "
+                            f"{free / (1 << 30):.3g} GiB free; save fewer frames ([output] "
+                            "every" + (", --no-vtu" if frame_bytes else "") + ") or free space")
     if need > LARGE_TRAJECTORY_BYTES:
         messages.append(f"the trajectory will take about {gib / 2:.3g} GiB ({frames:,} frames "
                         f"of {n:,} points; [output] every = {every} steps)")
@@ -354,6 +357,9 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
     done = sim.state.step
     if not resume:
         emit()
+        if series is not None:  # the ParaView frames too, now that one's size is known
+            _check_disk(out_dir, total, every, 0, messages, frame_bytes=sum(
+                p.stat().st_size for p in out_dir.glob("*_00000.vtu")))
         if checkpoint_every != 0:
             checkpoint()  # a killed run can always be resumed, from its start at least
     stepped = 0.0
@@ -419,6 +425,21 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                 if due:
                     checkpoint()
                     last_wall, last_step = time.monotonic(), done
+        except OSError as exc:  # a full disk, most likely: say where and how to go on
+            import errno
+
+            if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+                raise
+            try:
+                stream.set_status(f"stopped at step {done}: {exc.strerror}; resumable")
+            except OSError:
+                pass
+            raise OutputError(
+                f"{out_dir}: {exc.strerror} writing {exc.filename or 'the frames'} at step "
+                f"{done} of {total}: free space (or save fewer frames: [output] every, "
+                f"--no-vtu), then continue from the last checkpoint with: jellysim run "
+                f"{shlex.quote(str(scene.name))} --resume {shlex.quote(str(out_dir))}"
+            ) from None
         except SimulationError as exc:
             emit()
             stream.close()
