@@ -382,8 +382,10 @@ class Simulator(HandleMethods, PhysicalStepping):
                 need = int(np.ceil(self.dt / (0.9 * est.dt_max)))
                 hint = (f"use substeps >= {need} (or 'auto')" if self.substeps > 1 else
                         f"{hint}, or substeps >= {need} (or 'auto': [integrator] substeps)")
+            limit = (f"exceeds the estimated stable limit {est.dt_max:.3g} s" if est.dt_max > 0
+                     else "is unstable, as every dt is,")
             warnings.warn(
-                f"dt = {self.dt_step:g} s exceeds the estimated stable limit {est.dt_max:.3g} s "
+                f"dt = {self.dt_step:g} s {limit} "
                 f"for the {self.integrator.value} integrator ({est.reason}; omega_max = "
                 f"{est.omega_max:.3g} rad/s by {est.method}){held}: {hint}",
                 StabilityWarning, stacklevel=2)
@@ -592,5 +594,6 @@ class Simulator(HandleMethods, PhysicalStepping):
                 else "add damping or use integrator = 'symplectic'")
         raise SimulationError(
             f"simulation went unstable at step {failed} (t = {s.t:.6g} s): {what}; "
-            f"{hint} (estimated stable limit {est.dt_max:.3g} s)", step=failed,
+            f"{hint}" + (f" (estimated stable limit {est.dt_max:.3g} s)" if est.dt_max > 0
+                         else " (no dt is stable for it)"), step=failed,
             status=int(status))
