@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import tomllib
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -318,8 +319,6 @@ class Scene:
                 raise SceneError(f"{self.name}: [body] path: {exc}") from None
             v = rotate_up(mesh.vertices, b["up"])
             if b["size"] is not None and b["size"] > LARGE_BODY:
-                import warnings
-
                 warnings.warn(f"{self.name}: [body] size = {b['size']:g} m: sizes are in "
                               "metres (10 cm = 0.1); a jello this large is likely a slip of "
                               "units", UserWarning, stacklevel=2)
@@ -332,12 +331,15 @@ class Scene:
             density = mat["density"] if mat["density"] is not None else (
                 self.params["mass"]["density"])
             try:
-                return build_body(placed, points=b["points"], connect=s["connect"],
-                                  sampling=b["sampling"], radius=s["radius"],
-                                  neighbours=s["neighbours"], h=s["h"], density=density,
-                                  seed=b["seed"],
-                                  surface_samples=b["surface_samples"], relax=b["relax"],
-                                  snap=s["snap"] is not False)
+                with warnings.catch_warnings():  # (the scene scaled it: [body] size said)
+                    if b["size"] is not None:
+                        warnings.filterwarnings("ignore", message=r".* m across \(its "
+                                                r"coordinates are read as metres\)")
+                    return build_body(placed, points=b["points"], connect=s["connect"],
+                                      sampling=b["sampling"], radius=s["radius"],
+                                      neighbours=s["neighbours"], h=s["h"], density=density,
+                                      seed=b["seed"], surface_samples=b["surface_samples"],
+                                      relax=b["relax"], snap=s["snap"] is not False)
             except (JellysimError, ValueError) as exc:  # name the scene keys, not the call
                 keys = ", ".join(f"[{t}] {k} = {json.dumps(v)}" for t, k, v in (
                     ("springs", "connect", s["connect"]), ("body", "points", b["points"]),
@@ -371,8 +373,6 @@ class Scene:
             model = self._material_model(body)
             if model is not None:
                 if self.params["body"]["type"] == "file" and body.masses is not None:
-                    import warnings
-
                     own, new = body.masses.sum(), model.point_mass.sum()
                     warnings.warn(f"{self.name}: the body file's own masses ({own:.4g} kg) "
                                   f"are replaced by the material's: density x the tets' "
@@ -401,8 +401,6 @@ class Scene:
                              point_mass=m["point_mass"] if body.masses is None else None,
                              damping=ph["damping"], gravity=ph["gravity"])
             if model.spring_count == 0 and model.point_count > 1:
-                import warnings
-
                 warnings.warn(f"{self.name}: the body has no spring ({model.point_count} "
                               "points, none within [springs] radius of another): they fall as "
                               "loose particles; a larger radius joins them", UserWarning,
