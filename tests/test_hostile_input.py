@@ -852,6 +852,10 @@ def test_unit_slips_and_empty_bodies_are_said_once(tmp_path):
     with pytest.warns(UserWarning, match=r"has no spring \(600 points"):
         Scene.load(Path(__file__).parents[1] / "examples" / "paper_cube.toml",
                    overrides=("springs.radius=0.001",)).build_model()
+    high = Scene.from_text('[material]\npreset = "gelatin"\n[body]\npoints = 27\n'
+                           'lower = [0, 20, 0]\nupper = [0.1, 20.1, 0.1]\n')  # mm meant
+    with pytest.warns(UserWarning, match=r"starts 20 m above the ground .* falls for 2.02 s"):
+        high.simulator(high.build_model())
 
 
 def test_scene_files_as_editors_save_them_and_odd_command_lines(tmp_path):

@@ -22,7 +22,7 @@ from .params import (MAX_ALL_PAIRS_POINTS, GroundModel, GroundParams, ImplicitPa
                      ImplicitScheme, Integrator, ProvotOrder, ProvotPairs, ProvotParams)
 from .handles import HandleMethods
 from .physical_stepping import PhysicalStepping, blowup_error, travel_error
-from .physics.contact import user_obstacles
+from .physics.contact import check_ground_placement, user_obstacles
 from .stability import StabilityEstimate, estimate_stability, implicit_accuracy
 
 __all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads",
@@ -113,24 +113,6 @@ def auto_threads(point_count: int, spring_count: int | None = None) -> int:
     return 1 if load > 2.0 * (os.cpu_count() or 1) else most
 
 
-def _check_above_ground(x0, height: float) -> None:
-    """A body that starts below the ground would be shot out of it by the contact rule (a
-    point below the plane is put on it at once): refuse it, saying by how much and the fix."""
-    x0 = np.asarray(x0, dtype=np.float64)
-    if x0.size == 0:
-        return
-    low = float(x0[:, 1].min())
-    extent = float(np.ptp(x0, axis=0).max())
-    if low < height - max(1e-9, 1e-6 * extent):
-        below = int(np.sum(x0[:, 1] < height))
-        raise SceneError(
-            f"the body starts {height - low:.4g} m below the ground (its lowest point at "
-            f"y = {low:.4g} m, the ground at y = {height:g} m; {below} of {len(x0)} points "
-            f"below): the ground would throw it out.  Lift it: [body] base = [0, {height:g}, "
-            f"0] (mesh and file bodies) or [body] lower with y >= {height:g} (box fields) in a "
-            f"scene; Body.from_mesh(..., base=(0, {height:g}, 0)) in Python; or disable the ground")
-
-
 class Simulator(HandleMethods, PhysicalStepping):
     """Time-steps one :class:`~jellysim.model.Model`.
 
@@ -196,7 +178,7 @@ class Simulator(HandleMethods, PhysicalStepping):
         self.provot, self.ground = provot, ground
         if ground.enabled and (state is None or getattr(state, "step", 0) == 0):
             # a fresh start (a resumed run may rest on the ground with round-off below it)
-            _check_above_ground(model.point_x0 if state is None else state.x,
+            check_ground_placement(model.point_x0 if state is None else state.x,
                                 float(ground.height))
         self.physical = getattr(model, "fem", None) is not None
         if self.physical and self.integrator is not Integrator.SYMPLECTIC:

@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import SceneError
+
 from ..kernels.records import OBSTACLE_MU_S  # the static coefficient's column (inf: no slip)
 from ..params import CONTACT_FRICTION, CONTACT_RESTITUTION
 
@@ -162,3 +164,30 @@ def user_obstacles(obstacles, x0=None) -> tuple:
                              f"{float(depth.max()):.3g} m deep): its contact would throw them "
                              "out at once; move the body or the obstacle")
     return obstacles
+
+
+def check_ground_placement(x0, height: float) -> None:
+    """A body that starts below the ground would be shot out of it by the contact rule (a
+    point below the plane is put on it at once): refuse it, saying by how much and the fix.
+    One that starts far above it (over 10 m, and 100 of its sizes) is likely a slip of units
+    (millimetres): said, as a warning.  ``x0``: its starting positions [m], (n, 3)."""
+    x0 = np.asarray(x0, dtype=np.float64)
+    if x0.size == 0:
+        return
+    low = float(x0[:, 1].min())
+    extent = float(np.ptp(x0, axis=0).max())
+    if low < height - max(1e-9, 1e-6 * extent):
+        below = int(np.sum(x0[:, 1] < height))
+        raise SceneError(
+            f"the body starts {height - low:.4g} m below the ground (its lowest point at "
+            f"y = {low:.4g} m, the ground at y = {height:g} m; {below} of {len(x0)} points "
+            f"below): the ground would throw it out.  Lift it: [body] base = [0, {height:g}, "
+            f"0] (mesh and file bodies) or [body] lower with y >= {height:g} (box fields) in a "
+            f"scene; Body.from_mesh(..., base=(0, {height:g}, 0)) in Python; or disable the ground")
+    if low > height + max(10.0, 100.0 * extent):
+        import warnings
+
+        warnings.warn(f"the body starts {low - height:.4g} m above the ground (positions are in "
+                      "metres: a base or lower given in millimetres is a likely slip); it "
+                      f"falls for {np.sqrt(2.0 * (low - height) / 9.81):.3g} s before landing",
+                      UserWarning, stacklevel=3)
