@@ -19,6 +19,7 @@ The variants' trajectories are not bitwise the shipped step's (reassociated sums
 rounding), so they are compared by speed only.
 
 Run:  PYTHONPATH=src python -m benchmarks.bench_step_variants [--steps 2000] [--repeats 7]
+      [--points 100000 --steps 20]   (the same recipe at 100k points: memory-bound sizes)
 """
 from __future__ import annotations
 
@@ -103,6 +104,8 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=2000)
     ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--points", type=int, default=600,
+                    help="the paper recipe at this many points (bench_step's scenes)")
     args = ap.parse_args(argv)
     import numba
 
@@ -111,7 +114,7 @@ def main(argv=None) -> None:
 
     from .bench_step import paper_scene, scene_dt
 
-    model, _, _ = paper_scene(600)
+    model, _, _ = paper_scene(args.points)
     dt = scene_dt(model)
     n, ij = model.point_count, model.spring_ij
     rows = np.concatenate([ij[:, 0], ij[:, 1]])
