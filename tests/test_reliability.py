@@ -590,7 +590,9 @@ def test_overwrite_never_deletes_a_live_run_or_a_run_for_a_scene_that_cannot_sta
     bad = tmp_path / "bad.toml"
     below = EXPLICIT.replace("lower = [0.0, 0.05, 0.0]", "lower = [0.0, -0.05, 0.0]")
     held = EXPLICIT + '[[handle]]\nkind = "gravity"\nscale = 0.0\nindices = [999]\n'
-    for text in (below, held):
+    huge = EXPLICIT.replace("steps = 300", "steps = 100000000000").replace("every = 20",
+                                                                              "every = 1")
+    for text in (below, held, huge):  # (huge: refused for the disk, after the build)
         bad.write_text(text)
         r = CliRunner().invoke(cli, ["run", str(bad), "-o", str(out), "--overwrite"])
         assert r.exit_code != 0
@@ -654,3 +656,11 @@ def test_a_full_disk_says_where_and_how_to_go_on(tmp_path, monkeypatch):
     assert "stopped at step 100" in (out / STREAM_DIR / "status.txt").read_text()
     monkeypatch.setattr(PVDSeries, "add", real)
     _same(load_trajectory(run_scene(scene, out, progress=False, resume=True).trajectory), ref)
+
+    def full(self, *a, **k):  # full at the first frame, before any checkpoint: start again
+        raise OSError(errno.ENOSPC, "No space left on device", "body_00000.vtu")
+
+    monkeypatch.setattr(PVDSeries, "add", full)
+    with pytest.raises(OutputError, match=r"writing body_00000.vtu: free space .* then run it "
+                                          r"again with --overwrite \(no checkpoint"):
+        run_scene(scene, tmp_path / "first", progress=False, checkpoint_every=0)

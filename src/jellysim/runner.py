@@ -161,24 +161,58 @@ LARGE_TRAJECTORY_BYTES = 1 << 30
 
 
 def _check_disk(out_dir: Path, total: int, every: int, n: int, messages: list, *,
-                frame_bytes: int = 0) -> None:
-    """Refuse a run whose trajectory (``frame_bytes``: its ParaView frames, bytes each)
-    cannot fit the free disk space; note a large one."""
+                freed: int = 0, frame_bytes: int = 0) -> None:
+    """Refuse a run whose trajectory cannot fit the free disk space (plus ``freed`` bytes, the
+    earlier run's files it replaces); note a large one.  ``frame_bytes``: an upper bound of
+    one ParaView frame (uncompressed; they compress to about a third): warned, not refused."""
     import shutil
 
     frames = total // every + 2
-    need = frames * n * 48 * 2 + frames * frame_bytes  # the stream, then the final .npz copy
-    free = shutil.disk_usage(out_dir).free
+    need = frames * n * 48 * 2  # positions + velocities, then the final .npz copy
+    free = shutil.disk_usage(out_dir).free + freed
     gib = need / (1 << 30)
     if need > free:
-        what = (f"its ParaView frames ({frames:,} of {frame_bytes / (1 << 20):.3g} MiB)"
-                if frame_bytes else f"the trajectory ({frames:,} frames of {n:,} points)")
-        raise ResourceError(f"{out_dir}: {what} need about {gib:.3g} GiB on disk, "
-                            f"{free / (1 << 30):.3g} GiB free; save fewer frames ([output] "
-                            "every" + (", --no-vtu" if frame_bytes else "") + ") or free space")
+        raise ResourceError(f"{out_dir}: the trajectory ({frames:,} frames of {n:,} points) "
+                            f"needs about {gib:.3g} GiB on disk, {free / (1 << 30):.3g} GiB "
+                            "free; save fewer frames ([output] every) or free space")
+    if need + frames * frame_bytes > free:
+        messages.append(f"the ParaView frames may need up to "
+                        f"{frames * frame_bytes / (1 << 30):.3g} GiB ({frames:,} frames), with "
+                        f"{(free - need) / (1 << 30):.3g} GiB free beside the trajectory: "
+                        "--no-vtu or fewer frames ([output] every) if the disk fills")
     if need > LARGE_TRAJECTORY_BYTES:
         messages.append(f"the trajectory will take about {gib / 2:.3g} GiB ({frames:,} frames "
                         f"of {n:,} points; [output] every = {every} steps)")
+
+
+def _vtu_frame_bound(model, skin) -> int:
+    """Bytes of one uncompressed ParaView frame (body and skin), an upper bound: points
+    (position, velocity, rest: 72 bytes) and cells (connectivity, offset, type and data)."""
+    fem = getattr(model, "fem", None)
+    cells = 49 * fem.tet_count if fem is not None else 25 * model.spring_count
+    if skin is not None:
+        cells += 24 * len(skin.rest_vertices) + 33 * len(skin.faces)
+    return 72 * model.point_count + cells + 4096
+
+
+def _disk_full(exc: OSError, out_dir: Path, scene, where: str = "") -> OutputError:
+    """The error of a full disk (or quota): the file, and how to go on."""
+    again = (f"continue from the last checkpoint with: jellysim run "
+             f"{shlex.quote(str(scene.name))} --resume {shlex.quote(str(out_dir))}"
+             if (out_dir / CHECKPOINT).exists() or (out_dir / FINAL_CHECKPOINT).exists()
+             else "run it again with --overwrite (no checkpoint was written)")
+    return OutputError(f"{out_dir}: {exc.strerror} writing {exc.filename or 'the frames'}"
+                       f"{where}: free space (or save fewer frames: [output] every, --no-vtu), "
+                       f"then {again}")
+
+
+def _earlier_files(out_dir: Path) -> list[Path]:
+    """The files of an earlier run in ``out_dir`` (what ``overwrite`` deletes)."""
+    out = []
+    for name in _earlier_run(out_dir):
+        p = out_dir / name
+        out += [q for q in p.rglob("*") if q.is_file()] if p.is_dir() else [p]
+    return out
 
 
 def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
@@ -218,6 +252,12 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
         return _run(scene, out_dir, progress=progress, vtu=vtu, steps=steps, skin=skin,
                     body=body, resume=resume, checkpoint_every=checkpoint_every,
                     stop_after=stop_after, handle_signals=handle_signals, notify=notify)
+    except OSError as exc:  # a full disk outside the stepping (the first frame, the end)
+        import errno
+
+        if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+            raise
+        raise _disk_full(exc, out_dir, scene) from None
     finally:
         lock.unlink(missing_ok=True)
         if created and not any(out_dir.iterdir()):  # refused before anything was written
@@ -249,8 +289,6 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             if settling:
                 print(f"settled in {time.perf_counter() - start:.3g} s", file=sys.stderr,
                       flush=True)
-            if not resume:  # the new run starts: an earlier run's files go (refused unless
-                prepare_out_dir(out_dir, overwrite=True, held=True)  # overwrite, in run_scene)
         except JellysimError as exc:  # what the build said may explain it (mesh units)
             exc.run_warnings = [str(w.message) for w in caught]
             raise
@@ -266,7 +304,9 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
     if checkpoint_every is None:
         checkpoint_every = scene.params["output"].get("checkpoint_every")
     write_vtu = scene.params["output"]["vtu"] if vtu is None else vtu
-    _check_disk(out_dir, total, every, model.point_count, messages)
+    freed = 0 if resume else sum(p.stat().st_size for p in _earlier_files(out_dir))
+    _check_disk(out_dir, total, every, model.point_count, messages, freed=freed,
+                frame_bytes=_vtu_frame_bound(model, skin) if write_vtu else 0)
     for m in dict.fromkeys(messages) if notify is not None else ():
         notify(m)
     stream_dir = out_dir / STREAM_DIR
@@ -322,7 +362,8 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                                   f"({exc}); start afresh without --resume") from None
         resumed_from = ck.step
         extending = final_path.exists()  # (a fresh run deletes it: this folder's run had ended)
-    else:
+    else:  # the new run starts: an earlier run's files go now (refused unless overwrite,
+        prepare_out_dir(out_dir, overwrite=True, held=True)  # in run_scene), none before
         for stale in (npz_path, ckpt_path, final_path):
             if stale.exists():
                 stale.unlink()
@@ -357,9 +398,6 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
     done = sim.state.step
     if not resume:
         emit()
-        if series is not None:  # the ParaView frames too, now that one's size is known
-            _check_disk(out_dir, total, every, 0, messages, frame_bytes=sum(
-                p.stat().st_size for p in out_dir.glob("*_00000.vtu")))
         if checkpoint_every != 0:
             checkpoint()  # a killed run can always be resumed, from its start at least
     stepped = 0.0
@@ -434,12 +472,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                 stream.set_status(f"stopped at step {done}: {exc.strerror}; resumable")
             except OSError:
                 pass
-            raise OutputError(
-                f"{out_dir}: {exc.strerror} writing {exc.filename or 'the frames'} at step "
-                f"{done} of {total}: free space (or save fewer frames: [output] every, "
-                f"--no-vtu), then continue from the last checkpoint with: jellysim run "
-                f"{shlex.quote(str(scene.name))} --resume {shlex.quote(str(out_dir))}"
-            ) from None
+            raise _disk_full(exc, out_dir, scene, f" at step {done} of {total}") from None
         except SimulationError as exc:
             emit()
             stream.close()
