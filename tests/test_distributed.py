@@ -22,7 +22,7 @@ from scipy.sparse.csgraph import shortest_path
 import jellysim
 from jellysim.distributed import (LocalPart, halo_depth, halo_layers, partition_points,
                                   point_graph, replicated_reason)
-from jellysim.errors import SimulationError
+from jellysim.errors import SceneError, SimulationError
 from jellysim.io.trajectory import load_trajectory
 from jellysim.params import GroundParams, ProvotParams
 from jellysim.physics.contact import Sphere
@@ -224,6 +224,29 @@ def test_mpiexec_run_takes_the_command_lines_overrides(tmp_path):
     assert "--resume" in proc.stderr and "not done under mpiexec" in proc.stderr
     assert np.array_equal(load_trajectory(tmp_path / "mpi" / "trajectory.npz").positions,
                           got.positions)
+
+
+@needs_mpi
+def test_mpiexec_refuses_a_body_starting_inside_an_obstacle_or_the_ground(tmp_path):
+    """The session 11 review: the serial checks of a starting body (inside an obstacle, below
+    the ground) were skipped under mpiexec, which ran what a serial run refuses.  Both are
+    refused once, by rank 0, as serially, and nothing is written."""
+    text = (DATA / "paper_springs.toml").read_text()
+    inside = text.replace("center = [0.5, 0.05, 0.5]", "center = [0.5, 0.8, 0.5]")
+    below = text.replace("lower = [0.0, 0.3, 0.0]", "lower = [0.0, -0.05, 0.0]").replace(
+        "upper = [1.0, 1.3, 1.0]", "upper = [1.0, 0.95, 1.0]").replace(
+        "center = [0.5, 0.05, 0.5]", "center = [3.0, 0.05, 0.5]")
+    for name, body, match in (("inside", inside, "start inside this obstacle"),
+                              ("below", below, "below the ground")):
+        scene = tmp_path / f"{name}.toml"
+        scene.write_text(body)
+        with pytest.raises(SceneError, match=match):
+            Scene.load(scene).simulator()
+        proc, _ = _mpirun(2, "-m", "jellysim.cli", "run", str(scene), "--out",
+                          str(tmp_path / name), "--quiet")
+        assert proc.returncode == 2 and proc.stderr.count("error:") == 1, proc.stderr
+        assert match in proc.stderr
+        assert not (tmp_path / name / "trajectory.npz").exists()
 
 
 @needs_mpi

@@ -216,8 +216,10 @@ class Simulator(HandleMethods, PhysicalStepping):
                 raise SceneError("Provot strain limiting is a crutch of the explicit "
                                  "integrators and is not applied by integrator = 'implicit'; "
                                  "disable it ([provot] enabled = false)")
-        try:  # (a body starting inside one is refused; a resumed state may touch them)
-            self.obstacles = user_obstacles(obstacles, model.point_x0 if state is None else None)
+        start = (model.point_x0 if state is None else state.x) if (
+            state is None or getattr(state, "step", 0) == 0) else None  # (not a resumed one)
+        try:  # (a body starting inside one is refused)
+            self.obstacles = user_obstacles(obstacles, start)
         except ValueError as exc:
             raise SceneError(str(exc)) from None
         if ground.enabled and GroundModel(ground.model) is GroundModel.CONTACT:
