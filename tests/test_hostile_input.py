@@ -852,6 +852,10 @@ def test_unit_slips_and_empty_bodies_are_said_once(tmp_path):
     with pytest.warns(UserWarning, match=r"has no spring \(600 points"):
         Scene.load(Path(__file__).parents[1] / "examples" / "paper_cube.toml",
                    overrides=("springs.radius=0.001",)).build_model()
+    springs = Scene.from_text('[body]\npoints = 50\n[springs]\nradius = 0.5\nstiffness = 10.0\n'
+                              '[mass]\ndensity = 1.141\n[integrator]\ndt = 0.001\nsteps = 2\n')
+    with pytest.warns(UserWarning, match=r"\[mass\] density = 1.141 kg/m\^3 is outside"):
+        springs.build_model()
     high = Scene.from_text('[material]\npreset = "gelatin"\n[body]\npoints = 27\n'
                            'lower = [0, 20, 0]\nupper = [0.1, 20.1, 0.1]\n')  # mm meant
     with pytest.warns(UserWarning, match=r"starts 20 m above the ground .* falls for 2.02 s"):
@@ -883,14 +887,19 @@ def test_scene_files_as_editors_save_them_and_odd_command_lines(tmp_path):
 
 def test_two_pins_on_the_same_points_are_refused():
     """Session 11's hostile trial: two [[handle]] pins selecting the same points ran with the
-    second silently replacing the first (the body held at 2 cm, not at the 5 cm asked).  The
-    overlap is refused, naming both tables."""
+    second silently replacing the first (the body held at 2 cm, not at the 5 cm asked).  An
+    overlap where either pin moves along a path is refused, naming both tables; two fixed
+    pins on a point agree and are accepted."""
     text = (_GEL + '[[handle]]\nkind = "pin"\nbox = [[-1, 0.09, -1], [1, 1, 1]]\n'
             '[[handle]]\nkind = "pin"\nindices = [0, 63]\npath = [[0, 0, 0, 0], [1, 0, 0.02, 0]]\n')
     scene = Scene.from_text(text, name="s.toml")
     with pytest.raises(SceneError, match=r"\[\[handle\]\] #2 pins 1 point\(s\) that \[\[handle\]\] "
-                                         r"#1 already pins \(point 63\)"):
+                                         r"#1 already pins \(point 63\), one of them along a path"):
         scene.simulator(scene.build_model())
+    fixed = Scene.from_text(text.replace("path = [[0, 0, 0, 0], [1, 0, 0.02, 0]]\n", ""),
+                            name="s.toml")  # two fixed pins agree: accepted
+    sim = fixed.simulator(fixed.build_model())
+    assert sim.handles.pinned[[0, 63]].all()
 
 
 def test_a_scene_body_that_cannot_be_built_names_the_scene_keys():

@@ -219,6 +219,8 @@ def test_an_export_of_a_body_turned_inside_out_says_so(traj, tmp_path):
     note = inside_out_note(dataclasses.replace(traj, positions=flipped))
     assert f"inside out in {traj.frame_count - 3} of {traj.frame_count} frames" in note
     assert f"t = {traj.times[3]:.3g} s" in note
+    open_skin = dataclasses.replace(traj.skin, faces=traj.skin.faces[1:])  # one face gone
+    assert inside_out_note(dataclasses.replace(traj, positions=flipped, skin=open_skin)) is None
     run_scene(Scene.load(Path(__file__).parents[1] / "examples" / "paper_cube.toml"),
               tmp_path / "paper", progress=False, vtu=False, steps=70)
     r = CliRunner().invoke(cli, ["export", str(tmp_path / "paper"), "-o",

@@ -257,12 +257,16 @@ def apply_handle_tables(sim, tables, springs_reason: str | None = None) -> None:
                                                                 sphere["radius"]),
                             indices=entry.get("indices"), what=entry["_where"])
         if entry["kind"] == "pin":
-            both = [int(i) for i in idx if int(i) in pinned_by]
-            if both:  # (the later pin silently replaced the earlier on those points)
+            moving = entry.get("path") is not None
+            both = [int(i) for i in idx if int(i) in pinned_by
+                    and (moving or pinned_by[int(i)][1])]
+            if both:  # (the later pin silently replaced the earlier on those points; two
+                # fixed pins agree, so only a path makes an overlap ambiguous)
                 raise SceneError(f"{entry['_where']} pins {len(both)} point(s) that "
-                                 f"{pinned_by[both[0]]} already pins (point {both[0]}): a point "
-                                 "follows one pin; make the selections disjoint")
-            pinned_by.update({int(i): entry["_where"] for i in idx})
+                                 f"{pinned_by[both[0]][0]} already pins (point {both[0]}), one "
+                                 "of them along a path: a point follows one pin; make the "
+                                 "selections disjoint")
+            pinned_by.update({int(i): (entry["_where"], moving) for i in idx})
             sim.pin(idx, path=entry.get("path"))
         elif entry["kind"] == "force":
             try:

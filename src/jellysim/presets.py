@@ -3,34 +3,34 @@
 A preset is a partial scene: its values fill every key the scene file leaves out (the scene's
 own values win).  :data:`PRESETS` maps the name to that partial scene.
 
-* ``gelatin``: density 1141 kg/m^3 (the figure for Jello the report found, section 6.4,
-  where it says its program's density did not match it) and Young's modulus E = 10 kPa.  Source for E: J. E. Bonavia (2025), compression tests of gelatin gels,
-  arXiv:2512.20502: instantaneous moduli follow a power law in the water:gelatin ratio, from
-  277 +/- 30 kPa at 2:1 down to 4.34 +/- 0.64 kPa at 20:1; the power law through those two
-  points (exponent -1.8) gives 7-11 kPa at 15:1-12:1, a firm dessert gelatin.  10 kPa is
-  chosen there rather than at the soft end because a spring network softer than about 5 kPa
-  at 10 cm scale does not survive a 5 mm drop without a permanent set (docs/physics.md,
-  limits).  Poisson's ratio 0.48 (gelatin is nearly incompressible, ~0.5; 0.48 is the lowest value
-  at which a 5 kPa ball dropped 50 cm inverts no tet at a frame's end; the cube's sag locks
-  9 % below nu = 0.3's with the mirrored split, docs/physics.md), material damping
-  ratio 0.02 at 5 Hz (loss factor tan d = 0.04: set gelatin gels are "true gels", storage
-  modulus far above the loss modulus and both nearly independent of frequency; the figure is
-  our estimate for a dessert gel, not a measurement of ours), physical ground (restitution
-  0.3, Coulomb friction 0.6), the physical path: Stable Neo-Hookean tets for tet bodies,
-  symplectic substeps at dt = 1/60 s per frame, 180 frames (3 s) unless ``steps`` is given,
-  no Provot, no report damping; ``[material] preset = "gelatin"`` alone is a whole scene (the
-  10 cm cube resting on the plate).  A mesh body
-  gets ``connect = "marching"`` and a box (the default type) ``distribution = "grid"`` (a
-  10 cm cube of 1000 cells, :data:`GELATIN_BOX`, unless its corners or points are given),
-  both carrying tets, unless the scene names its springs (``connect``, ``radius`` or
-  ``neighbours``) or a random distribution.
+* ``gelatin``: density 1141 kg/m^3 (the figure for Jello the report found, section 6.4, where it
+  says its program's density did not match it) and Young's modulus E = 10 kPa. Source for E: J.
+  E. Bonavia (2025), compression tests of gelatin gels, arXiv:2512.20502: instantaneous moduli
+  follow a power law in the water:gelatin ratio, from 277 +/- 30 kPa at 2:1 down to 4.34 +/-
+  0.64 kPa at 20:1; the power law through those two points (exponent -1.8) gives 7-11 kPa at
+  15:1-12:1, a firm dessert gelatin. 10 kPa is chosen there rather than at the soft end because
+  a spring network softer than about 5 kPa at 10 cm scale does not survive a 5 mm drop without a
+  permanent set (docs/physics.md, limits). Poisson's ratio 0.48 (gelatin is nearly
+  incompressible, ~0.5; 0.48 is the lowest value at which a 5 kPa ball dropped 50 cm inverts no
+  tet at a frame's end; the cube's sag locks 9 % below nu = 0.3's with the mirrored split,
+  docs/physics.md), material damping ratio 0.02 at 5 Hz (loss factor tan d = 0.04: set gelatin
+  gels are "true gels", storage modulus far above the loss modulus and both nearly independent
+  of frequency; the figure is our estimate for a dessert gel, not a measurement of ours),
+  physical ground (restitution 0.3, Coulomb friction 0.6), the physical path: Stable Neo-Hookean
+  tets for tet bodies, symplectic substeps at dt = 1/60 s per frame, 180 frames (3 s) unless
+  ``steps`` is given, no Provot, no report damping; ``[material] preset = "gelatin"`` alone is a
+  whole scene (the 10 cm cube resting on the plate). A mesh body gets ``connect = "marching"``
+  and a box (the default type) ``distribution = "grid"`` (a 10 cm cube of 1000 cells,
+  :data:`GELATIN_BOX`, unless its corners or points are given), both carrying tets, unless the
+  scene names its springs (``connect``, ``radius`` or ``neighbours``) or a random distribution.
 * ``paper-2010``: the report's section 5.1 run: the body's mass split evenly over its points
-  (section 4; whatever the builder: tet builders otherwise lump it by tet volume), k = 2 N/m, delta = 0.8 kg/s, tau = 0.1 %, one
-  all-pairs Provot loop (the report's hack of section 4.1/5.2), the mu/nu ground (mu = 0.1,
-  nu = 0.2), the report's integrator at dt = 0.01 s, and the report's step exactly (section
-  4.1, checked to 1e-12 m by ``tests/test_paper_step.py``): Provot visits the points in order
-  and corrects each pair in place at once (``order = "gauss-seidel"``: "we iterate over every
-  point ... and for each of its neighbors, we do Provot correction"), moves positions only
+  (section 4; whatever the builder: tet builders otherwise lump it by tet volume; a body file's
+  own masses are replaced, with a warning), k = 2 N/m, delta = 0.8 kg/s, tau = 0.1 %, one
+  all-pairs Provot loop (the report's hack of section 4.1/5.2), the mu/nu ground (mu = 0.1, nu =
+  0.2), the report's integrator at dt = 0.01 s, and the report's step exactly (section 4.1,
+  checked to 1e-12 m by ``tests/test_paper_step.py``): Provot visits the points in order and
+  corrects each pair in place at once (``order = "gauss-seidel"``: "we iterate over every point
+  ... and for each of its neighbors, we do Provot correction"), moves positions only
   (``velocity_update = false``: the report says nothing of velocities) and the accelerations
   start at zero (``start_acceleration = "zero"``: the report's step computes them after the
   first move).

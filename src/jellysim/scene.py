@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import JellysimError, SceneError, did_you_mean
+from .errors import BuildError, JellysimError, SceneError, did_you_mean
 from .geometry.mesh import MESH_SUFFIXES
 from .params import (MAX_ALL_PAIRS_POINTS, GroundParams, ImplicitParams, ProvotOrder, ProvotPairs,
                      ProvotParams)
@@ -340,7 +340,7 @@ class Scene:
                                       neighbours=s["neighbours"], h=s["h"], density=density,
                                       seed=b["seed"], surface_samples=b["surface_samples"],
                                       relax=b["relax"], snap=s["snap"] is not False)
-            except (JellysimError, ValueError) as exc:  # name the scene keys, not the call
+            except BuildError as exc:  # name the scene keys, not the call
                 keys = ", ".join(f"[{t}] {k} = {json.dumps(v)}" for t, k, v in (
                     ("springs", "connect", s["connect"]), ("body", "points", b["points"]),
                     ("body", "sampling", b["sampling"]), ("springs", "h", s["h"]),
@@ -358,6 +358,10 @@ class Scene:
         m, ph = self.params["mass"], self.params["physics"]
         mat = self.params["material"]
         density = mat["density"] if mat["density"] is not None else m["density"]
+        if "density" in self.given.get("mass", ()) and not 100.0 <= m["density"] <= 25000.0:
+            warnings.warn(f"{self.name}: [mass] density = {m['density']:g} kg/m^3 is outside "
+                          "100 .. 25,000 kg/m^3 (gelatin 1141, water 1000): it is in kg/m^3 "
+                          "(1.141 would be g/cm^3)", UserWarning, stacklevel=2)
         given = self.params["springs"]["stiffness"]
         if self.params["body"]["type"] == "file" and mat["youngs_modulus"] is None:
             path = self.params["body"]["path"]
@@ -395,6 +399,11 @@ class Scene:
             if mat.get("preset") == "paper-2010" and body.masses is not None:
                 from dataclasses import replace  # the report splits the mass evenly, whatever
                                                  # the builder (tet bodies lump it by volume)
+                if self.params["body"]["type"] == "file":
+                    warnings.warn(f"{self.name}: the body file's own masses "
+                                  f"({body.masses.sum():.4g} kg) are replaced: the paper-2010 "
+                                  "preset splits density x volume evenly, as the report does",
+                                  UserWarning, stacklevel=2)
                 body = replace(body, masses=None)
             model = finalize(body, stiffness=self.params["springs"]["stiffness"],
                              density=density if body.masses is None else None,

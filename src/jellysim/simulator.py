@@ -200,8 +200,8 @@ class Simulator(HandleMethods, PhysicalStepping):
             self.needed_substeps = self._springs_auto_substeps(model, dt)
         if substeps == "auto":
             substeps = self.needed_substeps
-        if isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer)) or (
-                substeps < 1):  # (1.5 was truncated to 1)
+        if isinstance(substeps, bool) or not isinstance(substeps, (int, float, np.number)) or (
+                not np.isfinite(substeps) or substeps != int(substeps) or substeps < 1):
             raise SceneError(f"substeps must be an integer >= 1 or 'auto', got {substeps!r}")
         self.substeps = int(substeps)
         if self.physical and self.substeps < self.needed_substeps:

@@ -94,8 +94,8 @@ class Recorder:
     def save(self, path, *, status: str = "complete", overwrite: bool = False) -> Path:
         """Write the frames to ``path`` (``.npz``; atomically).  A file there from an earlier
         save is replaced; one in the folder of a ``jellysim run`` (its checkpoint, frame
-        stream, ParaView series or lock beside it, which would no longer match) is refused
-        unless ``overwrite``."""
+        stream or lock beside it, which would no longer match) is refused unless
+        ``overwrite``."""
         from ..errors import OutputError
 
         n = self.model.point_count
@@ -105,7 +105,7 @@ class Recorder:
         path = Path(path)
         if path.exists() and not overwrite:
             beside = [name for name in ("checkpoint.npz", "checkpoint.final.npz",
-                                        "trajectory.stream", "body.pvd", ".jellysim.lock")
+                                        "trajectory.stream", ".jellysim.lock")
                       if (path.parent / name).exists()]
             if beside:
                 raise OutputError(f"{path}: is a jellysim run's trajectory ({beside[0]} beside "

@@ -58,6 +58,9 @@ def inside_out_note(traj) -> str | None:
     except JellysimError:
         return None
     faces = np.asarray(faces, dtype=np.int64)
+    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    if np.any(np.unique(edges, axis=0, return_counts=True)[1] != 2):
+        return None  # an open surface encloses no volume to check
 
     def volume(v):  # [m^3], the divergence theorem over the triangles
         a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]

@@ -95,9 +95,9 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
     if len(frames) == 0 or frames.min() < -traj.frame_count or (
             frames.max() >= traj.frame_count):
         raise JellysimError(f"frames must lie in [0, {traj.frame_count - 1}]")
-    if fps is None:  # real time: every k-th frame of a run saved faster than a screen shows
-        frames, fps = real_time_playback(traj.times, frames, gif=kind == "gif")
-    fps = float(fps)
+    if fps is None and kind in ("mp4", "gif"):  # real time: every k-th frame of a run saved
+        frames, fps = real_time_playback(traj.times, frames, gif=kind == "gif")  # faster
+    fps = 30.0 if fps is None else float(fps)  # (pictures: every frame asked, no rate)
     if not fps > 0:
         raise JellysimError(f"fps must be > 0, got {fps}")
     if kind == "png":
