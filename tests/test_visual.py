@@ -190,6 +190,8 @@ def test_a_run_saved_faster_than_a_screen_plays_in_real_time(traj, tmp_path):
             delays.append(im.info["duration"])
     assert min(delays) >= 20  # browsers slow anything shorter
     assert sum(delays) / 1000.0 == pytest.approx(span, abs=1.0 / 100.0 + 1e-9)
+    folder = render_trajectory(fast, tmp_path / "pngs", RenderOptions(size=SIZE))
+    assert len(list(folder.glob("frame_*.png"))) == fast.frame_count  # pictures: every frame
     stage = Usd.Stage.Open(str(export_usd(fast, tmp_path / "fast.usdc")))
     assert stage.GetTimeCodesPerSecond() == 100.0
     assert (stage.GetEndTimeCode() - stage.GetStartTimeCode()) / 100.0 == pytest.approx(
