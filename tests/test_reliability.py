@@ -664,3 +664,31 @@ def test_a_full_disk_says_where_and_how_to_go_on(tmp_path, monkeypatch):
     with pytest.raises(OutputError, match=r"writing body_00000.vtu: free space .* then run it "
                                           r"again with --overwrite \(no checkpoint"):
         run_scene(scene, tmp_path / "first", progress=False, checkpoint_every=0)
+
+
+def test_a_damaged_checkpoint_or_finished_trajectory_is_refused_by_name(tmp_path):
+    """Session 11's verification trial: a checkpoint cut short (a copy, a crash) made
+    `--resume` raise zipfile's BadZipFile from inside; extending a finished run whose
+    trajectory.npz was cut short did too and left a half-reopened stream; a finished run
+    whose trajectory.npz was deleted blamed the stream.  Each is a CheckpointError naming the
+    file and the fix, and the folder is left as it was."""
+    scene = Scene.from_text(EXPLICIT, name="scene.toml")
+    cut = tmp_path / "cut"
+    with pytest.raises(RunInterrupted):
+        run_scene(scene, cut, progress=False, stop_after=scene.steps // 2)
+    ck = cut / CHECKPOINT
+    ck.write_bytes(ck.read_bytes()[: ck.stat().st_size // 2])
+    with pytest.raises(CheckpointError, match=r"checkpoint.npz: damaged checkpoint .*cut short"
+                                              r".*with --overwrite"):
+        run_scene(scene, cut, progress=False, resume=True)
+    done = tmp_path / "done"
+    run_scene(scene, done, progress=False)
+    npz = done / "trajectory.npz"
+    npz.write_bytes(npz.read_bytes()[: npz.stat().st_size // 2])
+    before = sorted(p.name for p in done.iterdir())
+    with pytest.raises(CheckpointError, match=r"trajectory.npz: damaged .*cannot be extended"):
+        run_scene(scene, done, progress=False, resume=True, steps=2 * scene.steps)
+    assert sorted(p.name for p in done.iterdir()) == before  # (no half-reopened stream left)
+    npz.unlink()
+    with pytest.raises(CheckpointError, match=r"the run's frames are gone \(no trajectory.npz"):
+        run_scene(scene, done, progress=False, resume=True, steps=2 * scene.steps)

@@ -22,6 +22,7 @@ import sys
 import threading
 import time
 import warnings
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -345,9 +346,18 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             every = ck.frame_every  # frames keep the run's schedule, whatever its new length
         if vtu is None and ck.vtu is not None:
             write_vtu = ck.vtu  # an extension keeps the run's --no-vtu
-        if not stream_dir.exists() and npz_path.exists():  # a finished run being extended
-            reopen_stream(npz_path, stream_dir, meta=trajectory_meta(
-                model, scene_text=scene.text, params=scene.params, skin=skin))
+        if not stream_dir.exists():  # a finished run being extended: its frames back
+            if not npz_path.exists():
+                raise CheckpointError(f"{out_dir}: the run's frames are gone (no {npz_path.name}"
+                                      f" and no {STREAM_DIR}): it cannot be extended; run it "
+                                      "again with --overwrite")
+            try:
+                reopen_stream(npz_path, stream_dir, meta=trajectory_meta(
+                    model, scene_text=scene.text, params=scene.params, skin=skin))
+            except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+                _clean(out_dir)  # (the half-reopened stream)
+                raise CheckpointError(f"{npz_path}: damaged ({exc}: cut short?): the run cannot "
+                                      "be extended; run it again with --overwrite") from None
         s = sim.state
         s.x[:], s.v[:], s.a[:] = ck.x, ck.v, ck.a
         s.t, s.step = ck.t, ck.step

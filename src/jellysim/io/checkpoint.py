@@ -34,6 +34,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -173,9 +174,9 @@ def read_checkpoint(path, *, scene=None, model=None) -> Checkpoint:
             scene_steps=int(d["scene_steps"]) if "scene_steps" in d else None,
             vtu=bool(d["vtu"]) if "vtu" in d else None,
             scene_params=str(d["scene_params"]) if "scene_params" in d else "")
-    except (OSError, ValueError, KeyError, EOFError) as exc:
-        raise CheckpointError(f"{path}: damaged checkpoint ({exc}); start the run afresh "
-                              "(without --resume)") from None
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+        raise CheckpointError(f"{path}: damaged checkpoint ({exc}: cut short or overwritten?); "
+                              "start the run afresh: without --resume, with --overwrite") from None
     if ck.version != _version():
         raise CheckpointError(f"{path}: written by jellysim {ck.version}, this is "
                               f"{_version()}; resume with that version or start afresh")
