@@ -849,6 +849,9 @@ def test_unit_slips_and_empty_bodies_are_said_once(tmp_path):
     assert r.exit_code == 0, r.output
     assert r.output.count("density = 1.141 kg/m^3 is outside") == 1
     assert r.output.count("youngs_modulus = 10 Pa is outside") == 1
+    r = CliRunner().invoke(cli, ["inspect", str(scene)])  # (it printed Python's raw form)
+    assert r.output.count("warning: material youngs_modulus = 10 Pa is outside") == 1
+    assert "UserWarning" not in r.output
     with pytest.warns(UserWarning, match=r"has no spring \(600 points"):
         Scene.load(Path(__file__).parents[1] / "examples" / "paper_cube.toml",
                    overrides=("springs.radius=0.001",)).build_model()

@@ -37,8 +37,19 @@ class _Group(click.Group):
     one ``error:`` line (exit code 2), never a traceback."""
 
     def invoke(self, ctx):
+        import warnings
+
+        from .cli_visual import SAID, say_once as _say
+
+        SAID.clear()  # a command's warnings: "warning: ..." once each, not Python's form
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            _say(str(message))
+
         try:
-            return super().invoke(ctx)
+            with warnings.catch_warnings():
+                warnings.showwarning = show
+                return super().invoke(ctx)
         except JellysimError as exc:
             _fail(str(exc))
         except OSError as exc:
@@ -217,16 +228,11 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 
 
 def _sayer():
-    """A function saying a run's warning on stderr once per run (the build's are said
+    """A function saying a run's warning on stderr once per command (the build's are said
     before the stepping starts, and come back in the run's result)."""
-    said = set()
+    from .cli_visual import say_once
 
-    def say(message: str) -> None:
-        if message not in said:
-            said.add(message)
-            click.secho(f"warning: {message}", fg="yellow", err=True)
-
-    return say
+    return say_once
 
 
 @cli.command()
@@ -305,7 +311,7 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
     except JellysimError as exc:
         _fail(str(exc))
     for w in caught:
-        click.secho(f"warning: {w.message}", fg="yellow", err=True)
+        _sayer()(str(w.message))
     st = body_stats(body, density=density)
     extra = ""
     if body.meta.get("radius_chosen_for_neighbours"):
@@ -347,7 +353,7 @@ def inspect(path, settings=()) -> None:
                 rows = scene_summary(Scene.load(path, overrides=settings), said)
             finally:
                 for w in said:
-                    click.secho(f"warning: {w}", fg="yellow", err=True)
+                    _sayer()(str(w))
             click.echo(f"{path}: scene")
             for k, v in rows:
                 click.echo(f"  {k:<12} {v}")

@@ -173,12 +173,23 @@ def write_run_outputs(trajectory, *, video=None, usd=None, glb=None, progress=Tr
     return out
 
 
+SAID: set = set()
+"""The warnings the present command said (cleared as each command starts)."""
+
+
+def say_once(message: str) -> None:
+    """Say a warning on stderr, once per command."""
+    if message not in SAID:
+        SAID.add(message)
+        click.secho(f"warning: {message}", fg="yellow", err=True)
+
+
 def _warn_inside_out(traj) -> None:
     from .io.usd import inside_out_note
 
     note = inside_out_note(traj)
     if note:
-        click.secho(f"warning: {note}", fg="yellow", err=True)
+        say_once(note)
 
 
 _overwrite = click.option("--overwrite", is_flag=True,
@@ -263,7 +274,7 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
                          precision=precision, threads=threads, overwrite=overwrite,
                          points=points, mesh=mesh, up=up)
         for w in dict.fromkeys(str(w.message) for w in caught):
-            click.secho(f"warning: {w}", fg="yellow", err=True)
+            say_once(w)
     except JellysimError as exc:
         _fail(str(exc))
     s = r["seconds"]
