@@ -314,6 +314,8 @@ def test_the_python_api_refuses_what_a_scene_refuses():
             js.GroundParams(**bad)
     with pytest.raises(ValueError, match="ground friction must be a number >= 0"):
         js.GroundParams(model="contact", friction=float("nan"))
+    with pytest.raises(SceneError, match="Scene.from_dict takes a dictionary"):
+        js.Scene.from_dict([1, 2])
     body = js.Body(points=[[0.0, 0.0, 0.0], [0.01, 0.0, 0.0]], springs=[[0, 1]])
     assert body.points.dtype == np.float64 and "volume unknown" in repr(body)
     with pytest.raises(ValueError, match=r"points must have shape \(n, 3\)"):

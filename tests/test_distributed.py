@@ -245,8 +245,8 @@ def test_mpiexec_refuses_a_body_starting_inside_an_obstacle_or_the_ground(tmp_pa
         proc, _ = _mpirun(2, "-m", "jellysim.cli", "run", str(scene), "--out",
                           str(tmp_path / name), "--quiet")
         assert proc.returncode == 2 and proc.stderr.count("error:") == 1, proc.stderr
-        assert match in proc.stderr
-        assert not (tmp_path / name / "trajectory.npz").exists()
+        assert match in proc.stderr and f"{scene}:" in proc.stderr  # naming the scene
+        assert not (tmp_path / name).exists()  # (no empty folder left either)
 
 
 @needs_mpi

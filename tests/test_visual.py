@@ -695,9 +695,14 @@ def test_a_refused_render_or_recording_deletes_and_replaces_nothing(run_dir, tra
     rec.record(Simulator(model, dt=1e-3).state)
     run_npz = run_dir / "trajectory.npz"
     kept = run_npz.read_bytes()
-    with pytest.raises(OutputError, match=r"jellysim run's trajectory \(.* beside it"):
+    with pytest.raises(OutputError, match=r"is in a jellysim run's folder \(.* beside it"):
         rec.save(run_npz)
     assert run_npz.read_bytes() == kept
+    live = tmp_path / "live"  # a folder a live run (this process, here) is writing
+    live.mkdir()
+    (live / ".jellysim.lock").write_text(f"{os.getpid()} {__import__('socket').gethostname()}\n")
+    with pytest.raises(OutputError, match=r"another jellysim run \(process"):
+        rec.save(live / "trajectory.npz", overwrite=True)
     mine = tmp_path / "mine" / "trajectory.npz"   # a recording of one's own: saved again
     mine.parent.mkdir()
     rec.save(mine)

@@ -131,6 +131,10 @@ class Scene:
         ``jellysim scene-help``).  Relative paths are relative to the current directory;
         errors name ``name``.  The scene's text (recorded in a run's trajectory) is the
         dictionary written as TOML."""
+        if not isinstance(raw, dict):
+            raise SceneError(f"{name}: Scene.from_dict takes a dictionary shaped like the TOML "
+                             f"file ({{'body': {{...}}, 'integrator': {{...}}}}), got "
+                             f"{type(raw).__name__}")
         raw = plain(raw)  # tuples, numpy arrays and numpy scalars as the TOML reader's values
         given = given_keys(raw, SCHEMA, PRESETS)
         scene = cls(cls._validate(raw, name, user=given), text=as_toml(raw), name=name)

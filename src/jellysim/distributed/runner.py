@@ -39,6 +39,7 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
     ``notify`` (rank 0) hears the build's warnings before the stepping, as in a serial run."""
     comm = world() if comm is None else comm
     out_dir = Path(out_dir)
+    created = not out_dir.exists()  # (rank 0's view: it alone writes)
 
     def claim_folder():
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -58,6 +59,8 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
     finally:
         if lock is not None:
             lock.unlink(missing_ok=True)
+            if created and not any(out_dir.iterdir()):  # refused before anything was written
+                out_dir.rmdir()
 
 
 def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partition, skin,
@@ -83,7 +86,13 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
     state = scene.simulator_kwargs(model).get("state") if rank == 0 else None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        sim = DistributedSimulator(model, comm=comm, partition=partition, state=state, **kw)
+        try:
+            sim = DistributedSimulator(model, comm=comm, partition=partition, state=state,
+                                       **kw)
+        except SceneError as exc:  # name the scene file, as a serial run does
+            msg = str(exc)
+            raise SceneError(msg if msg.startswith(f"{scene.name}:") else
+                             f"{scene.name}: {msg}") from None
         prepare(scene, sim)
     if rank == 0:
         messages += [str(w.message) for w in caught]

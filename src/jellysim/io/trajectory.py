@@ -103,12 +103,16 @@ class Recorder:
             raise OutputError(f"{path}: no frame recorded: call record(sim.state) at least "
                               "once before save")
         path = Path(path)
+        from .lock import refuse_if_held
+
+        if path.parent.is_dir():  # a live run writes there: never, whatever overwrite says
+            refuse_if_held(path.parent)
         if path.exists() and not overwrite:
             beside = [name for name in ("checkpoint.npz", "checkpoint.final.npz",
                                         "trajectory.stream", ".jellysim.lock")
                       if (path.parent / name).exists()]
             if beside:
-                raise OutputError(f"{path}: is a jellysim run's trajectory ({beside[0]} beside "
+                raise OutputError(f"{path}: is in a jellysim run's folder ({beside[0]} beside "
                                   "it would no longer match): save elsewhere, or pass "
                                   "overwrite=True to replace it")
         meta = trajectory_meta(self.model, scene_text=self.scene_text, params=self.params,
