@@ -165,7 +165,8 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
     except SimulationError as exc:
         emit()
         if rank == 0:
-            recorder.save(out_dir / "trajectory.npz", status=f"failed: {exc}", overwrite=True)
+            recorder.save(out_dir / "trajectory.npz", status=f"failed: {exc}", overwrite=True,
+                          held=True)
         raise
     finally:
         during.__exit__(None, None, None)
@@ -174,7 +175,7 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
     if rank != 0:
         return None
     messages += [str(w.message) for w in caught]
-    path = recorder.save(out_dir / "trajectory.npz", overwrite=True)
+    path = recorder.save(out_dir / "trajectory.npz", overwrite=True, held=True)
     return RunResult(out_dir, path, series.pvd_path if series else None,
                      len(recorder.times), total, stepped, messages,
                      simulated=total * float(sim.dt))

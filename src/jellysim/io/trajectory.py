@@ -91,11 +91,13 @@ class Recorder:
         self.times.append(float(state.t))
         self.steps.append(int(state.step))
 
-    def save(self, path, *, status: str = "complete", overwrite: bool = False) -> Path:
+    def save(self, path, *, status: str = "complete", overwrite: bool = False,
+             held: bool = False) -> Path:
         """Write the frames to ``path`` (``.npz``; atomically).  A file there from an earlier
         save is replaced; one in the folder of a ``jellysim run`` (its checkpoint, frame
         stream or lock beside it, which would no longer match) is refused unless
-        ``overwrite``."""
+        ``overwrite``; a folder a live run is writing, always (``held``: the caller is that
+        run, saving its own trajectory)."""
         from ..errors import OutputError
 
         n = self.model.point_count
@@ -105,7 +107,7 @@ class Recorder:
         path = Path(path)
         from .lock import refuse_if_held
 
-        if path.parent.is_dir():  # a live run writes there: never, whatever overwrite says
+        if path.parent.is_dir() and not held:  # a live run writes there: never
             refuse_if_held(path.parent)
         if path.exists() and not overwrite:
             beside = [name for name in ("checkpoint.npz", "checkpoint.final.npz",
