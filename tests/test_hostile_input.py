@@ -917,3 +917,22 @@ def test_a_scene_body_that_cannot_be_built_names_the_scene_keys():
                                          r'= "marching", .*\[springs\] h = 1.0\): .*no '
                                          r'tetrahedron was kept'):
         scene.build_body()
+
+
+def test_a_pin_path_below_the_ground_is_said():
+    """Session 11's hostile trial: a pin path going 3 cm below the ground was held on the
+    ground, silently (not where the path said).  It is warned when pinned, by how much; a
+    path staying above is not."""
+    import warnings
+
+    import jellysim as js
+
+    model = js.physical_model(js.Body.box((0, 0.02, 0), (0.05, 0.07, 0.05), points=27),
+                              "gelatin")
+    sim = js.Simulator(model, dt=1 / 60, ground=js.GroundParams(model="contact"))
+    top = js.select_points(sim.state.x, box=[[-1, 0.065, -1], [1, 1, 1]])
+    with pytest.warns(UserWarning, match=r"takes pinned points 0.03 m below the ground"):
+        sim.pin(top, path=[[0, 0, 0, 0], [1, 0, -0.1, 0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.pin(top, path=[[0, 0, 0, 0], [1, 0, -0.06, 0]])

@@ -330,6 +330,14 @@ class HandleMethods:
         if path is not None:
             path = path if isinstance(path, PinPath) else PinPath.of(path)
             hd.paths.append((idx, path.starting_at(float(self.state.t))))
+            ground = getattr(self, "ground", None)
+            low = float(self.state.x[idx, 1].min() + path.offsets[:, 1].min())
+            if ground is not None and ground.enabled and low < float(ground.height) - 1e-9:
+                import warnings  # (the contact holds them on it: not where the path says)
+
+                warnings.warn(f"pin: the path takes pinned points {float(ground.height) - low:.3g}"
+                              " m below the ground, which holds them on it there", UserWarning,
+                              stacklevel=2)
 
     def unpin(self, indices=None) -> None:
         """Release pinned points (all when ``indices`` is None)."""
