@@ -204,7 +204,8 @@ def test_cli_inspect_a_scene_says_what_it_will_run(tmp_path):
     assert res.exit_code == 0, res.output
     rows = dict(line.split(None, 1) if " " in line.strip() else (line.strip(), "")
                 for line in res.output.splitlines()[1:])
-    assert rows["points"].strip() == "1331"
+    assert rows["points"].strip() == ("1331 (a grid of about 1000 cells: [body] points "
+                                      "counts the cells)")  # (said: session 11's trials)
     assert float(rows["mass"].split()[-1]) == pytest.approx(1141.0 * 0.1**3, rel=1e-5)
     assert rows["path"].startswith("physical")
     scene = Scene.from_text(text)

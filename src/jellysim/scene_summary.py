@@ -50,7 +50,8 @@ def scene_summary(scene, said: list | None = None) -> list[tuple[str, str]]:
     rows = [
         ("body", f"type {b['type']!r}" + (f", {b['path']}" if b["path"] else "")
          + (f", distribution {b['distribution']!r}" if b["type"] == "box" else "")),
-        ("points", f"{model.point_count}"), ("springs", f"{model.spring_count}"),
+        ("points", f"{model.point_count}" + _points_note(b, p["springs"], model.point_count)),
+        ("springs", f"{model.spring_count}"),
         ("tets", "none" if tets is None else f"{len(tets)}"),
         ("mass [kg]", f"{model.total_mass:.6g}"),
         ("bounds [m]", _corners(x)),
@@ -82,3 +83,18 @@ def scene_summary(scene, said: list | None = None) -> list[tuple[str, str]]:
     rows.append(("obstacles", f"{len(scene.obstacles())}"))
     rows.append(("handles", f"{len(p.get('handle') or [])}"))
     return rows
+
+
+def _points_note(b: dict, s: dict, count: int) -> str:
+    """Why a body has far more or fewer points than ``[body] points`` (a grid counts cells,
+    a Delaunay body adds its surface samples, a marching one fills its grid), or ``""``."""
+    asked = b.get("points")
+    if not asked or 0.8 <= count / asked <= 1.25:
+        return ""
+    if b["type"] == "box":
+        return f" (a grid of about {asked} cells: [body] points counts the cells)"
+    if b["type"] == "mesh":
+        how = {"delaunay": "adds points sampled on the surface",
+               "marching": "fills its grid inside the mesh"}.get(s.get("connect"), "")
+        return f" ({asked} asked: {s.get('connect')} {how})" if how else ""
+    return ""
