@@ -329,6 +329,16 @@ def test_the_python_api_refuses_what_a_scene_refuses():
         js.physical_model(cube, 3)
     with pytest.raises(SceneError, match="substeps must be an integer"):
         js.Simulator(model, dt=1 / 60, substeps=1.5)
+    for bad in (0, -3, 2.7):  # (accepted, and reported as sim.threads)
+        with pytest.raises(SceneError, match="threads must be an integer >= 1"):
+            js.Simulator(model, dt=1 / 60, threads=bad)
+    # a sweep's numpy values (np.arange, float32 arrays) are numbers too
+    gel = js.material("gelatin", youngs_modulus=np.int64(10000), damping_ratio=np.float32(0.05))
+    assert gel.youngs_modulus == 10000.0 and gel.damping_ratio == 0.05
+    scene = jellysim.Scene.from_dict({"material": {"preset": "gelatin",
+                                                   "damping_ratio": np.float32(0.05)},
+                                      "integrator": {"steps": 2}})
+    assert scene.params["material"]["damping_ratio"] == 0.05 and "0.05\n" in scene.text
     one = js.Simulator(model, dt=1 / 60, obstacles=js.Sphere(center=(0.05, 0.3, 0.05),
                                                             radius=0.1))
     assert len(one.obstacles) == 1                       # one obstacle, not a list, works

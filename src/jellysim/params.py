@@ -309,9 +309,13 @@ class Material:
         for name in ("density", "youngs_modulus", "poisson_ratio", "damping_ratio",
                      "damping_frequency", "mass_scaling"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
+            if isinstance(value, bool) or not isinstance(value, numbers.Real):
                 raise ValueError(f"material {name} must be a number, got {value!r} "
                                  f"({type(value).__name__})")
+            narrow = getattr(getattr(value, "dtype", None), "itemsize", 8) < 8
+            if narrow and not isinstance(value, numbers.Integral):  # a numpy float32:
+                value = float(str(value))   # float32(0.05) is 0.05, as written
+            object.__setattr__(self, name, float(value))
         checks = (("density", self.density > 0, "a positive number of kg/m^3"),
                   ("youngs_modulus", self.youngs_modulus > 0, "a positive number of Pa"),
                   ("poisson_ratio", -0.5 < self.poisson_ratio < 0.5, "in (-0.5, 0.5)"),

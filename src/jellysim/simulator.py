@@ -274,6 +274,8 @@ class Simulator(HandleMethods, PhysicalStepping):
             threads = 1  # a substep's work is too small to pay for thread synchronisation
         if threads is None:  # (the physical path's work is its tets, counted above)
             threads = auto_threads(n, None if self.physical else model.spring_count)
+        if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+            raise SceneError(f"threads must be an integer >= 1 (or None: by size), got {threads!r}")
         self.threads = int(threads)
         self.state = model.state() if state is None else state
         x0 = model.point_x0
