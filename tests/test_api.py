@@ -339,6 +339,9 @@ def test_the_python_api_refuses_what_a_scene_refuses():
                                                    "damping_ratio": np.float32(0.05)},
                                       "integrator": {"steps": 2}})
     assert scene.params["material"]["damping_ratio"] == 0.05 and "0.05\n" in scene.text
+    from jellysim.scene_spec import plain  # (a 0-d array is a number, as tolist() gave)
+
+    assert plain({"a": np.array(5.0)}) == {"a": 5.0}
     one = js.Simulator(model, dt=1 / 60, obstacles=js.Sphere(center=(0.05, 0.3, 0.05),
                                                             radius=0.1))
     assert len(one.obstacles) == 1                       # one obstacle, not a list, works

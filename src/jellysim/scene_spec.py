@@ -50,7 +50,7 @@ def plain(value: Any) -> Any:
     if isinstance(value, (list, tuple)):
         return [plain(v) for v in value]
     if isinstance(value, np.ndarray):
-        return [plain(v) for v in value]
+        return plain(value[()]) if value.ndim == 0 else [plain(v) for v in value]
     if isinstance(value, np.floating) and value.dtype.itemsize < 8:
         return float(str(value))  # float32(0.05) is 0.05, not 0.05000000074505806
     if isinstance(value, np.generic):
