@@ -181,7 +181,7 @@ def test_a_run_saved_faster_than_a_screen_plays_in_real_time(traj, tmp_path):
     reader = iio2.get_reader(mp4, format="FFMPEG")
     shown, fps = reader.count_frames(), reader.get_meta_data()["fps"]
     reader.close()
-    assert fps <= 60 and shown / fps == pytest.approx(span, abs=1.0 / 100.0 + 1e-9)
+    assert fps <= 60 and shown / fps == pytest.approx(span, abs=1.0 / fps + 1e-9)
     gif = render_trajectory(fast, tmp_path / "fast.gif", RenderOptions(size=SIZE))
     with Image.open(gif) as im:
         delays = []
@@ -189,7 +189,7 @@ def test_a_run_saved_faster_than_a_screen_plays_in_real_time(traj, tmp_path):
             im.seek(k)
             delays.append(im.info["duration"])
     assert min(delays) >= 20  # browsers slow anything shorter
-    assert sum(delays) / 1000.0 == pytest.approx(span, abs=1.0 / 100.0 + 1e-9)
+    assert sum(delays) / 1000.0 == pytest.approx(span, abs=max(delays) / 1000.0 + 1e-9)
     folder = render_trajectory(fast, tmp_path / "pngs", RenderOptions(size=SIZE))
     assert len(list(folder.glob("frame_*.png"))) == fast.frame_count  # pictures: every frame
     stage = Usd.Stage.Open(str(export_usd(fast, tmp_path / "fast.usdc")))
@@ -200,7 +200,7 @@ def test_a_run_saved_faster_than_a_screen_plays_in_real_time(traj, tmp_path):
         times = np.arange(601) / rate
         for gif_kind in (False, True):
             frames, fps = real_time_playback(times, np.arange(601), gif=gif_kind)
-            assert fps <= (50 if gif_kind else 60)
+            assert fps <= (50 if gif_kind else 60) and frames[-1] == 600  # the end shown
             per_frame = 1.0 / fps - (frames[1] - frames[0]) / rate  # played - simulated [s]
             assert abs(per_frame) <= (0.005 if gif_kind else 1e-12)
 

@@ -41,10 +41,10 @@ def default_fps(times: np.ndarray) -> float:
 
 def real_time_playback(times: np.ndarray, frames: np.ndarray, *, gif: bool = False
                        ) -> tuple[np.ndarray, float]:
-    """The frames to show and their rate so that the run plays in real time: a run saved
-    faster than 60 frames/s (50 for a GIF) shows every k-th frame; a GIF's rate is a whole
-    number of hundredths of a second per frame (within 1/200 s per frame of real time); a
-    run slower than 5 frames/s plays at 5.  ``times``: every frame's time [s], shape (f,);
+    """The frames to show and their rate so that the run plays in real time (within one shown
+    frame): a run saved faster than 60 frames/s (50 for a GIF) shows every k-th frame, and
+    always the last (the end state); a GIF's rate is a whole number of hundredths of a second
+    per frame (within 1/200 s per frame of real time); a run slower than 5 frames/s plays at 5.  ``times``: every frame's time [s], shape (f,);
     ``frames``: the indices to play, shape (m,)."""
     frames = np.asarray(frames, dtype=int)
     rate = frame_rate(np.asarray(times)[frames])
@@ -54,4 +54,7 @@ def real_time_playback(times: np.ndarray, frames: np.ndarray, *, gif: bool = Fal
     fps = rate / stride
     if gif:  # delay: whole hundredths, at least 2
         fps = 100.0 / max(2, round(100.0 / fps))
-    return frames[::stride], max(MIN_FPS, fps)
+    shown = frames[::stride]
+    if shown[-1] != frames[-1]:  # the end state is always shown (its last interval shorter)
+        shown = np.append(shown, frames[-1])
+    return shown, max(MIN_FPS, fps)

@@ -27,7 +27,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SceneError
-
 from ..kernels.records import OBSTACLE_MU_S  # the static coefficient's column (inf: no slip)
 from ..params import CONTACT_FRICTION, CONTACT_RESTITUTION
 
