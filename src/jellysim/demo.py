@@ -182,10 +182,10 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
         raise JellysimError(f"--out {out_dir}: holds an earlier demo "
                             f"({', '.join(p.name for p in old if p.exists())}); pass "
                             "--overwrite to replace it, or choose another --out")
-    body, skin = build_demo_body(scene, points, mesh, up)  # before anything is cleared
-    prepare_out_dir(out_dir / stem, overwrite=overwrite)
-    for p in old:
-        p.unlink(missing_ok=True)
+    body, skin = build_demo_body(scene, points, mesh, up)
+    # only checked here: run_scene deletes an earlier demo run once this one can start, and
+    # the video and USD below replace the old ones atomically (a failed demo keeps them)
+    prepare_out_dir(out_dir / stem, overwrite=overwrite, delete=False)
     shape = DEMO_SHAPES[scene]
     raw = dict(DEMO_SCENE, body=dict(DEMO_SCENE["body"], velocity=shape["velocity"]),
                material=dict(DEMO_SCENE["material"], **shape.get("material", {})))
@@ -198,7 +198,7 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
         sc.params["integrator"]["threads"] = int(threads)
     steps = sc.steps if frames is None else max(1, int(frames) - 1) * sc.frame_every
     result = run_scene(sc, out_dir / stem, progress=progress, vtu=vtu, steps=steps,
-                       skin=skin, body=body)
+                       skin=skin, body=body, overwrite=overwrite)
     t_sim = time.perf_counter()
     traj = load_trajectory(result.trajectory)
     video = render_trajectory(traj, out_dir / f"{stem}.mp4",
@@ -208,6 +208,8 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     written = {"trajectory": result.trajectory, "video": video}
     if usd:
         written["usd"] = export_usd(traj, out_dir / f"{stem}.usdc")
+    else:  # an earlier demo's USD would no longer match this one's video
+        old[1].unlink(missing_ok=True)
     written["seconds"] = {"simulate": t_sim - t0, "render": t_render - t_sim,
                           "total": time.perf_counter() - t0,
                           "startup": result.startup_seconds()}

@@ -119,11 +119,10 @@ class RunResult:
         return max(0.0, seconds - steps * later_seconds / later_steps)
 
 
-def refuse_earlier_run(out_dir: Path, overwrite: bool, option: str = "overwrite=True", *,
-                       delete: bool = True) -> None:
+def refuse_earlier_run(out_dir: Path, overwrite: bool, option: str = "overwrite=True") -> None:
     """An earlier run's files in ``out_dir`` (:data:`RUN_FILES`): an
-    :class:`~jellysim.errors.OutputError` unless ``overwrite``, and then they are deleted
-    (no stale frame survives; ``delete=False``: later, by the caller); other files are kept."""
+    :class:`~jellysim.errors.OutputError` unless ``overwrite`` (the caller deletes them once
+    the new run is known to start: ``prepare_out_dir(..., overwrite=True, held=True)``)."""
     earlier = _earlier_run(out_dir)
     if earlier and not overwrite:
         names = ", ".join(earlier[:3]) + (", ..." if len(earlier) > 3 else "")
@@ -131,8 +130,6 @@ def refuse_earlier_run(out_dir: Path, overwrite: bool, option: str = "overwrite=
                           "replace it" + (", resume=True to continue it" if option ==
                                           "overwrite=True" else "") + ", or choose another "
                           "folder")
-    if delete:
-        prepare_out_dir(out_dir, overwrite=True, held=True)
 
 
 def _earlier_run(out_dir: Path) -> list[str]:
@@ -196,8 +193,13 @@ def _vtu_frame_bound(model, skin) -> int:
     return 72 * model.point_count + cells + 4096
 
 
-def _disk_full(exc: OSError, out_dir: Path, scene, where: str = "") -> OutputError:
-    """The error of a full disk (or quota): the file, and how to go on."""
+def _disk_full(exc: OSError, out_dir: Path, scene, where: str = "") -> OutputError | None:
+    """The error of a full disk (or quota): the file, and how to go on; ``None`` for another
+    ``OSError`` (raised as it is)."""
+    import errno
+
+    if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+        return None
     again = (f"continue from the last checkpoint with: jellysim run "
              f"{shlex.quote(str(scene.name))} --resume {shlex.quote(str(out_dir))}"
              if (out_dir / CHECKPOINT).exists() or (out_dir / FINAL_CHECKPOINT).exists()
@@ -249,16 +251,15 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     lock = claim(out_dir)  # before anything there is touched: one run per folder
     try:
         if not resume:  # (its files go once the new run's body and simulator are made)
-            refuse_earlier_run(out_dir, overwrite, delete=False)
+            refuse_earlier_run(out_dir, overwrite)
         return _run(scene, out_dir, progress=progress, vtu=vtu, steps=steps, skin=skin,
                     body=body, resume=resume, checkpoint_every=checkpoint_every,
                     stop_after=stop_after, handle_signals=handle_signals, notify=notify)
     except OSError as exc:  # a full disk outside the stepping (the first frame, the end)
-        import errno
-
-        if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+        full = _disk_full(exc, out_dir, scene)
+        if full is None:
             raise
-        raise _disk_full(exc, out_dir, scene) from None
+        raise full from None
     finally:
         lock.unlink(missing_ok=True)
         if created and not any(out_dir.iterdir()):  # refused before anything was written
@@ -474,15 +475,14 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                     checkpoint()
                     last_wall, last_step = time.monotonic(), done
         except OSError as exc:  # a full disk, most likely: say where and how to go on
-            import errno
-
-            if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+            full = _disk_full(exc, out_dir, scene, f" at step {done} of {total}")
+            if full is None:
                 raise
             try:
                 stream.set_status(f"stopped at step {done}: {exc.strerror}; resumable")
             except OSError:
                 pass
-            raise _disk_full(exc, out_dir, scene, f" at step {done} of {total}") from None
+            raise full from None
         except SimulationError as exc:
             emit()
             stream.close()

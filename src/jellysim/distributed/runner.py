@@ -45,7 +45,7 @@ def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
         out_dir.mkdir(parents=True, exist_ok=True)
         lock = claim(out_dir)
         try:
-            refuse_earlier_run(out_dir, overwrite, "--overwrite", delete=False)
+            refuse_earlier_run(out_dir, overwrite, "--overwrite")
         except JellysimError:
             lock.unlink(missing_ok=True)
             raise
