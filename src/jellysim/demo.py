@@ -153,7 +153,7 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     :class:`~jellysim.errors.SceneError` where the backend lacks the demo's physical path);
     ``threads``: numba threads (default: by problem size).  An earlier demo's outputs there
     are refused (:class:`~jellysim.errors.JellysimError`) unless ``overwrite``, which
-    deletes them first.  ``points``: see :func:`build_demo_body`.  ``mesh``: a surface mesh
+    replaces them once the new demo runs (a demo that fails keeps them).  ``points``: see :func:`build_demo_body`.  ``mesh``: a surface mesh
     file of one's own instead, scaled to 10 cm, its ``up`` axis turned up, dropped 1 cm onto
     the plate in dessert gelatin (writes ``demo_<its name>.*``).  Returns the paths written
     and timings [s]."""
