@@ -331,18 +331,26 @@ class Material:
         except ValueError:
             raise ValueError(f"material model must be one of "
                              f"{[m.value for m in MaterialModel]}, got {self.model!r}") from None
-        if self.density < 100.0 or self.density > 25000.0:
+        slip = density_slip(self.density)
+        if slip:
             import warnings
 
-            warnings.warn(f"material density = {self.density:g} kg/m^3 is outside 100 .. 25,000 "
-                          "kg/m^3 (gelatin 1141, water 1000, steel 7850): it is in kg/m^3 (1.141 "
-                          "would be g/cm^3)", UserWarning, stacklevel=_user_stacklevel())
+            warnings.warn(f"material density {slip}", UserWarning, stacklevel=_user_stacklevel())
         if self.youngs_modulus < 100.0 or self.youngs_modulus > 1e9:
             import warnings
 
             warnings.warn(f"material youngs_modulus = {self.youngs_modulus:g} Pa is outside "
                           "100 Pa .. 1 GPa (gels are 1-100 kPa, rubber about 1 MPa): it is in "
                           "pascals (10 kPa = 1e4)", UserWarning, stacklevel=_user_stacklevel())
+
+
+def density_slip(density: float) -> str | None:
+    """What to say of a density [kg/m^3] outside 100 .. 25,000 (a likely slip of units: g/cm^3
+    given as kg/m^3), else ``None``."""
+    if 100.0 <= density <= 25000.0:
+        return None
+    return (f"= {density:g} kg/m^3 is outside 100 .. 25,000 kg/m^3 (gelatin 1141, water 1000, "
+            "steel 7850): it is in kg/m^3 (1.141 would be g/cm^3)")
 
 
 def _user_stacklevel() -> int:

@@ -17,7 +17,7 @@ import numpy as np
 from .errors import BuildError, JellysimError, SceneError, did_you_mean
 from .geometry.mesh import MESH_SUFFIXES
 from .params import (MAX_ALL_PAIRS_POINTS, GroundParams, ImplicitParams, ProvotOrder, ProvotPairs,
-                     ProvotParams)
+                     ProvotParams, density_slip)
 # Spec (one row of the schema) and the checks live in scene_spec, the table of keys in
 # scene_schema
 from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-exported)
@@ -362,10 +362,9 @@ class Scene:
         m, ph = self.params["mass"], self.params["physics"]
         mat = self.params["material"]
         density = mat["density"] if mat["density"] is not None else m["density"]
-        if "density" in self.given.get("mass", ()) and not 100.0 <= m["density"] <= 25000.0:
-            warnings.warn(f"{self.name}: [mass] density = {m['density']:g} kg/m^3 is outside "
-                          "100 .. 25,000 kg/m^3 (gelatin 1141, water 1000): it is in kg/m^3 "
-                          "(1.141 would be g/cm^3)", UserWarning, stacklevel=2)
+        slip = density_slip(m["density"]) if "density" in self.given.get("mass", ()) else None
+        if slip:
+            warnings.warn(f"{self.name}: [mass] density {slip}", UserWarning, stacklevel=2)
         given = self.params["springs"]["stiffness"]
         if self.params["body"]["type"] == "file" and mat["youngs_modulus"] is None:
             path = self.params["body"]["path"]

@@ -22,7 +22,7 @@ from .params import (MAX_ALL_PAIRS_POINTS, GroundModel, GroundParams, ImplicitPa
                      ImplicitScheme, Integrator, ProvotOrder, ProvotPairs, ProvotParams)
 from .handles import HandleMethods
 from .physical_stepping import PhysicalStepping, blowup_error, travel_error
-from .physics.contact import check_ground_placement, user_obstacles
+from .physics.contact import start_checks
 from .stability import StabilityEstimate, estimate_stability, implicit_accuracy
 
 __all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads",
@@ -176,10 +176,7 @@ class Simulator(HandleMethods, PhysicalStepping):
                             f"GroundModel.CONTACT), the physical contact ground) or None, got "
                             f"{ground!r}")
         self.provot, self.ground = provot, ground
-        if ground.enabled and (state is None or getattr(state, "step", 0) == 0):
-            # a fresh start (a resumed run may rest on the ground with round-off below it)
-            check_ground_placement(model.point_x0 if state is None else state.x,
-                                float(ground.height))
+        self.obstacles = start_checks(model, state, ground, obstacles)  # (ground: plane below)
         self.physical = getattr(model, "fem", None) is not None
         if self.physical and self.integrator is not Integrator.SYMPLECTIC:
             raise SceneError(
@@ -216,12 +213,6 @@ class Simulator(HandleMethods, PhysicalStepping):
                 raise SceneError("Provot strain limiting is a crutch of the explicit "
                                  "integrators and is not applied by integrator = 'implicit'; "
                                  "disable it ([provot] enabled = false)")
-        start = (model.point_x0 if state is None else state.x) if (
-            state is None or getattr(state, "step", 0) == 0) else None  # (not a resumed one)
-        try:  # (a body starting inside one is refused)
-            self.obstacles = user_obstacles(obstacles, start)
-        except ValueError as exc:
-            raise SceneError(str(exc)) from None
         if ground.enabled and GroundModel(ground.model) is GroundModel.CONTACT:
             from .physics.contact import Plane
 

@@ -26,8 +26,7 @@ from .fem import PhysicalMethods, _rest_thinness
 from .local import LocalPart, combine_status, halo_depth, replicated_reason
 from .partition import partition_points, point_graph
 from ..simulator import Simulator, springs_auto_substeps
-from ..physics.contact import (Plane, check_ground_placement, pack_obstacles,
-                               user_obstacles)
+from ..physics.contact import Plane, pack_obstacles, start_checks
 
 __all__ = ["DistributedSimulator", "on_root", "world", "launched_under_mpi"]
 
@@ -104,20 +103,6 @@ def body_info(model, runaway_distance) -> types.SimpleNamespace:
         use_springs=bool(model.spring_count and np.any(model.spring_stiffness != 0)))
 
 
-def _start_checks(model, state, ground, obstacles) -> None:
-    """The serial Simulator's checks of a starting body (rank 0, on the global model): not
-    below the ground, not inside an obstacle (a resumed state, past step 0, is not checked)."""
-    if model is None or (state is not None and state.step != 0):
-        return
-    x = model.point_x0 if state is None else state.x
-    if ground.enabled:
-        check_ground_placement(x, float(ground.height))
-    try:
-        user_obstacles(obstacles, x)
-    except ValueError as exc:
-        raise SceneError(str(exc)) from None
-
-
 class DistributedSimulator(PhysicalMethods):
     """Time-steps one global Model split among the ranks of ``comm``.
 
@@ -172,7 +157,8 @@ class DistributedSimulator(PhysicalMethods):
         """Wall time this rank spent in the exchange and the status agreement [s]."""
         self.stability = None
         self.info = info = on_root(self.comm, lambda: body_info(model, runaway_distance))
-        on_root(self.comm, lambda: _start_checks(model, state, ground, obstacles))  # as serially
+        on_root(self.comm, lambda: start_checks(model, state, ground, obstacles),  # rank 0:
+                share=False)  # the global start, as serially; a refusal raised on every rank
         self.center, self.runaway_distance = info.center, info.runaway_distance
         self.provot, self.ground, self.implicit = provot, ground, implicit
         if info.physical:  # the physical path: distributed/fem.py

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..kernels.records import OBSTACLE_MU_S  # the static coefficient's column (inf: no slip)
-from ..params import CONTACT_FRICTION, CONTACT_RESTITUTION
+from ..params import CONTACT_FRICTION, CONTACT_RESTITUTION, _user_stacklevel
 
 __all__ = ["Plane", "Sphere", "Box", "pack_obstacles", "OBSTACLE_KINDS"]
 
@@ -189,4 +189,19 @@ def check_ground_placement(x0, height: float) -> None:
         warnings.warn(f"the body starts {low - height:.4g} m above the ground (positions are in "
                       "metres: a base or lower given in millimetres is a likely slip); it "
                       f"falls for {np.sqrt(2.0 * (low - height) / 9.81):.3g} s before landing",
-                      UserWarning, stacklevel=3)
+                      UserWarning, stacklevel=_user_stacklevel())
+
+
+def start_checks(model, state, ground, obstacles) -> tuple:
+    """The checks of a starting body, serial and MPI alike (the global model): not below the
+    ground (:func:`check_ground_placement`), not inside an obstacle (:func:`user_obstacles`,
+    as a :class:`~jellysim.errors.SceneError`).  A resumed state (past step 0) may rest on
+    them with round-off inside and is not checked.  Returns the obstacles as a tuple."""
+    fresh = state is None or getattr(state, "step", 0) == 0
+    x = None if not fresh else (model.point_x0 if state is None else state.x)
+    if x is not None and ground is not None and ground.enabled:
+        check_ground_placement(x, float(ground.height))
+    try:
+        return user_obstacles(obstacles, x)
+    except ValueError as exc:
+        raise SceneError(str(exc)) from None
