@@ -39,12 +39,10 @@ class _Group(click.Group):
     def invoke(self, ctx):
         import warnings
 
-        from .cli_visual import SAID, say_once as _say
-
         SAID.clear()  # a command's warnings: "warning: ..." once each, not Python's form
 
         def show(message, category, filename, lineno, file=None, line=None):
-            _say(str(message))
+            say_once(str(message))
 
         try:
             with warnings.catch_warnings():
@@ -134,7 +132,7 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         check_run_outputs(video=video, usd=usd, glb=glb, overwrite=overwrite)
     except JellysimError as exc:
         _fail(str(exc))
-    say = _sayer()
+    say = say_once  # (each warning once per command)
 
     def load():
         import warnings
@@ -227,14 +225,6 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     echo_run_outputs(result, _fail, video=video, usd=usd, glb=glb, quiet=quiet)
 
 
-def _sayer():
-    """A function saying a run's warning on stderr once per command (the build's are said
-    before the stepping starts, and come back in the run's result)."""
-    from .cli_visual import say_once
-
-    return say_once
-
-
 @cli.command()
 @click.argument("mesh_file", type=click.Path(dir_okay=False))
 @click.option("-o", "--out", "out_file", type=click.Path(dir_okay=False), required=True,
@@ -311,7 +301,7 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
     except JellysimError as exc:
         _fail(str(exc))
     for w in caught:
-        _sayer()(str(w.message))
+        say_once(str(w.message))
     st = body_stats(body, density=density)
     extra = ""
     if body.meta.get("radius_chosen_for_neighbours"):
@@ -353,7 +343,7 @@ def inspect(path, settings=()) -> None:
                 rows = scene_summary(Scene.load(path, overrides=settings), said)
             finally:
                 for w in said:
-                    _sayer()(str(w))
+                    say_once(str(w))
             click.echo(f"{path}: scene")
             for k, v in rows:
                 click.echo(f"  {k:<12} {v}")
@@ -419,7 +409,7 @@ def scene_help() -> None:
     click.echo(schema_markdown())
 
 
-from .cli_visual import register; register(cli)  # noqa: E402,E702 (demo render export view plot)
+from .cli_visual import SAID, register, say_once; register(cli)  # noqa: E402,E702 (demo render...)
 from .resources import parse_size
 from .distributed.simulator import launched_under_mpi
 from .runner import prepare_out_dir, run_scene
