@@ -100,3 +100,28 @@ def test_auto_threads_drops_to_one_on_an_oversubscribed_machine(monkeypatch):
     assert simulator.auto_threads(10_000) == 1
     monkeypatch.setattr(os, "getloadavg", lambda: (20.0 * cpus, 0.0, 0.0))
     assert simulator.auto_threads(1_000_000) == 1
+
+
+def test_more_threads_than_numba_has_are_capped_and_said():
+    """``Simulator.threads`` is what the steps use: asking for more threads than numba's pool
+    holds warns and reports the pool's size, and the run equals the pool-sized one bitwise."""
+    import warnings
+
+    import numba
+    import pytest
+
+    import jellysim as js
+
+    most = int(numba.config.NUMBA_NUM_THREADS)
+    body = js.Body.box(points=200, distribution="uniform", radius=0.35, seed=2)
+    model = js.finalize(body, stiffness=500.0, density=1.0)
+    with pytest.warns(UserWarning, match=f"numba runs at most {most}"):
+        many = js.Simulator(model, dt=1e-3, threads=most + 3)
+    assert many.threads == most
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        pool = js.Simulator(model, dt=1e-3, threads=most)
+    assert pool.threads == most
+    many.advance(20)
+    pool.advance(20)
+    assert np.array_equal(many.state.x, pool.state.x)

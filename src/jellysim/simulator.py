@@ -89,6 +89,21 @@ def springs_auto_substeps(model, dt) -> tuple[int, StabilityEstimate]:
     return need, est
 
 
+def _usable_threads(threads: int, backend) -> int:
+    """``threads`` capped at numba's pool (``NUMBA_NUM_THREADS``, by default the cores), with a
+    warning when more were asked: ``Simulator.threads`` is what the steps use."""
+    if backend is not Backend.NUMBA:
+        return threads
+    import numba
+
+    most = int(numba.config.NUMBA_NUM_THREADS)
+    if threads > most:
+        warnings.warn(f"threads = {threads}: numba runs at most {most} here (NUMBA_NUM_THREADS, "
+                      f"by default the cores); using {most}", stacklevel=3)
+        return most
+    return threads
+
+
 def auto_threads(point_count: int, spring_count: int | None = None) -> int:
     """Thread count used when none is given: 1 for small bodies (fewer than
     :data:`PARALLEL_MIN_POINTS` points or :data:`PARALLEL_MIN_SPRINGS` springs); 1 on a
@@ -134,7 +149,8 @@ class Simulator(HandleMethods, PhysicalStepping):
         ``"cuda"``, ``"cuda:N"``.
     precision: ``"float64"`` or ``"float32"`` (Warp; numba's explicit step: x, v, a stored in
         float32, sums in float64, ``state`` float64 holding float32 values; docs/architecture.md).
-    threads: numba threads (default: :func:`auto_threads`).  Results do not depend on it.
+    threads: numba threads (default: :func:`auto_threads`; capped, with a warning, at numba's
+        pool, ``NUMBA_NUM_THREADS``).  Results do not depend on it.
     runaway_distance: a point farther than this [m] from the body's starting centre stops the
         run (default: 100 x the body's bounding-box diagonal, at least 100 m).
     check_stability: estimate the stable dt now and warn (:class:`StabilityWarning`) if
@@ -267,7 +283,7 @@ class Simulator(HandleMethods, PhysicalStepping):
             threads = auto_threads(n, None if self.physical else model.spring_count)
         if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
             raise SceneError(f"threads must be an integer >= 1 (or None: by size), got {threads!r}")
-        self.threads = int(threads)
+        self.threads = _usable_threads(int(threads), self.backend)
         self.state = model.state() if state is None else state
         x0 = model.point_x0
         self.center = np.ascontiguousarray(x0.mean(axis=0))
