@@ -8,11 +8,17 @@ bytes) and, when the fingerprint differs from the one stored beside the cache, r
 cached ``.nbi`` / ``.nbc`` files so that everything is compiled afresh once.  Nothing is done
 when ``NUMBA_CACHE_DIR`` points the cache elsewhere, nor when the package folder is
 read-only (numba then caches in the user's folder and the same caveat applies there).
+
+Compiling takes about a minute on a first run (after an install or an update); from Python
+nothing else would say why the first steps pause, so :func:`check` also has numba tell us when
+it starts compiling one of jellysim's functions, and says so once per process on stderr
+(:data:`NOTICE`).  A run whose kernels come from the cache says nothing.
 """
 from __future__ import annotations
 
 import hashlib
 import os
+import sys
 from pathlib import Path
 
 _PACKAGES = ("kernels", "geometry", "physics", "distributed")
@@ -20,14 +26,59 @@ _PACKAGES = ("kernels", "geometry", "physics", "distributed")
 
 _done = False
 
+NOTICE = ("jellysim: numba is compiling the kernels (first run after an install or an update: "
+          "about a minute; later runs load them from its cache)\n")
+"""Said on stderr, once per process, when numba starts compiling a function of jellysim."""
+
+_said = False
+
 
 def check() -> None:
     """Drop the numba cache of jellysim's compiled packages if any of their sources changed
-    since it was written (once per process)."""
+    since it was written, and have numba's compiles of jellysim said (once per process)."""
     global _done
-    if not _done and not os.environ.get("NUMBA_CACHE_DIR"):
-        sync(Path(__file__).resolve().parent)
+    if not _done:
+        if not os.environ.get("NUMBA_CACHE_DIR"):
+            sync(Path(__file__).resolve().parent)
+        _listen_for_compiles()
     _done = True
+
+
+def _say_compiling(event) -> None:
+    """numba's ``numba:compile`` event: :data:`NOTICE` the first time it is one of ours."""
+    global _said
+    if _said or not event.is_start or _rank() != "0":
+        return
+    func = getattr(event.data.get("dispatcher"), "py_func", None)
+    if (getattr(func, "__module__", None) or "").split(".")[0] == "jellysim":
+        _said = True
+        sys.stderr.write(NOTICE)
+        sys.stderr.flush()
+
+
+def _rank() -> str:
+    """This process's MPI rank from the launcher's environment ("0" outside mpiexec): under
+    mpiexec only rank 0 says :data:`NOTICE`."""
+    for key in ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK"):
+        if os.environ.get(key):
+            return os.environ[key]
+    return "0"
+
+
+def _listen_for_compiles() -> None:
+    try:
+        from numba.core import event
+    except ImportError:  # an older numba without the event API: say nothing
+        return
+
+    class _Notice(event.Listener):
+        def on_start(self, ev):
+            _say_compiling(ev)
+
+        def on_end(self, ev):
+            pass
+
+    event.register("numba:compile", _Notice())
 
 
 def sync(root: Path) -> bool:
