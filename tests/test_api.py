@@ -356,3 +356,9 @@ def test_the_python_api_refuses_what_a_scene_refuses():
     sim.state.x[3, 1] = np.nan
     with pytest.raises(SceneError, match=r"sim.state.x holds NaN or infinite values at 1 points"):
         sim.advance(1)
+    sim.state.x[3, 1] = model.point_x0[3, 1]
+    sim.state.v[5, 0] = 1e308    # finite, but no step can hold it: said as such, not a blow-up
+    with pytest.raises(SceneError, match=r"sim.state.v is 1e\+308 m/s at point 5: one step of "
+                                         r"dt = 0.0166667 s would carry it past the runaway"):
+        sim.advance(1)
+    assert sim.state.step == 0

@@ -372,6 +372,15 @@ class HandleMethods:
                 raise SceneError(f"advance: sim.state.{name} holds NaN or infinite values at "
                                  f"{bad} points before the step (set by hand, or left by an "
                                  f"earlier blow-up): give finite {what}")
+        if steps and len(s.v):
+            speed2 = np.einsum("ij,ij->i", s.v, s.v)
+            p = int(np.argmax(speed2))
+            if np.sqrt(speed2[p]) * self.dt > self.runaway_distance:
+                raise SceneError(
+                    f"advance: sim.state.v is {np.sqrt(speed2[p]):.3g} m/s at point {p}: one "
+                    f"step of dt = {self.dt:g} s would carry it past the runaway distance "
+                    f"({self.runaway_distance:g} m) before any force acts; give velocities "
+                    "in m/s")
         advance_releasing(self, steps, lambda: self.state.step, self._advance_chunk)
 
     def set_gravity_scale(self, indices, scale: float) -> None:
