@@ -373,11 +373,11 @@ class HandleMethods:
                                  f"{bad} points before the step (set by hand, or left by an "
                                  f"earlier blow-up): give finite {what}")
         if steps and len(s.v):
-            speed2 = np.einsum("ij,ij->i", s.v, s.v)
-            p = int(np.argmax(speed2))
-            if np.sqrt(speed2[p]) * self.dt > self.runaway_distance:
+            speed = np.hypot(np.hypot(s.v[:, 0], s.v[:, 1]), s.v[:, 2])  # (no overflow)
+            p = int(np.argmax(speed))
+            if speed[p] * self.dt > self.runaway_distance:
                 raise SceneError(
-                    f"advance: sim.state.v is {np.sqrt(speed2[p]):.3g} m/s at point {p}: one "
+                    f"advance: sim.state.v is {speed[p]:.3g} m/s at point {p}: one "
                     f"step of dt = {self.dt:g} s would carry it past the runaway distance "
                     f"({self.runaway_distance:g} m) before any force acts; give velocities "
                     "in m/s")
