@@ -183,3 +183,58 @@ def test_nothing_below_ground_after_steps():
         sim.advance(5)
         assert sim.state.x[:, 1].min() >= 0.0
     assert np.any(sim.state.x[:, 1] == 0.0)  # it did land
+
+
+def test_report_order_limit_with_unequal_masses_is_the_light_points():
+    """A support made by a heavy mass (the springs path has no pin): a 1e9 kg anchor holding a
+    0.5 kg bob on k = 20 N/m with delta = 0.2 kg/s.  The report's order (forward Euler) is
+    stable for ``dt < c / omega^2`` with the bob's rate ``c = delta / m`` and ``omega^2 = k (1/m
+    + 1/M)``: 0.01 s, and runs just below and above it do what that says."""
+    from jellysim.stability import estimate_stability
+
+    body = Body(points=np.array([[0.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+                springs=np.array([[0, 1]]), masses=np.array([1e9, 0.5]))
+    model = finalize(body, stiffness=20.0, damping=0.2, gravity=(0.0, 0.0, 0.0))
+    exact = (0.2 / 0.5) / (20.0 * (1 / 0.5 + 1 / 1e9))
+    est = estimate_stability(model, "paper", 0.01)
+    assert est.dt_max == pytest.approx(exact / 1.05, rel=0.01)   # (power iteration's 5 % margin)
+
+    def amplitude(dt):
+        state = model.state()
+        state.x[1, 1] = 1.1
+        sim = Simulator(model, dt=dt, integrator="paper", state=state, check_stability=False)
+        sim.advance(int(round(20.0 / dt)))
+        return abs(sim.state.x[1, 1] - 1.0)
+
+    assert amplitude(0.9 * exact) < 0.1     # decays
+    assert amplitude(1.1 * exact) > 0.1     # grows
+
+
+def test_ground_nu_acts_in_the_reports_step_only_and_a_scene_says_so():
+    """The paper ground's ``nu`` rewrites the stored acceleration, which only the report's
+    order reuses: with the symplectic step two values of nu give the same run (and a scene
+    that sets it is warned), with the paper step they differ."""
+    import warnings
+
+    from jellysim.scene import Scene
+
+    text = ("[body]\npoints = 120\ndistribution = 'uniform'\nlower = [0, 0.02, 0]\n"
+            "upper = [0.5, 0.52, 0.5]\nseed = 3\n[springs]\nradius = 0.25\nstiffness = 300.0\n"
+            "[mass]\npoint_mass = 0.1\n[physics]\ndamping = 0.05\n[integrator]\n"
+            "name = '{integ}'\ndt = 0.002\nsteps = 200\n[ground]\nnu = {nu}\n")
+
+    def run(integ, nu):
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            scene = Scene.from_text(text.format(integ=integ, nu=nu), name="nu.toml")
+        sim = scene.simulator(settle=False)
+        sim.advance(scene.steps)
+        return sim.state.x.copy(), [str(w.message) for w in said if "nu =" in str(w.message)]
+
+    a, said_a = run("symplectic", 0.0)
+    b, said_b = run("symplectic", 0.9)
+    assert np.array_equal(a, b)
+    assert said_a == [] and len(said_b) == 1 and "changes nothing here" in said_b[0]
+    c, said_c = run("paper", 0.0)
+    d, said_d = run("paper", 0.9)
+    assert np.max(np.abs(c - d)) > 1e-4 and said_c == said_d == []

@@ -138,7 +138,9 @@ class GroundParams:
     """The report's ground (section 4.1, equations 2 and 3) at ``y = height``.
 
     A point below the plane is put on it, its y velocity set to 0, its x and z velocities
-    multiplied by ``mu``, and its y acceleration replaced by ``a_y - nu a_y``.
+    multiplied by ``mu``, and its y acceleration replaced by ``a_y - nu a_y``.  (Only the
+    report's step, integrator ``"paper"``, uses that stored acceleration: the others compute
+    it afresh from the forces, so ``nu`` changes nothing there.)
     """
 
     enabled: bool = True

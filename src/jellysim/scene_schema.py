@@ -188,7 +188,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "height": Spec("float", _G.height, "Height of the plane y = height [m]."),
         "mu": Spec("float", _G.mu, "Factor on x/z velocity of a point on the ground.",
                    lambda v: 0 <= v <= 1, "a number in [0, 1]"),
-        "nu": Spec("float", _G.nu, "Fraction of y acceleration removed on the ground.",
+        "nu": Spec("float", _G.nu, "Fraction of y acceleration removed on the ground (the "
+                   "report's step, integrator 'paper', only: the others compute it afresh).",
                    lambda v: 0 <= v <= 1, "a number in [0, 1]"),
         "restitution": Spec("float", _G.restitution, "Contact: coefficient of restitution e.",
                             lambda v: 0 <= v <= 1, "a number in [0, 1]"),

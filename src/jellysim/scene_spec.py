@@ -265,6 +265,14 @@ def check_given_keys(user: dict, preset_raw: dict, out: dict, name: str, preset)
                          "only; set [ground] model = 'contact' (the paper ground's rule has "
                          "mu and nu)")
     out["ground"]["model"] = model
+    integrator = out.get("integrator", {}).get("name")
+    if "nu" in ground and out["ground"]["nu"] != 0 and integrator not in (None, "paper"):
+        import warnings
+
+        warnings.warn(f"{name}: [ground] nu = {out['ground']['nu']:g} acts in the report's step "
+                      f"only (integrator 'paper', which reuses the stored acceleration); the "
+                      f"{integrator} integrator computes it afresh from the forces, so nu "
+                      "changes nothing here (mu still acts)", stacklevel=3)
     if "density" in user.get("mass", set()) and out["material"]["density"] is not None:
         source = (f", from the preset {preset!r}" if "density" not in user.get("material", set())
                   else "")

@@ -583,8 +583,9 @@ class Simulator(HandleMethods, PhysicalStepping):
                 f"CG tolerance ({words})", step=failed, status=int(status))
         if self.physical:  # its substeps were counted and doubled: the forces are the cause
             raise blowup_error(self, failed, what, int(status))
-        hint = (f"try dt <= {0.5 * min(self.dt_step, est.dt_max):.3g} s" if est.dt_max > 0
-                else "add damping or use integrator = 'symplectic'")
+        hint = ("add damping or use integrator = 'symplectic'" if est.dt_max <= 0 else
+                f"try dt <= {0.9 * est.dt_max:.3g} s" if self.dt_step > est.dt_max else
+                f"try dt <= {0.5 * self.dt_step:.3g} s")  # (stable linearly: the nonlinearity)
         raise SimulationError(
             f"simulation went unstable at step {failed} (t = {s.t:.6g} s): {what}; "
             f"{hint}" + (f" (estimated stable limit {est.dt_max:.3g} s)" if est.dt_max > 0

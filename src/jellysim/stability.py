@@ -133,11 +133,34 @@ def estimate_stability(model, integrator: Integrator, dt: float, *,
         return StabilityEstimate(
             lam, method, 0.0,
             "the report's order is forward Euler: undamped springs grow at any dt")
-    spring_limit = c_min / lam
+    spring_limit = _forward_euler_limit(model, lam, c_min, c_max)
     if spring_limit < damping_limit:
         return StabilityEstimate(lam, method, float(spring_limit),
                                  "forward Euler: dt < (delta/m) / omega_max^2")
     return StabilityEstimate(lam, method, float(damping_limit), "damping: delta dt / m < 2")
+
+
+def _forward_euler_limit(model, lam: float, c_min: float, c_max: float) -> float:
+    """``dt < c / omega^2`` of the report's order for the body's fastest mode [s].
+
+    With one damping rate ``c = delta / m`` this is ``c / lambda_max``.  With unequal masses the
+    rates differ per point, and the fastest modes live on the light points (whose rate is the
+    largest): each point p must damp its own frequency, ``c_p / lambda_p``, with ``lambda_p``
+    its diagonal stiffness over mass ``sum_s k_s / m_p`` scaled so that the stiffest point's is
+    ``lambda_max``.  (A 1e9 kg anchor holding a 0.5 kg bob, k = 20 N/m, delta = 0.2 N s/m: the
+    closed form ``(delta / m_bob) / (k / m_bob) = 0.01 s``; the smallest rate over the
+    largest lambda gave 4.8e-12 s.)"""
+    if c_max == c_min:
+        return c_min / lam
+    i, j = model.spring_ij[:, 0], model.spring_ij[:, 1]
+    k = model.spring_stiffness
+    n = model.point_count
+    diag = (np.bincount(i, weights=k, minlength=n) + np.bincount(j, weights=k, minlength=n)) * (
+        model.point_inv_mass)
+    rate = model.damping * model.point_inv_mass
+    held = diag > 0
+    local = diag[held] * (lam / float(diag.max()))
+    return float(np.min(rate[held] / local))
 
 
 def implicit_accuracy(omega_max: float, dt: float, *, theta: float = 1.0,
