@@ -308,3 +308,49 @@ def test_missing_body_file_is_a_clear_error(tmp_path):
     for suffix in (".jello", ".npz"):
         with pytest.raises(JelloFileError, match="file not found"):
             read_body(tmp_path / f"absent{suffix}")
+
+
+def test_a_body_files_own_masses_and_stiffness_against_the_scene(tmp_path):
+    """A body file's masses and stiffnesses are the user's data: a scene key the user wrote
+    that they would silently override is refused, naming it; a preset's default gives way
+    (said); a file with neither masses nor a volume asks for the keys that would do."""
+    import warnings
+
+    from jellysim.errors import SceneError
+    from jellysim.scene import Scene
+
+    def jello(name, header, rows, springs):
+        f = tmp_path / name
+        f.write_text(f"jello 1\npoints 2 {header}\n" + "\n".join(rows) + f"\n{springs}\nend\n")
+        return f.name
+
+    masses = jello("m.jello", "mass", ["0 0 0 1e9", "0 1 0 0.5"], "springs 1\n0 1")
+    stiff = jello("k.jello", "mass", ["0 0 0 1e9", "0 1 0 0.5"], "springs 1 stiffness\n0 1 20")
+    bare = jello("b.jello", "", ["0 0 0", "0 1 0"], "springs 1\n0 1")
+
+    def model(path, extra):
+        scene = tmp_path / "s.toml"
+        scene.write_text(f'[body]\ntype = "file"\npath = "{path}"\n{extra}'
+                         "[integrator]\ndt = 0.001\nsteps = 1\n")
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            m = Scene.load(scene).build_model()
+        return m, [str(w.message) for w in said]
+
+    m, said = model(masses, "[springs]\nstiffness = 20.0\n")
+    assert m.point_mass.tolist() == [1e9, 0.5] and said == []
+    for key in ("point_mass = 2.0", "density = 500.0"):
+        with pytest.raises(SceneError, match=rf"\[mass\] {key.split()[0]} = .* but the body file "
+                                             r"m.jello gives every point its own mass; remove"):
+            model(masses, f"[springs]\nstiffness = 20.0\n[mass]\n{key}\n")
+    # the paper preset keeps the file's masses and stiffnesses (its k = 2 gives way, said)
+    m, said = model(stiff, '[material]\npreset = "paper-2010"\n')
+    assert m.point_mass.tolist() == [1e9, 0.5] and m.spring_stiffness.tolist() == [20.0]
+    assert len(said) == 1 and "own stiffness, used instead of the preset's" in said[0]
+    with pytest.raises(SceneError, match=r"\[springs\] stiffness = 5, but the body file k.jello"):
+        model(stiff, "[springs]\nstiffness = 5.0\n")
+    with pytest.raises(SceneError, match=r"b.jello has no masses and no volume: give \[mass\] "
+                                         r"point_mass \(kg\) in the scene, or a mass column"):
+        model(bare, "[springs]\nstiffness = 20.0\n")
+    m, said = model(bare, "[springs]\nstiffness = 20.0\n[mass]\npoint_mass = 0.25\n")
+    assert m.point_mass.tolist() == [0.25, 0.25] and said == []

@@ -367,15 +367,7 @@ class Scene:
             warnings.warn(f"{self.name}: [mass] density {slip}", UserWarning, stacklevel=2)
         given = self.params["springs"]["stiffness"]
         if self.params["body"]["type"] == "file" and mat["youngs_modulus"] is None:
-            path = self.params["body"]["path"]
-            if body.stiffness is not None and given is not None:
-                raise SceneError(f"{self.name}: [springs] stiffness = {given:g}, but the body "
-                                 f"file {path} gives every spring its own stiffness; remove "
-                                 "[springs] stiffness to use the file's")
-            if body.stiffness is None and given is None:
-                raise SceneError(f"{self.name}: the body file {path} has no spring stiffness; "
-                                 "give [springs] stiffness (N/m) or [material] youngs_modulus "
-                                 "(Pa), or [material] preset = 'gelatin'")
+            given = self._check_body_file(body, given, m)
         try:
             model = self._material_model(body)
             if model is not None:
@@ -399,16 +391,12 @@ class Scene:
                     masses = density * pv if pv is not None else point_masses(body, density)
                 body = replace(body, stiffness=calibrate_springs(
                     body, mat["youngs_modulus"], point_volume=pv), masses=masses)
-            if mat.get("preset") == "paper-2010" and body.masses is not None:
+            if (mat.get("preset") == "paper-2010" and body.masses is not None
+                    and self.params["body"]["type"] != "file"):
                 from dataclasses import replace  # the report splits the mass evenly, whatever
-                                                 # the builder (tet bodies lump it by volume)
-                if self.params["body"]["type"] == "file":
-                    warnings.warn(f"{self.name}: the body file's own masses "
-                                  f"({body.masses.sum():.4g} kg) are replaced: the paper-2010 "
-                                  "preset splits density x volume evenly, as the report does",
-                                  UserWarning, stacklevel=2)
-                body = replace(body, masses=None)
-            model = finalize(body, stiffness=self.params["springs"]["stiffness"],
+                body = replace(body, masses=None)  # the builder (tets lump it by volume); a
+                                                   # body file's own masses are the user's
+            model = finalize(body, stiffness=given,
                              density=density if body.masses is None else None,
                              point_mass=m["point_mass"] if body.masses is None else None,
                              damping=ph["damping"], gravity=ph["gravity"])
@@ -420,6 +408,36 @@ class Scene:
             return model
         except ValueError as exc:
             raise SceneError(f"{self.name}: {exc}") from None
+
+    def _check_body_file(self, body, stiffness, mass):
+        """A body file's own stiffnesses and masses against the scene's: the stiffness to use
+        (``None``: the file's).  A value the user wrote that the file's data would silently
+        override is refused; a preset's default gives way to the file's data (said)."""
+        path = self.params["body"]["path"]
+        if body.stiffness is not None and stiffness is not None:
+            if "stiffness" in self.given.get("springs", ()):
+                raise SceneError(f"{self.name}: [springs] stiffness = {stiffness:g}, but the "
+                                 f"body file {path} gives every spring its own stiffness; "
+                                 "remove [springs] stiffness to use the file's")
+            warnings.warn(f"{self.name}: the body file {path} gives every spring its own "
+                          f"stiffness, used instead of the preset's [springs] stiffness = "
+                          f"{stiffness:g} N/m", UserWarning, stacklevel=3)
+            stiffness = None
+        if body.stiffness is None and stiffness is None:
+            raise SceneError(f"{self.name}: the body file {path} has no spring stiffness; "
+                             "give [springs] stiffness (N/m) or [material] youngs_modulus "
+                             "(Pa), or [material] preset = 'gelatin'")
+        written = [k for k in ("point_mass", "density") if k in self.given.get("mass", ())]
+        if body.masses is not None and written:
+            raise SceneError(f"{self.name}: [mass] {written[0]} = {mass[written[0]]:g}, but the "
+                             f"body file {path} gives every point its own mass; remove [mass] "
+                             f"{written[0]} to use the file's (or the mass column of the file "
+                             "to use it)")
+        if body.masses is None and body.volume is None and mass["point_mass"] is None:
+            raise SceneError(f"{self.name}: the body file {path} has no masses and no volume: "
+                             "give [mass] point_mass (kg) in the scene, or a mass column or a "
+                             "volume line in the file (docs/jello-format.md)")
+        return stiffness
 
     def material(self):
         """The scene's :class:`~jellysim.params.Material` (``None`` without youngs_modulus)."""
