@@ -140,8 +140,12 @@ def test_round_trip_of_a_built_body(tmp_path):
 # (line, column, message pattern) for each malformed variant of VALID
 MALFORMED = {
     "bad count": (with_line(3, "points x mass"), 3, 8, r"bad row count 'x'"),
-    "count too large": (with_line(8, "springs 4 rest_length stiffness"), 12, 7,
-                        r"2 fields in section 'springs'; expected 4"),
+    "count too large": (with_line(8, "springs 4 rest_length stiffness"), 12, 1,
+                        r"section 'springs' declares 4 rows but 'tets' starts after 3: make "
+                        r"the count 3, or add the missing rows"),
+    "mass column not named": (with_line(3, "points 4"), 4, 13,
+                              r"4 fields in section 'points'; expected 3 \(x y z\); a further "
+                              r"column must be named in the section line, e.g. 'points 4 mass'"),
     "too few fields": (with_line(5, "1.0 0.0 0.0"), 5, 12,
                        r"3 fields in section 'points'; expected 4 \(x y z mass\)"),
     "too many fields": (with_line(13, "0 1 2 3 3"), 13, 9, r"5 fields.*expected 4"),
@@ -204,6 +208,13 @@ def test_malformed_file_error_names_file_line_and_column(tmp_path, case):
     assert msg.startswith(f"{p}:{line}:{col}: "), msg
     assert re.search(pattern, msg), msg
     assert isinstance(info.value, JellysimError) and isinstance(info.value, ValueError)
+
+
+def test_a_byte_order_mark_is_not_content(tmp_path):
+    """Notepad saves UTF-8 with a byte-order mark; the file reads as without it."""
+    p = tmp_path / "bom.jello"
+    p.write_bytes(b"\xef\xbb\xbf" + VALID.encode())
+    body_equal(read_jello(p), read_jello(_write(tmp_path / "v.jello", VALID)))
 
 
 def test_comments_blank_lines_and_indentation_are_ignored(tmp_path):

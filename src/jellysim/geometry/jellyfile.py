@@ -192,6 +192,8 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
         raise JelloFileError(f"{name}:{line}:{col}: not UTF-8 text (byte "
                              f"0x{data_bytes[exc.start]:02x}: {exc.reason}); .jello files are "
                              "UTF-8") from None
+    if text.startswith("\ufeff"):  # a byte-order mark (Notepad's UTF-8) is not content
+        text = text[1:]
     lines = _Lines(name, text)
 
     # header
@@ -266,10 +268,19 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
         idx_rows = []
         for r in range(count):
             rno, rtoks, _ = lines.next(f"row {r + 1} of {count} of section '{word}' ({what})")
+            if rtoks[0][1] in _SECTIONS or rtoks[0][1] == "end":
+                raise lines.error(rno, rtoks[0][0], f"section '{word}' declares {count} rows "
+                                  f"but '{rtoks[0][1]}' starts after {r}: make the count "
+                                  f"{r}, or add the missing rows")
             if len(rtoks) != nf:
                 c = rtoks[nf][0] if len(rtoks) > nf else rtoks[-1][0] + len(rtoks[-1][1])
+                hint = ""
+                extra = [k for k in optional if k not in cols]
+                if len(rtoks) > nf and extra:
+                    hint = (f"; a further column must be named in the section line, e.g. "
+                            f"'{word} {count} {' '.join(cols + [extra[0]])}'")
                 raise lines.error(rno, c, f"{len(rtoks)} fields in section '{word}'; expected "
-                                  f"{nf} ({what})")
+                                  f"{nf} ({what}){hint}")
             if word in ("points", "skin_vertices"):
                 vals = [_parse_float(lines, rno, c, t, "coordinate [m]" if k < 3 else
                                      _POSITIVE[cols[k - 3]]) for k, (c, t) in enumerate(rtoks)]
