@@ -936,3 +936,30 @@ def test_a_pin_path_below_the_ground_is_said():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sim.pin(top, path=[[0, 0, 0, 0], [1, 0, -0.06, 0]])
+
+
+def test_a_teachers_slips_in_python_and_scenes_are_named():
+    """Session 12's teacher trial: ``provot=True`` (AttributeError), a scalar mass
+    (``cannot reshape``), ``gravity=9.8`` and a spring key under [physics] now say what is
+    wrong and what to write instead."""
+    import jellysim as js
+    from jellysim.scene import Scene
+
+    pts, spr = np.array([[0.0, 0.0, 0.0], [0.0, 1.0, 0.0]]), np.array([[0, 1]])
+    model = js.finalize(js.Body(points=pts, springs=spr), stiffness=2.0, point_mass=1.0)
+    with pytest.raises(TypeError, match=r"provot must be a jellysim.ProvotParams .* got True"):
+        js.Simulator(model, dt=0.01, provot=True)
+    with pytest.raises(TypeError, match=r"implicit must be a jellysim.ImplicitParams"):
+        js.Simulator(model, dt=0.01, implicit="bdf2")
+    with pytest.raises(ValueError, match=r"masses must have shape \(2,\) \[kg\], one per point, "
+                                         r"got shape \(\) \(one value for all: finalize\(body, "
+                                         r"point_mass=...\)\)"):
+        js.Body(points=pts, springs=spr, masses=0.5)
+    with pytest.raises(ValueError, match=r"stiffness must have shape \(1,\) \[N/m\]"):
+        js.Body(points=pts, springs=spr, stiffness=[1.0, 2.0])
+    with pytest.raises(ValueError, match=r"gravity must be a vector of 3 accelerations"):
+        js.finalize(js.Body(points=pts, springs=spr), stiffness=2.0, point_mass=1.0, gravity=9.8)
+    with pytest.raises(SceneError, match=r"\[physics\] unknown key 'stiffness' \(it is a key of "
+                                         r"\[springs\]\)"):
+        Scene.from_text("[body]\npoints = 10\n[physics]\nstiffness = 3.0\n[integrator]\n"
+                        "dt = 0.01\nsteps = 1\n", name="s.toml")

@@ -80,6 +80,17 @@ class Body:
             raise ValueError(f"Body: volume must be > 0 [m^3] (or None: unknown), got "
                              f"{self.volume!r}")
         self.points, self.springs = pts, springs
+        for name, shape, unit in (("masses", (len(pts),), "kg"),
+                                  ("stiffness", (len(springs),), "N/m")):
+            value = getattr(self, name)
+            if value is not None and np.shape(value) != shape:
+                raise ValueError(f"Body: {name} must have shape {shape} [{unit}], one per "
+                                 f"{'point' if name == 'masses' else 'spring'}, got shape "
+                                 f"{np.shape(value)}" + (
+                                     " (one value for all: finalize(body, point_mass=...))"
+                                     if name == "masses" and np.ndim(value) == 0 else
+                                     " (one value for all: finalize(body, stiffness=...))"
+                                     if np.ndim(value) == 0 else ""))
 
     @classmethod
     def from_mesh(cls, mesh, *, size: float | None = 0.1, points: int = 5000,

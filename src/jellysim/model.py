@@ -148,7 +148,10 @@ def finalize(
         raise ValueError("every point mass must be a positive finite number of kg")
     if not (damping >= 0 and np.isfinite(damping)):
         raise ValueError(f"damping must be >= 0 kg/s, got {damping}")
-    gravity = np.asarray(gravity, dtype=np.float64).reshape(3)
+    if np.shape(gravity) != (3,):
+        raise ValueError(f"gravity must be a vector of 3 accelerations [m/s^2], e.g. (0, -9.81, "
+                         f"0) (y is up), got {gravity!r}")
+    gravity = np.asarray(gravity, dtype=np.float64)
 
     first_ptr = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(np.bincount(springs[:, 0], minlength=n), out=first_ptr[1:])

@@ -97,12 +97,20 @@ def check_value(name: str, section: str, key: str, spec: Spec, value: Any) -> An
     return value
 
 
+def _other_section(key: str, label: str) -> str:
+    """`` (it is a key of [springs])`` when ``key`` belongs to other sections of the scene."""
+    from .scene_schema import SCHEMA
+
+    homes = [f"[{sec}]" for sec, keys in SCHEMA.items() if key in keys and f"[{sec}]" != label]
+    return f" (it is a key of {' and '.join(homes)})" if homes else ""
+
+
 def check_table(name: str, label: str, given: dict, keys: dict[str, Spec]) -> dict:
     """One table checked against ``keys``: unknown keys, missing required values and each
     value (:func:`check_value`); defaults filled in.  ``label`` names it (``[section]``)."""
     for key in given:
         if key not in keys:
-            hint = did_you_mean(key, keys)
+            hint = did_you_mean(key, keys) or _other_section(key, label)
             raise SceneError(f"{name}: {label} unknown key '{key}'{hint}; allowed: "
                              + ", ".join(keys))
     values = {}

@@ -187,6 +187,11 @@ class Simulator(HandleMethods, PhysicalStepping):
                              f"{integrator!r}") from None
         provot, ground = (ProvotParams(enabled=False) if provot is None else provot,
                           GroundParams(enabled=False) if ground is None else ground)
+        if not isinstance(provot, ProvotParams):
+            raise TypeError(f"provot must be a jellysim.ProvotParams (e.g. ProvotParams(tau="
+                            f"0.01, loops=5)) or None (off), got {provot!r}")
+        if not isinstance(implicit, ImplicitParams):
+            raise TypeError(f"implicit must be a jellysim.ImplicitParams, got {implicit!r}")
         if not isinstance(ground, GroundParams):
             raise TypeError(f"ground must be a jellysim.GroundParams (e.g. GroundParams(model="
                             f"GroundModel.CONTACT), the physical contact ground) or None, got "
