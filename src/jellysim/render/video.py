@@ -131,7 +131,9 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
 
             stack = np.stack(list(images))
             with atomic_path(path) as tmp:
-                iio.imwrite(tmp, stack, extension=".gif", duration=1000.0 / fps, loop=0)
+                # whole hundredths (Pillow truncates 29.999... ms to 20), at least 2
+                delay_ms = 10.0 * max(2, round(100.0 / fps))
+                iio.imwrite(tmp, stack, extension=".gif", duration=delay_ms, loop=0)
         elif kind == "png":
             import imageio.v3 as iio
 
