@@ -365,3 +365,24 @@ def test_a_body_files_own_masses_and_stiffness_against_the_scene(tmp_path):
         model(bare, "[springs]\nstiffness = 20.0\n")
     m, said = model(bare, "[springs]\nstiffness = 20.0\n[mass]\npoint_mass = 0.25\n")
     assert m.point_mass.tolist() == [0.25, 0.25] and said == []
+
+
+def test_a_body_file_written_in_centimetres_is_said(tmp_path):
+    """Sizes are in metres: a body file 100 m across (a 1 m bob written in cm) is warned, as a
+    box or mesh that large is; a 1 m one is not."""
+    import warnings
+
+    from jellysim.scene import Scene
+
+    for span, said in ((100.0, True), (1.0, False)):
+        (tmp_path / "b.jello").write_text(f"jello 1\npoints 2 mass\n0 0 0 1\n0 {span} 0 1\n"
+                                          "springs 1 stiffness\n0 1 20\nend\n")
+        (tmp_path / "s.toml").write_text('[body]\ntype = "file"\npath = "b.jello"\n'
+                                         "[integrator]\ndt = 0.001\nsteps = 1\n")
+        with warnings.catch_warnings(record=True) as got:
+            warnings.simplefilter("always")
+            Scene.load(tmp_path / "s.toml").build_body()
+        words = [str(w.message) for w in got if "slip of units" in str(w.message)]
+        assert bool(words) is said
+        if said:
+            assert "the body file b.jello is 100 m across" in words[0]

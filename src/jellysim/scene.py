@@ -302,6 +302,10 @@ class Scene:
             if not path.exists():
                 raise SceneError(missing_path(self.name, b["path"], path))
             body = read_body(path)
+            from .body import _warn_size
+
+            _warn_size(float(np.ptp(body.points, axis=0).max()), f"{self.name}: the body file "
+                       f"{b['path']}")
             placed = self._place(body.points)
             if body.skin_vertices is None:
                 return replace(body, points=placed)
