@@ -878,3 +878,23 @@ def test_runs_rendered_side_by_side_share_one_camera(run_dir, tmp_path):
 
     assert pair.shape == (64, 192, 3) and reds(pair[:, 96:]) > 0
     assert reds(pair[:, :96]) < 0.5 * reds(alone)
+
+
+def test_a_python_recording_draws_the_floor_where_its_ground_was(tmp_path):
+    """Session 12's artist trial: a recording of a Simulator without a ground was drawn with
+    a floor at y = 0 that hid the falling body.  ``Recorder.record(sim)`` keeps the ground (its
+    height, or none), and a recording of states alone draws no floor."""
+    import jellysim as js
+    from jellysim.io.trajectory import Recorder, load_trajectory
+    from jellysim.render.offscreen import ground_height
+
+    model = js.physical_model(js.Body.box(points=27), js.material("gelatin"))
+    for ground, want in ((None, None), (js.GroundParams(model="contact", height=-0.05), -0.05),
+                         ("states", None)):
+        sim = js.Simulator(model, dt=1 / 60, ground=None if ground == "states" else ground)
+        rec = Recorder(model)
+        for _ in range(3):
+            rec.record(sim.state if ground == "states" else sim)
+            sim.advance(1)
+        traj = load_trajectory(rec.save(tmp_path / f"{want}_{ground is None}.npz"))
+        assert ground_height(traj) == want

@@ -80,7 +80,17 @@ class Recorder:
         self.steps: list[int] = []
 
     def record(self, state) -> None:
-        """Keep ``state``'s positions, velocities, time and step (a state of this model)."""
+        """Keep ``state``'s positions, velocities, time and step (a state of this model).
+        ``state`` may be the :class:`~jellysim.simulator.Simulator` itself: its ground is then
+        kept too, so that ``jellysim render`` draws the floor where it was (a recording of
+        states alone says nothing of a ground, and none is drawn)."""
+        ground = getattr(state, "ground", None)
+        if ground is not None and hasattr(state, "state"):
+            state = state.state
+            if "ground" not in self.params:
+                self.params["ground"] = {"enabled": bool(ground.enabled),
+                                         "height": float(ground.height),
+                                         "model": getattr(ground.model, "value", "paper")}
         n = self.model.point_count
         if np.shape(state.x) != (n, 3) or np.shape(state.v) != (n, 3):
             raise ValueError(f"Recorder.record: the state has {np.shape(state.x)} positions; "

@@ -63,9 +63,10 @@ class RenderOptions:
 
 
 def ground_height(traj) -> float | None:
-    """The ground plane's height [m] from the run's parameters, ``None`` if disabled."""
-    g = traj.params.get("ground", {}) if isinstance(traj.params, dict) else {}
-    if g and not g.get("enabled", True):
+    """The ground plane's height [m] from the run's parameters, ``None`` if disabled or not
+    recorded (a Python recording of states alone: ``Recorder.record(sim)`` keeps it)."""
+    g = traj.params.get("ground") if isinstance(traj.params, dict) else None
+    if not g or not g.get("enabled", True):
         return None
     return float(g.get("height", 0.0))
 
