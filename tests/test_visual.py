@@ -898,3 +898,27 @@ def test_a_python_recording_draws_the_floor_where_its_ground_was(tmp_path):
             sim.advance(1)
         traj = load_trajectory(rec.save(tmp_path / f"{want}_{ground is None}.npz"))
         assert ground_height(traj) == want
+
+
+def test_usd_time_codes_are_the_simulated_times(tmp_path, traj):
+    """Session 12's artist trial: a run whose last frame interval is shorter (50 steps saved
+    every 7) put its last USD sample 0.1 s late, and ``export --fps 24`` played a 60 frames/s
+    run in slow motion (a time code per frame at 24 per second).  Time codes are now the
+    frames' simulated times x the stage's rate."""
+    import dataclasses
+
+    from pxr import Usd, UsdGeom
+
+    from jellysim.io.usd import export_usd
+
+    n = traj.frame_count
+    times = np.minimum(np.arange(n) * 7 / 60.0, (7 * (n - 1) - 3) / 60.0)  # last one shorter
+    uneven = dataclasses.replace(traj, times=traj.times[0] + times)
+    for fps in (None, 24.0):
+        stage = Usd.Stage.Open(str(export_usd(uneven, tmp_path / f"u{fps}.usda", fps=fps)))
+        rate = stage.GetTimeCodesPerSecond()
+        samples = UsdGeom.Mesh(stage.GetPrimAtPath("/jello/skin")).GetPointsAttr() \
+            .GetTimeSamples()
+        assert len(samples) == n
+        assert np.allclose(np.array(samples) / rate, times, atol=1e-9)
+        assert stage.GetEndTimeCode() / rate == pytest.approx(times[-1], abs=1e-9)

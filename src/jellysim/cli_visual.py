@@ -378,7 +378,8 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
 @click.option("--sequence", type=click.Choice(["obj", "ply"]), default=None,
               help="Write the skin as one OBJ/PLY file per frame into the folder OUTPUT.")
 @click.option("--fps", type=click.FloatRange(min=0.1), default=None,
-              help="Frames per second of the USD stage (default: real time).")
+              help="Time codes per second of the USD stage (default: the run's frame "
+                   "rate; any rate plays in real time, e.g. 24 for a 24 fps project).")
 @click.option("--max-frames", type=click.IntRange(min=2), default=None,
               help="glb: keep at most this many frames (evenly spaced), one morph target "
                    "each.")

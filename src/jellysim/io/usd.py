@@ -77,6 +77,18 @@ def inside_out_note(traj) -> str | None:
             " a viewer that hides back faces shows little of it there")
 
 
+def _time_codes(times, count: int, fps: float) -> list[float]:
+    """Each frame's USD time code: its simulated time since the first frame x ``fps`` (whole
+    numbers for evenly spaced frames; a shorter last interval, or a stage rate other than the
+    run's, still plays in real time)."""
+    t = np.asarray(times, dtype=np.float64)[:count]
+    if len(t) != count:  # (no times for these frames: one code per frame)
+        return [float(k) for k in range(count)]
+    codes = (t - t[0]) * fps
+    snapped = np.round(codes)
+    return np.where(np.abs(codes - snapped) < 1e-6, snapped, codes).tolist()
+
+
 def export_usd(traj, path, *, fps: float | None = None, name: str = "jello") -> Path:
     """Write the skin of a loaded trajectory as a USD stage with time-sampled points."""
     try:
@@ -96,8 +108,9 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello") -> 
         UsdGeom.SetStageMetersPerUnit(stage, 1.0)
         stage.SetTimeCodesPerSecond(fps)
         stage.SetFramesPerSecond(fps)
-        stage.SetStartTimeCode(0)
-        stage.SetEndTimeCode(len(frames) - 1)
+        codes = _time_codes(traj.times, len(frames), fps)
+        stage.SetStartTimeCode(codes[0])
+        stage.SetEndTimeCode(codes[-1])
         root = UsdGeom.Xform.Define(stage, Sdf.Path(f"/{name}"))
         stage.SetDefaultPrim(root.GetPrim())
         mesh = UsdGeom.Mesh.Define(stage, Sdf.Path(f"/{name}/skin"))
@@ -110,9 +123,9 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello") -> 
         extent = mesh.CreateExtentAttr()
         for k, verts in enumerate(frames):
             v = np.ascontiguousarray(verts, dtype=np.float32)
-            points.Set(Vt.Vec3fArray.FromNumpy(v), Usd.TimeCode(k))
+            points.Set(Vt.Vec3fArray.FromNumpy(v), Usd.TimeCode(codes[k]))
             extent.Set(Vt.Vec3fArray.FromNumpy(np.stack([v.min(0), v.max(0)])),
-                       Usd.TimeCode(k))
+                       Usd.TimeCode(codes[k]))
         stage.GetRootLayer().Save()
         del stage
     return path
