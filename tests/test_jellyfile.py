@@ -386,3 +386,26 @@ def test_a_body_file_written_in_centimetres_is_said(tmp_path):
         assert bool(words) is said
         if said:
             assert "the body file b.jello is 100 m across" in words[0]
+
+
+def test_base_places_a_body_file_by_its_skin_as_a_mesh_body(tmp_path):
+    """Session 12's artist trial: ``base`` put a body file's points at the given height and
+    its skin (what is drawn, a little below the points) under the floor; a mesh body is
+    placed by its skin.  Now both are, and the points keep their place inside the skin."""
+    from jellysim.body import Body
+    from jellysim.geometry.jellyfile import write_body
+    from jellysim.scene import Scene
+
+    body = Body.from_mesh(str(Path(__file__).parent / "data" / "sphere.obj"), size=0.05, points=300, connect="marching")
+    write_body(tmp_path / "ball.jello", body)
+    (tmp_path / "s.toml").write_text('[body]\ntype = "file"\npath = "ball.jello"\n'
+                                     "base = [0.1, 0.01, 0.0]\n[material]\npreset = 'gelatin'\n"
+                                     "[integrator]\nsteps = 1\n")
+    placed = Scene.load(tmp_path / "s.toml").build_body()
+    lo, hi = placed.skin_vertices.min(axis=0), placed.skin_vertices.max(axis=0)
+    assert np.allclose([0.5 * (lo[0] + hi[0]), lo[1], 0.5 * (lo[2] + hi[2])], [0.1, 0.01, 0.0],
+                       atol=1e-12)
+    shift = placed.points - body.points
+    assert np.allclose(shift, shift[0], atol=1e-12)                   # moved rigidly
+    assert np.allclose(placed.skin_vertices - body.skin_vertices, shift[0], atol=1e-12)
+    assert placed.points[:, 1].min() >= 0.01 - 1e-6     # none under the skin (its facets: 1e-7)

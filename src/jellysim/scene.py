@@ -306,10 +306,11 @@ class Scene:
 
             _warn_size(float(np.ptp(body.points, axis=0).max()), f"{self.name}: the body file "
                        f"{b['path']}")
-            placed = self._place(body.points)
             if body.skin_vertices is None:
-                return replace(body, points=placed)
-            skin = body.skin_vertices + (placed[0] - body.points[0])  # moved with the body
+                return replace(body, points=self._place(body.points))
+            # placed by its skin (what is drawn), as a mesh body is; the points move with it
+            skin = self._place(body.skin_vertices)
+            placed = body.points + (skin[0] - body.skin_vertices[0])
             self._surface = (skin, body.skin_faces)
             return replace(body, points=placed, skin_vertices=skin)
         if b["type"] == "mesh":

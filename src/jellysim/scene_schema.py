@@ -41,7 +41,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "size": Spec("float", None, "Type 'mesh': scale the mesh so its largest extent is this "
                      "[m].", lambda v: v > 0, "a number > 0 (m)"),
         "base": Spec("vec3", None, "Types 'mesh'/'file': move the body so the bottom centre of "
-                     "its bounding box is here [m]."),
+                     "its bounding box is here [m] (of its surface mesh when it has one: what "
+                     "is drawn)."),
         "settle": Spec("bool", False, "Start at rest: before t = 0 the body settles under "
                        "gravity on its ground and obstacles (strongly damped, then the clock "
                        "set to 0), so a jello placed unsagged does not bounce through the run. "
