@@ -219,3 +219,40 @@ def test_inspect_says_an_open_surface_has_no_enclosed_volume():
     assert "open surface encloses no volume" in open_cube.describe()
     closed = load_mesh(DATA / "cube.obj").defects
     assert closed.volume == pytest.approx(8.0) and "open surface" not in closed.describe()
+
+
+def test_one_separate_shell_wound_inward_is_turned_a_cavity_is_not(tmp_path):
+    """Session 12's artist trial: two separate spheres, one wound inward, were called
+    'overlapping or nested' and the inward one was exported inside out.  Each separate shell
+    wound inward is turned (said); the cavity of a hollow sphere keeps its inward winding."""
+    import warnings
+
+    import trimesh
+
+    from jellysim.build import shell_overlap
+    from jellysim.geometry.mesh import load_mesh, outward
+    from jellysim.geometry.shells import outward_shells
+
+    big, small = trimesh.creation.icosphere(3, radius=0.03), trimesh.creation.icosphere(
+        3, radius=0.02)
+    small.invert()
+    small.apply_translation([0.07, 0.0, 0.0])
+    trimesh.util.concatenate([big, small]).export(tmp_path / "two.obj")
+    with pytest.warns(UserWarning, match=r"1 of its 2 separate shells wound inward"):
+        m = outward(load_mesh(tmp_path / "two.obj"), "two.obj")
+    assert m.defects.volume == pytest.approx(big.volume + abs(small.volume), rel=1e-6)
+    over, inside_rule, signed = shell_overlap(m)
+    assert not over and inside_rule == pytest.approx(signed, rel=0.02)
+    hollow = load_mesh(DATA / "hollow_sphere.obj")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        kept = outward(hollow, "hollow")
+    assert np.array_equal(kept.faces, hollow.faces)            # the cavity stays inward
+    # the whole hollow sphere inside out is turned back as a whole: the cavity inward again
+    from dataclasses import replace
+
+    inside_out = replace(hollow, faces=hollow.faces[:, [0, 2, 1]], defects=replace(
+        hollow.defects, volume=-hollow.defects.volume))
+    with pytest.warns(UserWarning, match="the mesh is inside out"):
+        assert np.array_equal(outward(inside_out, "hollow").faces, hollow.faces)
+    assert outward_shells(hollow.vertices, hollow.faces)[1] == []

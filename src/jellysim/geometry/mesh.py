@@ -578,20 +578,4 @@ def _shell_count(f: np.ndarray, n_vertices: int) -> int:
     return int(n)
 
 
-def outward(mesh: "Mesh", name: str = "mesh") -> "Mesh":
-    """``mesh`` with its faces wound outward: a consistently oriented mesh (no edge traversed
-    the same way by its two faces) whose signed volume is negative (inside out, as some
-    exporters write them) gets every face reversed, with a warning, so that TetGen, the
-    winding-number inside test of open meshes and the skin (its normals in renders and
-    exports) see it the right way out.  (For a closed mesh the parity inside test does not
-    depend on the winding: its body's points do not change.)"""
-    d = mesh.defects
-    if not (d.volume < 0 and d.inconsistent_edges == 0):
-        return mesh
-    import warnings
-    from dataclasses import replace
-
-    warnings.warn(f"{name}: its faces are wound inward (the mesh is inside out, signed volume "
-                  f"{d.volume:.4g}): turned outward", UserWarning, stacklevel=3)
-    return replace(mesh, faces=np.ascontiguousarray(mesh.faces[:, [0, 2, 1]]),
-                   defects=replace(d, volume=-d.volume))
+from .shells import outward  # noqa: E402  (re-exported: load_mesh's callers use it)

@@ -1,0 +1,100 @@
+"""Shells of a closed mesh wound inward on their own.
+
+:func:`jellysim.geometry.mesh.outward` turns a whole mesh that is inside out; a mesh of several
+separate parts can also have ONE part wound inward (two files concatenated, one exported
+inside out).  Its signed volume then subtracts that part, its skin shows the part inside out,
+and the shell check (:func:`jellysim.build.shell_overlap`) mistakes it for overlapping shells.
+:func:`outward_shells` turns each such part: a shell with a negative signed volume that no
+other shell encloses (a shell inside another is a cavity, wound inward on purpose).  Whether a
+shell encloses a point is its generalised winding number there (the solid angle it subtends
+over 4 pi: 1 inside, 0 outside; Van Oosterom & Strackee, IEEE Trans. Biomed. Eng. 30, 1983).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["outward", "outward_shells", "winding_number"]
+
+MAX_SHELLS = 256
+"""Meshes of more shells are left as they are (the check is O(shells x faces))."""
+
+
+def winding_number(vertices: np.ndarray, faces: np.ndarray, point) -> float:
+    """Generalised winding number of the closed triangle surface ``faces`` (m, 3) over
+    ``vertices`` (n, 3) at ``point`` (3,): 1 inside a shell wound outward, -1 inside one
+    wound inward, 0 outside."""
+    a, b, c = (vertices[faces[:, k]] - np.asarray(point, dtype=np.float64) for k in range(3))
+    la, lb, lc = (np.linalg.norm(v, axis=1) for v in (a, b, c))
+    det = np.einsum("ij,ij->i", a, np.cross(b, c))
+    den = (la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", a, c) * lb
+           + np.einsum("ij,ij->i", b, c) * la)
+    return float(2.0 * np.arctan2(det, den).sum() / (4.0 * np.pi))
+
+
+def _shell_of_faces(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray]:
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    rows = np.concatenate([faces[:, 0], faces[:, 1], faces[:, 2]])
+    cols = np.concatenate([faces[:, 1], faces[:, 2], faces[:, 0]])
+    g = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_vertices, n_vertices))
+    n, label = connected_components(g, directed=False)
+    return int(n), label[faces[:, 0]]
+
+
+def outward_shells(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, list]:
+    """``faces`` with every separate shell that is wound inward turned outward, and the
+    turned shells' signed volumes [mesh units^3] (empty when none was)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    count, label = _shell_of_faces(f, len(v))
+    if count < 2 or count > MAX_SHELLS:
+        return f, []
+    tri = v[f]
+    vol = np.bincount(label, weights=np.einsum("ij,ij->i", tri[:, 0],
+                                               np.cross(tri[:, 1], tri[:, 2])) / 6.0,
+                      minlength=count)
+    probe = np.array([v[f[np.argmax(label == s), 0]] for s in range(count)])
+
+    def inside(p, t):  # is probe p inside shell t (either winding)?
+        return abs(winding_number(v, f[label == t], probe[p])) > 0.5
+
+    turned, out = [], f.copy()
+    for s in np.flatnonzero(vol < 0):
+        # enclosed by another shell that does not contain it back (nested, not overlapping):
+        # a cavity, wound inward as it should be
+        if any(inside(s, t) and not inside(t, s) for t in range(count) if t != s):
+            continue
+        out[label == s] = out[label == s][:, [0, 2, 1]]
+        turned.append(float(vol[s]))
+    return out, turned
+
+
+def outward(mesh, name: str = "mesh"):
+    """``mesh`` with its faces wound outward: a consistently oriented mesh (no edge traversed
+    the same way by its two faces) whose signed volume is negative (inside out, as some
+    exporters write them) gets every face reversed, with a warning, so that TetGen, the
+    winding-number inside test of open meshes and the skin (its normals in renders and
+    exports) see it the right way out.  (For a closed mesh the parity inside test does not
+    depend on the winding: its body's points do not change.)  Then each separate shell
+    wound inward on its own (:func:`outward_shells`; a cavity stays as it is) is turned too,
+    with a warning."""
+    import warnings
+    from dataclasses import replace
+
+    d = mesh.defects
+    if d.inconsistent_edges:
+        return mesh
+    if d.volume < 0:
+        warnings.warn(f"{name}: its faces are wound inward (the mesh is inside out, signed "
+                      f"volume {d.volume:.4g}): turned outward", UserWarning, stacklevel=3)
+        mesh = replace(mesh, faces=np.ascontiguousarray(mesh.faces[:, [0, 2, 1]]),
+                       defects=replace(d, volume=-d.volume))
+    faces, turned = outward_shells(mesh.vertices, mesh.faces) if d.watertight else (None, [])
+    if turned:  # (one part of several wound inward: .shells)
+        warnings.warn(f"{name}: {len(turned)} of its {d.shells} separate shells wound inward "
+                      f"(signed volume {sum(turned):.4g}): turned outward", UserWarning,
+                      stacklevel=3)
+        mesh = replace(mesh, faces=faces, defects=replace(
+            mesh.defects, volume=mesh.defects.volume - 2.0 * sum(turned)))
+    return mesh
