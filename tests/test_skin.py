@@ -180,3 +180,29 @@ every = 3
     print(f"skin: raw {raw.min():.5f} m, drawn {drawn.min():.5f} m from the sphere's centre")
     assert drawn.min() >= 0.05 - 1e-12
     assert np.isclose(drawn.min(), 0.05, atol=1e-3)  # it touched
+
+
+def test_a_skin_part_the_body_does_not_fill_is_said():
+    """Session 12's artist trial: a 2 mm crumb beside a ball got no points, and its skin
+    followed the ball by extrapolation (weights of 3.9) without a word.  Now said, with where;
+    a body whose skin the tets hold (the ball alone) says nothing."""
+    import warnings
+
+    import trimesh
+
+    import jellysim as js
+
+    ball = trimesh.creation.icosphere(3, radius=0.04)
+    crumb = trimesh.creation.icosphere(2, radius=0.002)
+    crumb.apply_translation([0.07, 0.0, 0.0])
+    both = trimesh.util.concatenate([ball, crumb])
+    from jellysim.skin import default_skin
+
+    body = js.Body.from_mesh((both.vertices, both.faces), size=None, points=1000)
+    with pytest.warns(UserWarning, match=r"skin: 162 of its 804 vertices \(around \(0.07, "):
+        default_skin(None, body)           # (what a run, a Recorder or the demo binds)
+    alone = js.Body.from_mesh((ball.vertices, ball.faces), size=None, points=1000)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        default_skin(None, alone)
+    assert not [w for w in said if "extrapolation" in str(w.message)]
