@@ -225,6 +225,12 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
               notify=None) -> RunResult:
     """Simulate ``scene`` (a :class:`~jellysim.scene.Scene`) and write its outputs.
 
+    ``progress``: show a progress bar (rich) while stepping, and say when the body is settled.
+    ``vtu``: write the ParaView series (``body.pvd`` + ``.vtu`` frames); ``None`` (default):
+    the scene's ``[output] vtu`` (with ``resume``: the run's own choice).
+    ``steps``: the run's total number of time steps (a resume or extension runs on to it),
+    overriding ``[integrator] steps``; ``None`` (default): the scene's (with ``resume``: the
+    count the run was started with, when the scene's is unchanged).
     ``skin``: a :class:`~jellysim.skin.Skin` to carry, ``None`` for none, or ``"auto"``
     (:func:`jellysim.skin.default_skin`: the box surface for box scenes).
     ``body``: a :class:`~jellysim.body.Body` to simulate instead of the scene's own.

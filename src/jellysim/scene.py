@@ -94,6 +94,8 @@ class Scene:
 
     @classmethod
     def from_text(cls, text: str, *, name: str = "<scene>", overrides=()) -> "Scene":
+        """Parse and validate a scene from TOML ``text``; ``name`` is the file name its errors
+        (:class:`~jellysim.errors.SceneError`) show; ``overrides`` as in :meth:`load`."""
         try:
             raw = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
@@ -291,6 +293,10 @@ class Scene:
                               tets=s["connect"] != "radius", what=f"{self.name}: [body] points")
 
     def build_body(self):
+        """The scene's :class:`~jellysim.body.Body` ([body] and [springs]: a box field, a mesh
+        sampled and connected by :func:`jellysim.build.build_body`, or a body file), placed;
+        points [m] (n, 3).  Refused before building when it cannot run (all-pairs Provot over
+        too many points: :class:`SceneError`; too much memory: ``ResourceError``)."""
         b, s = self.params["body"], self.params["springs"]
         self._guard()
         if b["type"] == "file":
@@ -363,6 +369,9 @@ class Scene:
             raise SceneError(str(exc)) from None
 
     def build_model(self, body=None):
+        """The :class:`~jellysim.model.Model` to simulate: ``body`` (default
+        :meth:`build_body`) with the scene's stiffness or material, masses [kg], damping and
+        gravity; a physical (FEM) model when the material says so."""
         body = self.build_body() if body is None else body
         m, ph = self.params["mass"], self.params["physics"]
         mat = self.params["material"]
@@ -569,6 +578,7 @@ class Scene:
 
     @property
     def steps(self) -> int:
+        """Number of time steps to run (``[integrator] steps``)."""
         return int(self.params["integrator"]["steps"])
 
     @property

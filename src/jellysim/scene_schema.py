@@ -113,7 +113,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                              lambda v: 0 <= v <= 0.05, "a number in [0, 0.05]"),
     },
     "mass": {
-        "density": _pos("Density [kg/m^3]; total mass = density x volume, split evenly.",
+        "density": _pos("Density [kg/m^3]; total mass = density x the body's volume: split "
+                        "evenly over the points of box and radius bodies; tet bodies (connect "
+                        "'marching', 'delaunay', 'tetgen') lump each tet's share on its corners.",
                         REPORT_DENSITY, " (kg/m^3)"),
         "point_mass": Spec("float", None, "Mass of every point [kg] (overrides density).",
                            lambda v: v > 0, "a number > 0 (kg)"),

@@ -166,6 +166,8 @@ class Simulator(HandleMethods, PhysicalStepping):
         its plane to them).
     rest_speed: normal speed [m/s] under which a contact is resting (no bounce); default
         ``2 |g| dt`` (per substep).
+    state: a :class:`~jellysim.state.State` to start from (x, v, a: (n, 3) float64), used as
+        is and updated in place; ``None`` (default): ``model.state()``, at rest.
     """
 
     def __init__(self, model, *, dt: float, integrator: Integrator | str = Integrator.SYMPLECTIC,

@@ -526,6 +526,10 @@ def network_youngs_modulus(body: Body, stiffness, *, relax: bool = True,
     (:func:`kinematic_stiffness`, :func:`static_compliance`), which bound it from above and
     below; point clouds: the virial stiffness minus the relaxation of the inner points
     (:func:`relaxation_stiffness`), over the body's volume (tets, else ``body.volume``).
+
+    ``volume`` [m^3]: the volume the network's stiffness is spread over (the virial and
+    kinematic terms); ``None`` (default): :func:`point_volumes` summed (the spring tets'
+    volume, else ``body.volume``).
     """
     from threadpoolctl import threadpool_limits
 
@@ -556,6 +560,8 @@ def calibrate_springs(body: Body, youngs_modulus: float, *, relax: bool = True,
     """Per-spring stiffness [N/m], shape (k,), so that the network's Young's modulus is
     ``youngs_modulus`` [Pa] (see the module docstring for the method and its limits).
 
+    ``relax``: calibrate against the relaxed network modulus (:func:`network_youngs_modulus`
+    with ``relax=True``, the default); ``False``: against the affine (virial) one.
     ``point_volume`` [m^3], shape (n,): the volume each point owns when the body has no tets
     (e.g. :func:`jellysim.geometry.lattice.grid_point_volumes`); default: the body volume
     split evenly."""
