@@ -206,3 +206,26 @@ def test_a_skin_part_the_body_does_not_fill_is_said():
         warnings.simplefilter("always")
         default_skin(None, alone)
     assert not [w for w in said if "extrapolation" in str(w.message)]
+
+
+def test_a_low_poly_skin_is_subdivided_so_that_it_bends():
+    """Session 12's artist trial: a cube of 12 triangles carried by a 1,331-point body could
+    not bend (its 8 corners moved, 113 points bulged 3 mm out of it).  A skin whose edges pass
+    twice the point spacing is subdivided to one spacing, the same surface, its own vertices
+    first."""
+    import trimesh
+
+    import jellysim as js
+    from jellysim.skin import default_skin
+
+    cube = trimesh.creation.box(extents=[0.05, 0.05, 0.05])
+    body = js.Body.from_mesh((cube.vertices, cube.faces), size=None, points=1000)
+    skin = default_skin(None, body)
+    v, f = skin.rest_vertices, skin.faces
+    assert len(v) > 100 and np.array_equal(v[:8], np.asarray(cube.vertices))
+    edges = np.linalg.norm(v[f[:, [1, 2, 0]]] - v[f], axis=2)
+    tets = body.tets
+    spacing = np.median(np.linalg.norm(body.points[tets[:, 0]] - body.points[tets[:, 1]],
+                                       axis=1))
+    assert edges.max() <= 1.5 * spacing
+    assert trimesh.Trimesh(v, f).volume == pytest.approx(cube.volume, rel=1e-9)  # same shape

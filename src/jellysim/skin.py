@@ -256,7 +256,41 @@ def bind_body_skin(body, vertices: np.ndarray, faces: np.ndarray) -> Skin:
     """Bind a surface (vertices [m] (m, 3), faces (f, 3)) to a :class:`~jellysim.body.Body`:
     its tets when it has some, else the spring-spanned Delaunay cells of its points."""
     tets = body_tets(body.points, body.springs, body.tets)
+    vertices, faces = _fine_enough(np.asarray(vertices, dtype=np.float64).reshape(-1, 3),
+                                   np.asarray(faces, dtype=np.int64).reshape(-1, 3),
+                                   body.points, tets)
     return bind_skin(body.points, tets, vertices, faces)
+
+
+MAX_SKIN_FACES = 200_000
+"""A coarse skin is subdivided to at most about this many triangles."""
+
+
+def _fine_enough(vertices, faces, points, tets):
+    """A skin whose edges are longer than twice the body's point spacing (a low-poly mesh: a
+    cube of 12 triangles; the demo mould's flat base, a fan of 4 cm triangles) cannot bend
+    with the body: it is subdivided to edges of one spacing (trimesh; the same surface, its
+    original vertices first, in their order, so a point cache of the file still lines up).
+    The spacing is the median edge of the body's tets."""
+    if len(faces) == 0 or len(tets) == 0:
+        return vertices, faces
+    edges = points[tets[:, [0, 0, 0, 1, 1, 2]]] - points[tets[:, [1, 2, 3, 2, 3, 3]]]
+    spacing = float(np.median(np.linalg.norm(edges, axis=2)))
+    longest = float(np.linalg.norm(vertices[faces[:, [1, 2, 0]]] - vertices[faces],
+                                   axis=2).max())
+    if not (spacing > 0 and longest > 2.0 * spacing):
+        return vertices, faces
+    try:
+        import trimesh
+    except ImportError:  # (the mesh extra): the skin stays as it is
+        return vertices, faces
+    tri = vertices[faces]
+    area = 0.5 * float(np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
+                                      axis=1).sum())
+    edge = max(spacing, float(np.sqrt(area / (0.433 * MAX_SKIN_FACES))))
+    fine_v, fine_f = trimesh.remesh.subdivide_to_size(vertices, faces, max_edge=edge,
+                                                      max_iter=12)
+    return np.asarray(fine_v, dtype=np.float64), np.asarray(fine_f, dtype=np.int64)
 
 
 def identity_skin(points: np.ndarray, triangles: np.ndarray) -> Skin:
