@@ -927,3 +927,5 @@ def test_usd_time_codes_are_the_simulated_times(tmp_path, traj):
         assert len(samples) == n
         assert np.allclose(np.array(samples) / rate, times, atol=1e-9)
         assert stage.GetEndTimeCode() / rate == pytest.approx(times[-1], abs=1e-9)
+        # double-sided, as the glTF export says it is (an open skin shows its inside)
+        assert UsdGeom.Mesh(stage.GetPrimAtPath("/jello/skin")).GetDoubleSidedAttr().Get()

@@ -222,7 +222,8 @@ _show = click.option("--show", multiple=True,
                                        case_sensitive=False),
                      help="What to draw (repeatable; default: the skin). 'all' = everything.")
 _size_opt = click.option("--size", default="960x540", show_default=True,
-                         help="Image size WIDTHxHEIGHT in pixels.")
+                         help="Image size WIDTHxHEIGHT in pixels (runs side by side: "
+                              "each run's picture; they are put next to each other).")
 _color = click.option("--color", default="#d81e3c", show_default=True,
                       help="Skin colour (name or #rrggbb).")
 _opacity = click.option("--opacity", type=click.FloatRange(0.05, 1.0), default=0.7,

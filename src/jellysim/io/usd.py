@@ -117,6 +117,7 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello") -> 
         mesh.CreateFaceVertexCountsAttr(Vt.IntArray([3] * len(faces)))
         mesh.CreateFaceVertexIndicesAttr(Vt.IntArray(faces.ravel().tolist()))
         mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+        mesh.CreateDoubleSidedAttr(True)  # as the glTF export: an open skin shows its inside
         mesh.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(0.85, 0.12, 0.24)]))
         mesh.CreateDisplayOpacityAttr(Vt.FloatArray([0.7]))
         points = mesh.CreatePointsAttr()
