@@ -929,3 +929,19 @@ def test_usd_time_codes_are_the_simulated_times(tmp_path, traj):
         assert stage.GetEndTimeCode() / rate == pytest.approx(times[-1], abs=1e-9)
         # double-sided, as the glTF export says it is (an open skin shows its inside)
         assert UsdGeom.Mesh(stage.GetPrimAtPath("/jello/skin")).GetDoubleSidedAttr().Get()
+
+
+def test_render_can_draw_the_demos_plate(run_dir, tmp_path):
+    """Session 12's artist trial: re-rendering the demo's run lost its plate; `render
+    --plate` draws it (a white disc under the body: many more near-white pixels)."""
+    import imageio.v2 as iio2
+
+    white = []
+    for extra in ([], ["--plate"]):
+        out = tmp_path / f"p{len(extra)}.png"
+        r = CliRunner().invoke(cli, ["render", str(run_dir), "-o", str(out), "--frame", "-1",
+                                     "--size", "160x90", *extra])
+        assert r.exit_code == 0, r.output
+        img = iio2.imread(out)[..., :3].astype(int)
+        white.append(int(np.sum(img.min(axis=2) > 215)))  # the plate: (239, 235, 224) lit
+    assert white[1] > white[0] + 200

@@ -312,6 +312,8 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
 @click.option("--end", type=float, default=None, metavar="SECONDS",
               help="Render only the frames up to this simulated time.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@click.option("--plate", is_flag=True,
+              help="A round white plate on the floor under the body, as `jellysim demo` draws.")
 @_overwrite
 @_camera_options
 @click.option("--camera", "camera_mode", type=click.Choice(["auto", "fixed", "follow"]),
@@ -323,7 +325,7 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
                    "with an alpha channel (with --no-floor: the jello alone, for slides).")
 def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame, every,
            quiet, overwrite=False, azimuth=None, elevation=None, zoom=1.0,
-           camera_mode="auto", background=None, start=None, end=None):
+           camera_mode="auto", background=None, start=None, end=None, plate=False):
     """Render TRAJECTORY (a run folder or its trajectory.npz) to a video or pictures, off
     screen.  Several runs are drawn side by side, at one scale, each at the time of the
     first's frames (soft vs firm)."""
@@ -347,7 +349,8 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
                 raise JellysimError(f"--frame {frame} is outside [0, {traj.frame_count - 1}]")
             frames = np.array([frame % traj.frame_count])
         options = dataclasses.replace(_options(size, color, opacity, show, no_floor,
-                                               (azimuth, elevation, zoom)), camera=camera_mode)
+                                               (azimuth, elevation, zoom)), camera=camera_mode,
+                                      plate=plate)
         if background is not None:
             if background != "transparent":
                 try:
