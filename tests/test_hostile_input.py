@@ -963,3 +963,19 @@ def test_a_teachers_slips_in_python_and_scenes_are_named():
                                          r"\[springs\]\)"):
         Scene.from_text("[body]\npoints = 10\n[physics]\nstiffness = 3.0\n[integrator]\n"
                         "dt = 0.01\nsteps = 1\n", name="s.toml")
+
+
+def test_a_demo_of_a_mesh_too_thin_names_the_mesh_and_the_demos_option(tmp_path):
+    """Session 12's artist trial: `demo --mesh thin_plate.obj` said only 'marching_grid: no
+    tetrahedron was kept ... --h' (an option the demo lacks), not which file."""
+    import trimesh
+    from click.testing import CliRunner
+
+    from jellysim.cli import cli
+
+    trimesh.creation.box(extents=[0.08, 0.001, 0.06]).export(tmp_path / "plate.obj")
+    r = CliRunner().invoke(cli, ["demo", "--mesh", str(tmp_path / "plate.obj"), "--out",
+                                 str(tmp_path / "d"), "--frames", "2"])
+    assert r.exit_code != 0
+    assert f"--mesh {tmp_path / 'plate.obj'}: marching_grid: no tetrahedron" in r.output
+    assert "a larger --points gives a finer grid" in r.output and "Traceback" not in r.output

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .params import REPORT_DENSITY
-from .errors import JellysimError
+from .errors import BuildError, JellysimError
 from .skin import bind_body_skin
 from .io.trajectory import load_trajectory
 from .render.offscreen import RenderOptions
@@ -182,7 +182,12 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
         raise JellysimError(f"--out {out_dir}: holds an earlier demo "
                             f"({', '.join(p.name for p in old if p.exists())}); pass "
                             "--overwrite to replace it, or choose another --out")
-    body, skin = build_demo_body(scene, points, mesh, up)
+    try:
+        body, skin = build_demo_body(scene, points, mesh, up)
+    except BuildError as exc:  # (its fixes name build options: the demo's is --points)
+        what = f"--mesh {mesh}" if mesh is not None else f"--scene {scene}"
+        raise BuildError(f"{what}: {exc} (demo: a larger --points gives a finer grid)"
+                         ) from None
     # only checked here: run_scene deletes an earlier demo run once this one can start, and
     # the video and USD below replace the old ones atomically (a failed demo keeps them)
     prepare_out_dir(out_dir / stem, overwrite=overwrite, delete=False)
