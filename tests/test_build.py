@@ -314,3 +314,39 @@ def test_an_inside_out_open_mesh_is_turned_outward_too(tmp_path):
         flipped = js.Body.from_mesh((np.asarray(cone.vertices), faces[:, ::-1]), size=0.06,
                                     points=300)
     assert np.allclose(flipped.points, ok.points) and ok.point_count > 50
+
+
+def test_a_marching_grid_joining_two_parts_is_said():
+    """Session 12's artist trial: two balls 1 mm apart were fused by the marching grid (28
+    tets across the gap: one hung from the other when pinned), silently.  Said now; 3 mm apart,
+    no tet joins them and nothing is said; a hollow ball (a nested shell) is not two parts."""
+    import warnings
+
+    import trimesh
+
+    import jellysim as js
+    from jellysim.geometry.shells import joined_parts
+
+    def two(gap):
+        a = trimesh.creation.icosphere(3, radius=0.025)
+        b = a.copy()
+        a.apply_translation([-0.025 - gap / 2, 0, 0])
+        b.apply_translation([0.025 + gap / 2, 0, 0])
+        m = trimesh.util.concatenate([a, b])
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            body = js.Body.from_mesh((m.vertices, m.faces), size=None, points=1500)
+        x = body.points[body.tets][:, :, 0]
+        across = int(np.sum((x.min(axis=1) < 0) & (x.max(axis=1) > 0)))
+        return across, [str(w.message) for w in said if "join separate parts" in str(w.message)]
+
+    across, said = two(0.001)
+    assert across > 0 and len(said) == 1 and "more points (a smaller h)" in said[0]
+    across, said = two(0.003)
+    assert across == 0 and said == []
+    outer = trimesh.creation.icosphere(3, radius=0.03)
+    inner = trimesh.creation.icosphere(3, radius=0.015)
+    inner.invert()
+    hollow = trimesh.util.concatenate([outer, inner])
+    pts = np.array([[0.0, 0.0, 0.02], [0.0, 0.0, -0.02], [0.02, 0.0, 0.0], [0.0, 0.02, 0.0]])
+    assert joined_parts(hollow.vertices, hollow.faces, pts, np.array([[0, 1, 2, 3]])) == 0

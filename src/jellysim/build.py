@@ -381,6 +381,14 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
                 "about h are lost, and the physical path's mass (from the tets) is that much "
                 "below density x volume; more points (a smaller h) or connect = 'delaunay' "
                 "follow thin parts", UserWarning, stacklevel=3)
+        from .geometry.shells import joined_parts
+
+        if m.defects.watertight and (joined := joined_parts(m.vertices, m.faces, body.points,
+                                                            body.tets)):
+            warnings.warn(f"{name}: {joined} tets of the marching grid (h = {h:.3g} m) join "
+                          "separate parts of the mesh closer than a cell: they move as one "
+                          "body; more points (a smaller h) or connect = 'delaunay' keep them "
+                          "apart", UserWarning, stacklevel=3)
         return _rescale_masses(body, density, volume)
     try:
         pts = sample_inside(query.query, lo, hi, points, method=sampling, seed=seed,

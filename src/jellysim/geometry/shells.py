@@ -98,3 +98,43 @@ def outward(mesh, name: str = "mesh"):
         mesh = replace(mesh, faces=faces, defects=replace(
             mesh.defects, volume=mesh.defects.volume - 2.0 * sum(turned)))
     return mesh
+
+
+def _winding_many(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray,
+                  block: int = 64) -> np.ndarray:
+    """:func:`winding_number` of one closed surface at each of ``points`` (p, 3)."""
+    out = np.empty(len(points))
+    tri = vertices[faces]
+    for s in range(0, len(points), block):
+        p = points[s:s + block, None, :]
+        a, b, c = (tri[None, :, k, :] - p for k in range(3))
+        la, lb, lc = (np.linalg.norm(v, axis=2) for v in (a, b, c))
+        det = np.einsum("pfi,pfi->pf", a, np.cross(b, c))
+        den = (la * lb * lc + np.einsum("pfi,pfi->pf", a, b) * lc
+               + np.einsum("pfi,pfi->pf", a, c) * lb + np.einsum("pfi,pfi->pf", b, c) * la)
+        out[s:s + block] = 2.0 * np.arctan2(det, den).sum(axis=1) / (4.0 * np.pi)
+    return out
+
+
+def joined_parts(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray,
+                 tets: np.ndarray, *, max_work: float = 5e7) -> int:
+    """How many of ``tets`` (t, 4) join body ``points`` (n, 3) inside two separate parts of
+    the closed mesh (shells apart from each other, neither inside the other): a grid coarser
+    than the gap between two parts fuses them into one body.  0 for one part, nested or
+    overlapping shells, or a mesh too large to check (``max_work`` point x face tests)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    count, label = _shell_of_faces(f, len(v))
+    if not 2 <= count <= 16 or len(points) * len(f) > max_work or len(tets) == 0:
+        return 0
+    probe = np.array([v[f[np.argmax(label == s), 0]] for s in range(count)])
+    for s in range(count):  # any shell inside another (nested or overlapping): not checked
+        for t in range(count):
+            if s != t and abs(winding_number(v, f[label == t], probe[s])) > 0.5:
+                return 0
+    part = np.full(len(points), -1)
+    for t in range(count):
+        part[np.abs(_winding_many(v, f[label == t], points)) > 0.5] = t
+    corner = part[np.asarray(tets, dtype=np.int64)]
+    known = corner.min(axis=1) >= 0
+    return int(np.sum(known & (corner.min(axis=1) != corner.max(axis=1))))
