@@ -1,8 +1,8 @@
 """The fused explicit step (kernels/steps_fused_numba.py) and the float32 state option.
 
-The fused step (the report's integrator, one Jacobi Provot pass over the springs) runs in two
-parallel regions per step instead of four; it must give bitwise the results of the four-region
-kernels it replaces (the same formulas, the same summation order), for any thread count, and
+The fused step (the report's integrator, one Jacobi Provot pass over the springs) runs in three
+parallel regions per step instead of five (with the Jacobi momentum shift); it must give
+bitwise the results of the five-region kernels it replaces (the same formulas, the same summation order), for any thread count, and
 leave the state after a failing step as they do.  ``precision = "float32"`` stores
 the state in float32: its error against float64 is bounded by :data:`FLOAT32_BOUNDS_M`
 (docs/architecture.md).

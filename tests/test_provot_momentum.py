@@ -149,3 +149,23 @@ def test_jacobi_momentum_shift_same_for_one_and_two_threads(integrator, loops):
     assert np.array_equal(runs[0][0], runs[1][0])
     assert np.array_equal(runs[0][1], runs[1][1])
 
+
+
+@pytest.mark.skipif(bool(_warp), reason="warp-lang is not installed")
+def test_warp_momentum_sum_in_fixed_blocks_as_on_a_gpu(monkeypatch):
+    # a GPU sums the momentum in 256 fixed blocks, then the blocks in order: the same
+    # conservation, the same run to rounding as the serial sum, and repeatable bitwise
+    from jellysim.kernels import warp_backend
+
+    def run():
+        sim = _chain_sim("warp", integrator="paper", loops=2)
+        sim.advance(100)
+        return sim.model.point_mass, sim.state.x.copy(), sim.state.v.copy()
+
+    _, x_serial, _ = run()
+    monkeypatch.setitem(warp_backend.MOMENTUM_BLOCKS, "cpu", 3)  # 4 points: 1, 1, 2
+    m, x, v = run()
+    assert np.abs(m @ v).max() < 1e-12
+    assert np.allclose(x, x_serial, rtol=0, atol=1e-13)
+    _, x_again, v_again = run()
+    assert np.array_equal(x, x_again) and np.array_equal(v, v_again)

@@ -57,8 +57,9 @@ __all__ = ["WarpBackend", "run_steps", "PRECISIONS", "resolve_device", "device_i
            "bytes_per_spring_update", "k_triad"]
 
 PRECISIONS = ("float64", "float32")
-MOMENTUM_BLOCKS = 256
-"""Fixed blocks of the Jacobi Provot momentum sum on a GPU (deterministic partial sums)."""
+MOMENTUM_BLOCKS = {"cuda": 256, "cpu": 1}
+"""Fixed blocks of the Jacobi Provot momentum sum per device kind (deterministic partial
+sums; one on the CPU device is numba's serial order, bitwise)."""
 _KERNEL_MODULES = ("jellysim.kernels.warp_kernels", "jellysim.kernels.warp_provot",
                    "jellysim.kernels.warp_contact", "jellysim.kernels.warp_fem")
 
@@ -161,9 +162,8 @@ class _DeviceModel:
         self.x0 = up(x0, F)
         self.inv_mass = up(inv_mass, F)
         self.mass = up(mass, F)
-        # the Jacobi momentum sum's fixed blocks: one (serial, numba's order) on the CPU
-        # device, MOMENTUM_BLOCKS on a GPU; never float atomics
-        blocks = MOMENTUM_BLOCKS if wp.get_device(dev).is_cuda else 1
+        # the Jacobi momentum sum's fixed blocks (never float atomics)
+        blocks = MOMENTUM_BLOCKS["cuda" if wp.get_device(dev).is_cuda else "cpu"]
         self.mom_part = wp.zeros((blocks, 4), dtype=wp.float64, device=dev)
         self.shift = wp.zeros(3, dtype=wp.float64, device=dev)
         ij = np.asarray(spring_ij).reshape(k, 2)
