@@ -48,7 +48,7 @@ def test_provot_agrees(all_pairs, gauss_seidel):
     results = []
     for k in (npk, nbk):
         xx = x.copy()
-        res = k.provot(xx, m.point_x0, rec.spring_arrays(m), 0.002, 4, 0.0, all_pairs,
+        res = k.provot(xx, rec.point_arrays(m), rec.spring_arrays(m), 0.002, 4, 0.0, all_pairs,
                        gauss_seidel, rec.explicit_scratch(n, m.spring_count))
         results.append((xx, res))
     assert np.allclose(results[0][0], results[1][0], rtol=0, atol=1e-12)

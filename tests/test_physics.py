@@ -128,8 +128,8 @@ def test_provot_springs_enough_loops_puts_every_spring_in_band(backend, order):
     loops = 3000 if order == "jacobi" else 400
     from jellysim.kernels import records as rec
 
-    passes, largest = k.provot(x, model.point_x0, rec.spring_arrays(model), tau, loops,
-                               1e-13, False, order == "gauss-seidel",
+    passes, largest = k.provot(x, rec.point_arrays(model), rec.spring_arrays(model), tau,
+                               loops, 1e-13, False, order == "gauss-seidel",
                                rec.explicit_scratch(n, ns))
     L = np.linalg.norm(x[model.spring_ij[:, 1]] - x[model.spring_ij[:, 0]], axis=1)
     strain = np.abs(L / model.spring_rest_length - 1)
@@ -145,8 +145,8 @@ def test_provot_all_pairs_limits_every_pair():
     n = 60
     from jellysim.kernels import records as rec
 
-    k.provot(x, model.point_x0, rec.spring_arrays(model), 0.01, 5000, 1e-13, True, False,
-             rec.explicit_scratch(n, model.spring_count))
+    k.provot(x, rec.point_arrays(model), rec.spring_arrays(model), 0.01, 5000, 1e-13, True,
+             False, rec.explicit_scratch(n, model.spring_count))
     d = np.linalg.norm(x[:, None] - x[None], axis=2)
     d0 = np.linalg.norm(model.point_x0[:, None] - model.point_x0[None], axis=2)
     iu = np.triu_indices(n, 1)

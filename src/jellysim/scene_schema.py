@@ -174,7 +174,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                       "an integer >= 1"),
         "pairs": Spec("str", _P.pairs.value, "'springs' or 'all' (the report's O(n^2) hack).",
                       choices=("springs", "all")),
-        "order": Spec("str", _P.order.value, "'jacobi' (parallel, averaged) or 'gauss-seidel'.",
+        "order": Spec("str", _P.order.value, "'jacobi' (parallel: each point moves by the mean "
+                      "of its requests, then the pass's net move is taken out, so momentum is "
+                      "kept) or 'gauss-seidel' (the report's: pair by pair, in order).",
                       choices=("jacobi", "gauss-seidel")),
         "tolerance": _nonneg("Stop the loops once the largest correction is below this [m].",
                              _P.tolerance, " (m)"),

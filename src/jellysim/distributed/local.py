@@ -37,6 +37,8 @@ def replicated_reason(integrator, provot) -> str | None:
             return "provot order = 'gauss-seidel' is sequential over the whole spring list"
         if provot.tolerance > 0:
             return "provot tolerance > 0 stops the loops on a body-wide maximum"
+        return ("provot order = 'jacobi' subtracts each pass's body-wide mass-weighted mean "
+                "move (it conserves momentum): a sum over every point")
     return None
 
 

@@ -6,7 +6,7 @@ import numpy as np
 from numba import njit, prange
 
 from ._numba_opts import OPTS as _opts
-from .provot_numba import _provot_c_inv
+from .provot_numba import _momentum_shift, _provot_c_inv
 
 
 @njit(**_opts)
@@ -61,7 +61,9 @@ def _accelerations_provot_fused(x, v, points, springs, tau, spring_scalar, provo
                                 a_out, dx, max_corr, apply):
     """``accelerations`` and the first Jacobi Provot pass over the springs, sharing one
     length computation per spring: valid when Provot follows the force evaluation with no
-    position change in between (the report's order).  Positions are corrected in place."""
+    position change in between (the report's order).  ``dx`` receives the pass's moves (the
+    mean requests less their mass-weighted mean, as the spec); with ``apply`` positions are
+    corrected in place."""
     n = x.shape[0]
     inv_mass, damping, gravity = points.inv_mass, points.damping, points.gravity
     rest, stiff = springs.rest, springs.stiff
@@ -139,8 +141,13 @@ def _accelerations_provot_fused(x, v, points, springs, tau, spring_scalar, provo
         dx[q, 1] = sy
         dx[q, 2] = sz
         max_corr[q] = np.sqrt(sx * sx + sy * sy + sz * sz)
-    if apply:  # else the caller's finishing pass applies dx (one parallel region less)
-        for p in prange(n):
+    # less the moves' mass-weighted mean (provot_numpy.momentum_shift: momentum conserved)
+    mx, my, mz = _momentum_shift(points.mass, dx)
+    for p in prange(n):
+        dx[p, 0] -= mx
+        dx[p, 1] -= my
+        dx[p, 2] -= mz
+        if apply:  # else the caller's finishing pass applies dx
             x[p, 0] += dx[p, 0]
             x[p, 1] += dx[p, 1]
             x[p, 2] += dx[p, 2]

@@ -5,6 +5,7 @@ import numpy as np
 from numba import njit, prange
 
 from ._numba_opts import OPTS as _opts
+from .provot_numpy import NOISE
 
 
 @njit(cache=True, inline="always")
@@ -14,10 +15,14 @@ def _provot_c(length, rest, tau):
     hi = (1.0 + tau) * rest
     lo = (1.0 - tau) * rest
     if length > hi:
-        return 0.5 * (length - hi) / length
-    if length < lo:
-        return 0.5 * (length - lo) / length
-    return 0.0
+        excess = length - hi
+    elif length < lo:
+        excess = length - lo
+    else:
+        return 0.0
+    if abs(excess) <= NOISE * rest:  # rounding noise at the band edge: inside
+        return 0.0
+    return 0.5 * excess / length
 
 
 @njit(cache=True, inline="always")
@@ -25,11 +30,41 @@ def _provot_c_inv(length, inv_length, rest, tau):
     """Branch-free :func:`_provot_c` given ``1 / length`` (0 for a zero length): clamping
     compiles to min/max instead of unpredictable branches."""
     target = min(max(length, (1.0 - tau) * rest), (1.0 + tau) * rest)
-    return 0.5 * (length - target) * inv_length
+    excess = length - target
+    excess = 0.0 if abs(excess) <= NOISE * rest else excess
+    return 0.5 * excess * inv_length
+
+
+@njit(cache=True)
+def _momentum_shift(mass, dx):
+    """The numpy spec's ``momentum_shift``: ``sum_q m_q dx_q / sum_q m_q`` (serially, in point
+    order: the same result for any thread count, bitwise the spec's)."""
+    sx = 0.0
+    sy = 0.0
+    sz = 0.0
+    total = 0.0
+    for p in range(dx.shape[0]):
+        m = mass[p]
+        sx += m * dx[p, 0]
+        sy += m * dx[p, 1]
+        sz += m * dx[p, 2]
+        total += m
+    return sx / total, sy / total, sz / total
 
 
 @njit(**_opts)
-def _provot_jacobi_springs(x, springs, tau, spring_scalar, dx, count, max_corr):
+def _remove_shift(dx, mass):
+    """``dx -= momentum_shift(mass, dx)`` in place (then ``x += dx`` is the spec's
+    ``x += step - shift``)."""
+    sx, sy, sz = _momentum_shift(mass, dx)
+    for p in prange(dx.shape[0]):
+        dx[p, 0] -= sx
+        dx[p, 1] -= sy
+        dx[p, 2] -= sz
+
+
+@njit(**_opts)
+def _provot_jacobi_springs(x, mass, springs, tau, spring_scalar, dx, count, max_corr):
     n = x.shape[0]
     rest = springs.rest
     first_ptr, second_ptr = springs.first_ptr, springs.second_ptr
@@ -78,14 +113,15 @@ def _provot_jacobi_springs(x, springs, tau, spring_scalar, dx, count, max_corr):
         dx[q, 1] = sy
         dx[q, 2] = sz
         max_corr[q] = np.sqrt(sx * sx + sy * sy + sz * sz)
+    sx, sy, sz = _momentum_shift(mass, dx)
     for p in prange(n):
-        x[p, 0] += dx[p, 0]
-        x[p, 1] += dx[p, 1]
-        x[p, 2] += dx[p, 2]
+        x[p, 0] += dx[p, 0] - sx
+        x[p, 1] += dx[p, 1] - sy
+        x[p, 2] += dx[p, 2] - sz
 
 
 @njit(**_opts)
-def _provot_jacobi_all(x, x0, tau, dx, max_corr):
+def _provot_jacobi_all(x, x0, mass, tau, dx, max_corr):
     n = x.shape[0]
     for p in prange(n):
         sx = 0.0
@@ -116,10 +152,11 @@ def _provot_jacobi_all(x, x0, tau, dx, max_corr):
         dx[p, 1] = sy
         dx[p, 2] = sz
         max_corr[p] = np.sqrt(sx * sx + sy * sy + sz * sz)
+    sx, sy, sz = _momentum_shift(mass, dx)
     for p in prange(n):
-        x[p, 0] += dx[p, 0]
-        x[p, 1] += dx[p, 1]
-        x[p, 2] += dx[p, 2]
+        x[p, 0] += dx[p, 0] - sx
+        x[p, 1] += dx[p, 1] - sy
+        x[p, 2] += dx[p, 2] - sz
 
 
 @njit(cache=True)
@@ -167,7 +204,9 @@ def _serial_max(values):
 
 
 @njit(cache=True)
-def provot(x, x0, springs, tau, loops, tolerance, all_pairs, gauss_seidel, scratch):
+def provot(x, points, springs, tau, loops, tolerance, all_pairs, gauss_seidel, scratch):
+    """Same contract as :func:`jellysim.kernels.provot_numpy.provot` (the spec)."""
+    x0, mass = points.x0, points.mass
     spring_scalar, dx, count, max_corr = (scratch.spring_scalar, scratch.dx, scratch.count,
                                           scratch.max_corr)
     passes = 0
@@ -177,10 +216,10 @@ def provot(x, x0, springs, tau, loops, tolerance, all_pairs, gauss_seidel, scrat
         if gauss_seidel:
             largest = _provot_gs(x, x0, springs.ij, springs.rest, tau, all_pairs)
         elif all_pairs:
-            _provot_jacobi_all(x, x0, tau, dx, max_corr)
+            _provot_jacobi_all(x, x0, mass, tau, dx, max_corr)
             largest = _serial_max(max_corr)
         else:
-            _provot_jacobi_springs(x, springs, tau, spring_scalar, dx, count, max_corr)
+            _provot_jacobi_springs(x, mass, springs, tau, spring_scalar, dx, count, max_corr)
             largest = _serial_max(max_corr)
         if largest <= tolerance:
             break

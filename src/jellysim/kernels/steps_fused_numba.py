@@ -1,14 +1,18 @@
-"""Numba: the report's step with one Jacobi Provot pass over the springs, in two regions.
+"""Numba: the report's step with one Jacobi Provot pass over the springs, in three regions.
 
 The case ``benchmarks/bench_step.py`` times (integrator ``paper``, Provot ``pairs = "springs"``,
-``order = "jacobi"``, one loop, no obstacles) as TWO parallel regions per step instead of four
-(drift, two force/Provot sweeps, finish).  The first sweep (per point p, its first list)
-computes each spring's length once, its force and Provot scalars, and writes them into the
-spring's slot of its second point's list, as :func:`.forces_numba._accelerations_provot_fused`
-does; the second (per point q) gathers its slots, then finishes q at once: acceleration,
-Provot move, the report's ground rule, the checks and the NEXT step's drift (elementwise, so it
-joins the region).  Same formulas, same summation order: the results are bitwise those of the
-four-region path (tested), for any thread count.
+``order = "jacobi"``, one loop, no obstacles) as THREE parallel regions per step instead of
+five (drift, two force/Provot sweeps, momentum shift, finish).  The first sweep (per point p,
+its first list) computes each spring's length once, its force and Provot scalars, and writes
+them into the spring's slot of its second point's list, as
+:func:`.forces_numba._accelerations_provot_fused` does; the second (per point q) gathers its
+slots: q's acceleration and mean Provot request.  Then, serially in point order, the requests'
+mass-weighted mean (``provot_numpy.momentum_shift``: Jacobi conserves linear momentum), and
+the third region finishes each point: Provot move less that mean, the report's ground rule, the
+checks and the NEXT step's drift (elementwise, so it joins the region).  Same formulas, same
+summation order: the results are bitwise those of the five-region path (tested), for any
+thread count.  (The shift needs every point's request, so the finish cannot join the second
+sweep as it did before 2026-11-30: BENCHMARKS.md has the cost.)
 
 Positions and velocities are double-buffered (the second sweep reads the neighbours' positions
 while it writes the finished ones): step ``s`` reads ``(xr, vr)`` (after its drift) and writes
@@ -40,17 +44,14 @@ from numba import njit, prange
 from ._numba_opts import OPTS as _opts
 from . import STATUS_OK
 from .contact_numba import _ground_and_check, _status
-from .provot_numba import _provot_c_inv
+from .provot_numba import _momentum_shift, _provot_c_inv
 
 
 @njit(cache=True, inline="always")
-def _finish_point(p, xr, vr, xw, vw, a, fsum, inv_mass, gravity, center, consts, max_corr):
-    """Point p's acceleration, Provot move, ground rule, checks and (``drift``) the next
-    step's drift, written to ``xw``/``vw``/``a``, and the Provot move [m] to ``max_corr[p]``;
-    returns (non-finite, runaway) as 0/1.  ``consts`` = (damping, paper, height, mu, nu, bound2, dt, drift,
-    velocity_update)."""
+def _accel_and_move(p, vr, a, fsum, inv_mass, gravity, damping, dx, max_corr):
+    """Point p's acceleration into ``a``, its mean Provot request [m] into ``dx[p]`` and its
+    norm into ``max_corr[p]`` (before the momentum shift, as the other paths)."""
     fx, fy, fz, sx, sy, sz, cnt = fsum
-    damping, paper, height, mu, nu, bound2, dt, drift, velocity_update = consts
     w = inv_mass[p]
     a[p, 0] = (fx - damping * vr[p, 0]) * w + gravity[0]
     a[p, 1] = (fy - damping * vr[p, 1]) * w + gravity[1]
@@ -60,10 +61,20 @@ def _finish_point(p, xr, vr, xw, vw, a, fsum, inv_mass, gravity, center, consts,
         sy /= cnt
         sz /= cnt
     max_corr[p] = np.sqrt(sx * sx + sy * sy + sz * sz)
-    xw[p, 0] = xr[p, 0] + sx
-    xw[p, 1] = xr[p, 1] + sy
-    xw[p, 2] = xr[p, 2] + sz
+    dx[p, 0] = sx
+    dx[p, 1] = sy
+    dx[p, 2] = sz
+
+
+@njit(cache=True, inline="always")
+def _finish_point(p, xr, vr, xw, vw, a, dx, shift, center, consts):
+    """Point p's Provot move ``dx[p] - shift`` (shift: the moves' mass-weighted mean), ground
+    rule, checks and (``drift``) the next step's drift, written to ``xw``/``vw``; returns
+    (non-finite, runaway) as 0/1.  ``consts`` = (damping, paper, height, mu, nu, bound2, dt,
+    drift, velocity_update)."""
+    damping, paper, height, mu, nu, bound2, dt, drift, velocity_update = consts
     for c in range(3):
+        xw[p, c] = xr[p, c] + (dx[p, c] - shift[c])
         vw[p, c] = vr[p, c]
     if velocity_update:
         inv_dt = 1.0 / dt
@@ -97,6 +108,7 @@ def paper_region(xr, vr, xw, vw, a, springs, points, tau, g, ctl, scratch):
     sscal, pscal, dx = scratch.spring_scalar, scratch.provot_scalar, scratch.dx
     count, force, max_corr = scratch.count, scratch.force, scratch.max_corr
     inv_mass, gravity, center = points.inv_mass, points.gravity, g.center
+    mass = points.mass
     consts = _consts(points, g, ctl)
     for p in prange(n):
         fx = 0.0
@@ -159,8 +171,11 @@ def paper_region(xr, vr, xw, vw, a, springs, points, tau, g, ctl, scratch):
             sy += cp * ey
             sz += cp * ez
             cnt += cp != 0.0
-        bad, far = _finish_point(q, xr, vr, xw, vw, a, (fx, fy, fz, sx, sy, sz, cnt),
-                                 inv_mass, gravity, center, consts, max_corr)
+        _accel_and_move(q, vr, a, (fx, fy, fz, sx, sy, sz, cnt), inv_mass, gravity,
+                        consts[0], dx, max_corr)
+    shift = _momentum_shift(mass, dx)  # serial, in point order: any thread count, bitwise
+    for p in prange(n):
+        bad, far = _finish_point(p, xr, vr, xw, vw, a, dx, shift, center, consts)
         nonfinite += bad
         runaway += far
     return _status(nonfinite, runaway)

@@ -62,7 +62,6 @@ def run_steps(nsteps, dt, integrator, x, v, a, springs, points, provot_opts, gro
     """Same contract as :func:`jellysim.kernels.steps_numpy.run_steps` (the spec)."""
     loops, tau, tolerance = provot_opts.loops, provot_opts.tau, provot_opts.tolerance
     all_pairs, gauss_seidel = provot_opts.all_pairs, provot_opts.gauss_seidel
-    x0 = points.x0
     dx, max_corr, x_pre = scratch.dx, scratch.max_corr, scratch.x_pre
     fuse = integrator == 0 and loops > 0 and not all_pairs and not gauss_seidel
     has_obstacles = obstacles.kind.shape[0] > 0
@@ -83,7 +82,7 @@ def run_steps(nsteps, dt, integrator, x, v, a, springs, points, provot_opts, gro
                                             scratch.provot_scalar, a, dx, max_corr, not last)
                 pending = last
                 if loops > 1 and _serial_max(max_corr) > tolerance:
-                    provot(x, x0, springs, tau, loops - 1, tolerance, all_pairs, gauss_seidel,
+                    provot(x, points, springs, tau, loops - 1, tolerance, all_pairs, gauss_seidel,
                            scratch)
             else:
                 accelerations(x, v, points, springs, scratch.spring_scalar, a)
@@ -91,7 +90,7 @@ def run_steps(nsteps, dt, integrator, x, v, a, springs, points, provot_opts, gro
             accelerations(x, v, points, springs, scratch.spring_scalar, a)
             _drift(x, v, a, dt, False, x_pre, save)
         if loops > 0 and not fuse:
-            provot(x, x0, springs, tau, loops, tolerance, all_pairs, gauss_seidel, scratch)
+            provot(x, points, springs, tau, loops, tolerance, all_pairs, gauss_seidel, scratch)
         if has_obstacles:
             if save:
                 _add_velocity(v, x, x_pre, dt)

@@ -45,7 +45,7 @@ def run_steps(nsteps, dt, integrator, x, v, a, springs, points, provot_opts, gro
             if save:
                 x_pre[:] = x
         if po.loops > 0:
-            provot(x, points.x0, springs, po.tau, po.loops, po.tolerance, po.all_pairs,
+            provot(x, points, springs, po.tau, po.loops, po.tolerance, po.all_pairs,
                    po.gauss_seidel, scratch)
             if po.velocity_update:
                 v += (x - x_pre) / dt

@@ -49,13 +49,17 @@ from . import warp_fem  # noqa: F401 (its module is loaded with the others, comp
 from .warp_contact import Guard, k_add_velocity, k_contact, k_finish, k_step_end
 from .warp_kernels import (Accel, k_drift, k_force_first, k_force_second, k_fused_first,
                            k_fused_second, k_triad)
-from .warp_provot import (ProvotBuf, k_apply_dx, k_provot_all, k_provot_check,
-                          k_provot_first, k_provot_gs, k_provot_second)
+from .warp_provot import (ProvotBuf, k_apply_dx, k_mass_moves, k_provot_all, k_provot_check,
+                          k_provot_first, k_provot_gs, k_provot_second, k_remove_shift,
+                          k_shift_total)
 
 __all__ = ["WarpBackend", "run_steps", "PRECISIONS", "resolve_device", "device_info",
            "bytes_per_spring_update", "k_triad"]
 
 PRECISIONS = ("float64", "float32")
+MOMENTUM_BLOCKS = {"cuda": 256, "cpu": 1}
+"""Fixed blocks of the Jacobi Provot momentum sum per device kind (deterministic partial
+sums; one on the CPU device is numba's serial order, bitwise)."""
 _KERNEL_MODULES = ("jellysim.kernels.warp_kernels", "jellysim.kernels.warp_provot",
                    "jellysim.kernels.warp_contact", "jellysim.kernels.warp_fem")
 
@@ -142,7 +146,7 @@ _MODEL_ARRAYS = ("x0", "inv_mass", "spring_ij", "rest", "stiff", "first_ptr", "s
 class _DeviceModel:
     """A Model's arrays and the scratch on one device, in one precision; recorded steps."""
 
-    def __init__(self, wb: WarpBackend, x0, inv_mass, spring_ij, rest, stiff, first_ptr,
+    def __init__(self, wb: WarpBackend, x0, inv_mass, mass, spring_ij, rest, stiff, first_ptr,
                  second_ptr, second_slot, second_other):
         dev, T, F = wb.device, wb.wp_dtype, wb.np_dtype
         n = x0.shape[0]
@@ -157,6 +161,11 @@ class _DeviceModel:
         self.n, self.k = n, k
         self.x0 = up(x0, F)
         self.inv_mass = up(inv_mass, F)
+        self.mass = up(mass, F)
+        # the Jacobi momentum sum's fixed blocks (never float atomics)
+        blocks = MOMENTUM_BLOCKS["cuda" if wp.get_device(dev).is_cuda else "cpu"]
+        self.mom_part = wp.zeros((blocks, 4), dtype=wp.float64, device=dev)
+        self.shift = wp.zeros(3, dtype=wp.float64, device=dev)
         ij = np.asarray(spring_ij).reshape(k, 2)
         self.spring_i = up(ij[:, 0], np.int32)
         self.spring_j = up(ij[:, 1], np.int32)
@@ -278,6 +287,11 @@ class WarpBackend:
             L(k_force_second, n, [dm.x, dm.v, acc, dm.second_ptr, dm.second_other, dm.scal,
                                   dm.a, ctl])
 
+        def momentum(gate):  # dx -= sum m dx / sum m (provot_numpy.momentum_shift)
+            L(k_mass_moves, dm.mom_part.shape[0], [dm.mass, dm.dx, dm.mom_part, gate, ctl])
+            L(k_shift_total, 1, [dm.mom_part, dm.shift, gate, ctl])
+            L(k_remove_shift, n, [dm.dx, dm.shift, gate, ctl])
+
         def provot_pass(reduce):
             if all_pairs:
                 L(k_provot_all, n, [dm.x, dm.x0, tau, dm.dx, dm.max_corr, reduce, dm.largest,
@@ -287,6 +301,7 @@ class WarpBackend:
                                       dm.second_slot, tau, dm.pscal, dm.dx, dm.cnt, ctl])
                 L(k_provot_second, n, [dm.x, dm.second_ptr, dm.second_other, dm.pscal, dm.dx,
                                        dm.cnt, dm.max_corr, reduce, dm.largest, ctl])
+            momentum(1)
             L(k_apply_dx, n, [dm.x, dm.dx, 1, ctl])
             if reduce:
                 L(k_provot_check, 1, [dm.largest, tol, ctl])
@@ -301,6 +316,7 @@ class WarpBackend:
                                      dm.second_slot, tau, dm.scal, dm.pscal, dm.a, pb, ctl])
                 L(k_fused_second, n, [dm.x, dm.v, acc, dm.second_ptr, dm.second_other,
                                       dm.scal, dm.pscal, dm.a, pb, reduce, ctl])
+                momentum(0)
                 if not last:
                     L(k_apply_dx, n, [dm.x, dm.dx, 0, ctl])
                 pending = int(last)
@@ -362,14 +378,16 @@ class WarpBackend:
         records unpacked into :meth:`run_steps_flat`."""
         sp, pt, pv, g, ob, sc = springs, points, provot, ground, obstacles, scratch
         return self.run_steps_flat(
-            nsteps, dt, integrator, x, v, a, pt.x0, pt.inv_mass, pt.damping, pt.gravity,
+            nsteps, dt, integrator, x, v, a, pt.x0, pt.inv_mass, pt.mass, pt.damping,
+            pt.gravity,
             sp.ij, sp.rest, sp.stiff, sp.first_ptr, sp.second_ptr, sp.second_slot,
             sp.second_other, pv.loops, pv.tau, pv.tolerance, pv.all_pairs, pv.gauss_seidel,
             pv.velocity_update, g.paper, g.height, g.mu, g.nu, ob.kind, ob.data, ob.rest_speed,
             g.center, g.bound2, sc.spring_scalar, sc.dx, sc.count, sc.max_corr, sc.x_pre,
             sc.provot_scalar)
 
-    def run_steps_flat(self, nsteps, dt, integrator, x, v, a, x0, inv_mass, damping, gravity,
+    def run_steps_flat(self, nsteps, dt, integrator, x, v, a, x0, inv_mass, mass, damping,
+                       gravity,
                        spring_ij, rest, stiff, first_ptr, second_ptr, second_slot,
                        second_other, provot_loops, tau, tolerance, all_pairs, gauss_seidel,
                        velocity_update, ground, height, mu, nu, obstacle_kind, obstacle_data,
@@ -378,7 +396,7 @@ class WarpBackend:
         """:func:`jellysim.kernels.numba_backend.run_steps` on the device: same arguments
         (numpy arrays), same in-place results on x, v, a (and ``max_corr``); the other scratch
         arrays stay on the device.  Returns ``(steps_done, status)``."""
-        dm = self._model((x0, inv_mass, spring_ij, rest, stiff, first_ptr, second_ptr,
+        dm = self._model((x0, inv_mass, mass, spring_ij, rest, stiff, first_ptr, second_ptr,
                           second_slot, second_other))
         ok = np.asarray(obstacle_kind)
         od = np.asarray(obstacle_data, dtype=np.float64)

@@ -20,6 +20,9 @@ ProvotBuf = precision_structs("ProvotBuf", {"dx": ("array", 2), "cnt": _I32,
 springs ``cnt`` (n,), each point's correction norm ``max_corr`` (n,), the largest ``[0]``."""
 
 
+NOISE = 1e-12  # provot_numpy.NOISE: a pair this close (relative) to its band edge is inside
+
+
 @wp.func
 def _provot_c(length: Any, rest: Any, tau: Any):
     zero = type(length)(0.0)
@@ -29,10 +32,13 @@ def _provot_c(length: Any, rest: Any, tau: Any):
     if length > zero:
         hi = (one + tau) * rest
         lo = (one - tau) * rest
+        excess = zero
         if length > hi:
-            r = half * (length - hi) / length
+            excess = length - hi
         elif length < lo:
-            r = half * (length - lo) / length
+            excess = length - lo
+        if wp.abs(excess) > type(length)(NOISE) * rest:
+            r = half * excess / length
     return r
 
 
@@ -41,7 +47,69 @@ def _provot_c_inv(length: Any, inv_length: Any, rest: Any, tau: Any):
     one = type(length)(1.0)
     half = type(length)(0.5)
     target = wp.min(wp.max(length, (one - tau) * rest), (one + tau) * rest)
-    return half * (length - target) * inv_length
+    excess = length - target
+    if wp.abs(excess) <= type(length)(NOISE) * rest:
+        excess = type(length)(0.0)
+    return half * excess * inv_length
+
+
+_F64_2 = wp.array2d(dtype=wp.float64)
+_F64 = wp.array(dtype=wp.float64)
+
+
+@wp.kernel
+def k_mass_moves(mass: _AT, dx: _A2, part: _F64_2, gate: int, ctl: _I32):
+    """Thread b of ``part.shape[0]`` fixed blocks of points: ``part[b] = (sum m dx, sum m)``
+    over its block, serially in point order, in float64 for either precision (no float
+    atomics: deterministic; one block on the CPU device is the numba/numpy order, bitwise)."""
+    b = wp.tid()
+    if ctl[0] != 0 or (gate != 0 and ctl[2] != 0):
+        return
+    n = dx.shape[0]
+    nb = part.shape[0]
+    sx = wp.float64(0.0)
+    sy = wp.float64(0.0)
+    sz = wp.float64(0.0)
+    total = wp.float64(0.0)
+    for p in range((n * b) // nb, (n * (b + 1)) // nb):
+        m = wp.float64(mass[p])
+        sx = sx + m * wp.float64(dx[p, 0])
+        sy = sy + m * wp.float64(dx[p, 1])
+        sz = sz + m * wp.float64(dx[p, 2])
+        total = total + m
+    part[b, 0] = sx
+    part[b, 1] = sy
+    part[b, 2] = sz
+    part[b, 3] = total
+
+
+@wp.kernel
+def k_shift_total(part: _F64_2, shift: _F64, gate: int, ctl: _I32):
+    """One thread: the blocks' sums in block order -> ``shift`` = sum m dx / sum m (3,)."""
+    if ctl[0] != 0 or (gate != 0 and ctl[2] != 0):
+        return
+    sx = wp.float64(0.0)
+    sy = wp.float64(0.0)
+    sz = wp.float64(0.0)
+    total = wp.float64(0.0)
+    for b in range(part.shape[0]):
+        sx = sx + part[b, 0]
+        sy = sy + part[b, 1]
+        sz = sz + part[b, 2]
+        total = total + part[b, 3]
+    shift[0] = sx / total
+    shift[1] = sy / total
+    shift[2] = sz / total
+
+
+@wp.kernel
+def k_remove_shift(dx: _A2, shift: _F64, gate: int, ctl: _I32):
+    """``dx -= shift``: a Jacobi pass's moves less their mass-weighted mean (momentum kept)."""
+    p = wp.tid()
+    if ctl[0] != 0 or (gate != 0 and ctl[2] != 0):
+        return
+    for c in range(3):
+        dx[p, c] = type(dx[p, c])(wp.float64(dx[p, c]) - shift[c])
 
 
 
@@ -224,4 +292,4 @@ def k_provot_gs(x: _A2, x0: _A2, spring_i: _I32, spring_j: _I32, rest: _AT, tau:
 
 
 register_overloads([k_provot_first, k_provot_second, k_provot_all, k_apply_dx,
-                    k_provot_check, k_provot_gs])
+                    k_provot_check, k_provot_gs, k_mass_moves, k_shift_total, k_remove_shift])
