@@ -979,3 +979,21 @@ def test_a_demo_of_a_mesh_too_thin_names_the_mesh_and_the_demos_option(tmp_path)
     assert r.exit_code != 0
     assert f"--mesh {tmp_path / 'plate.obj'}: marching_grid: no tetrahedron" in r.output
     assert "a larger --points gives a finer grid" in r.output and "Traceback" not in r.output
+
+
+def test_a_blow_up_mid_run_is_reported_as_one_not_as_a_bad_velocity(tmp_path):
+    """Session 12's review: the start check on velocities ('give velocities in m/s') also
+    fired on the velocities a blow-up left at the start of the next frame: the run was blamed
+    on the user and not saved as failed.  It checks the first steps only now."""
+    from click.testing import CliRunner
+
+    from jellysim.cli import cli
+    from jellysim.io.trajectory import load_trajectory
+
+    scene = Path(__file__).resolve().parents[1] / "examples" / "paper_cube.toml"
+    r = CliRunner().invoke(cli, ["run", str(scene), "--out", str(tmp_path / "r"), "--quiet",
+                                 "--no-vtu", "--set", "springs.stiffness=2000"])
+    assert r.exit_code != 0
+    assert "went unstable" in r.output and "give velocities in m/s" not in r.output
+    traj = load_trajectory(tmp_path / "r")
+    assert traj.status.startswith("failed") and traj.frame_count > 1

@@ -372,7 +372,9 @@ class HandleMethods:
                 raise SceneError(f"advance: sim.state.{name} holds NaN or infinite values at "
                                  f"{bad} points before the step (set by hand, or left by an "
                                  f"earlier blow-up): give finite {what}")
-        if steps and len(s.v):
+        if steps and len(s.v) and not self.__dict__.get("_started"):
+            # (the first steps only: the velocities were given, not made by a blow-up, which
+            # later steps report as one with its frames kept)
             speed = np.hypot(np.hypot(s.v[:, 0], s.v[:, 1]), s.v[:, 2])  # (no overflow)
             p = int(np.argmax(speed))
             if speed[p] * self.dt > self.runaway_distance:
@@ -381,6 +383,7 @@ class HandleMethods:
                     f"step of dt = {self.dt:g} s would carry it past the runaway distance "
                     f"({self.runaway_distance:g} m) before any force acts; give velocities "
                     "in m/s")
+        self._started = bool(steps) or self.__dict__.get("_started", False)
         advance_releasing(self, steps, lambda: self.state.step, self._advance_chunk)
 
     def set_gravity_scale(self, indices, scale: float) -> None:

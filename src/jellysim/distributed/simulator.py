@@ -213,6 +213,7 @@ class DistributedSimulator(PhysicalMethods):
             self.local = Simulator(self.part.model, state=local_state, **common)
             self.local.center[:] = self.center  # runaway bound about the *body's* centre
             self._setup_exchange()
+        self.local._started = True  # (no per-rank start check: a rank alone would raise it)
         self.split_implicit = not self.replicated and self.integrator is Integrator.IMPLICIT
         """The implicit integrator split among the ranks (:mod:`.implicit`)."""
         if self.split_implicit:
