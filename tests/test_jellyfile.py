@@ -143,6 +143,9 @@ MALFORMED = {
     "count too large": (with_line(8, "springs 4 rest_length stiffness"), 12, 1,
                         r"section 'springs' declares 4 rows but 'tets' starts after 3: make "
                         r"the count 3, or add the missing rows"),
+    "count too large before volume": (VALID.replace("springs 3", "springs 4").replace(
+        "tets 1\n0 1 2 3\n", "volume 0.5\n"), 12, 1,
+        r"section 'springs' declares 4 rows but 'volume' starts after 3"),
     "mass column not named": (with_line(3, "points 4"), 4, 13,
                               r"4 fields in section 'points'; expected 3 \(x y z\); a further "
                               r"column must be named in the section line, e.g. 'points 4 mass'"),

@@ -256,3 +256,28 @@ def test_one_separate_shell_wound_inward_is_turned_a_cavity_is_not(tmp_path):
     with pytest.warns(UserWarning, match="the mesh is inside out"):
         assert np.array_equal(outward(inside_out, "hollow").faces, hollow.faces)
     assert outward_shells(hollow.vertices, hollow.faces)[1] == []
+
+
+def test_a_yolk_wound_inward_inside_a_hollow_ball_is_turned():
+    """Session 12's review: nesting depth was ignored (a solid 'yolk' inside a hollow ball's
+    cavity, wound inward, was kept as a cavity); overlapping shells are left alone."""
+    import trimesh
+
+    from jellysim.geometry.shells import outward_shells
+
+    outer = trimesh.creation.icosphere(3, radius=0.05)
+    cavity = trimesh.creation.icosphere(3, radius=0.03)
+    cavity.invert()
+    yolk = trimesh.creation.icosphere(2, radius=0.01)
+    yolk.invert()
+    egg = trimesh.util.concatenate([outer, cavity, yolk])
+    faces, turned = outward_shells(egg.vertices, egg.faces)
+    assert len(turned) == 1 and turned[0] == pytest.approx(yolk.volume, rel=1e-9)
+    fixed = trimesh.Trimesh(egg.vertices, faces, process=False)
+    assert fixed.volume == pytest.approx(outer.volume + cavity.volume - yolk.volume, rel=1e-9)
+    a = trimesh.creation.icosphere(3, radius=0.05)
+    b = a.copy()
+    b.apply_translation([0.03, 0.0, 0.0])
+    b.invert()
+    both = trimesh.util.concatenate([a, b])
+    assert outward_shells(both.vertices, both.faces)[1] == []

@@ -958,3 +958,47 @@ def test_render_can_draw_the_demos_plate(run_dir, tmp_path):
         img = iio2.imread(out)[..., :3].astype(int)
         white.append(int(np.sum(img.min(axis=2) > 215)))  # the plate: (239, 235, 224) lit
     assert white[1] > white[0] + 200
+
+
+def test_review_edge_cases_of_the_exports_and_the_skin(tmp_path, traj):
+    """Session 12's review: frames sharing a time collapsed into one USD sample; a vertex of
+    no face got a zero glb normal (glTF wants unit ones); a skin far larger than its body made
+    trimesh's subdivision raise 'max_iter exceeded'."""
+    import dataclasses
+
+    import trimesh
+    from pxr import Usd, UsdGeom
+
+    import jellysim as js
+    from jellysim.io.gltf import _vertex_normals
+    from jellysim.io.usd import export_usd
+    from jellysim.skin import bind_body_skin
+
+    times = traj.times.copy()
+    times[2] = times[1]                       # a state recorded twice
+    stage = Usd.Stage.Open(str(export_usd(dataclasses.replace(traj, times=times),
+                                          tmp_path / "twice.usda")))
+    samples = UsdGeom.Mesh(stage.GetPrimAtPath("/jello/skin")).GetPointsAttr().GetTimeSamples()
+    assert len(samples) == traj.frame_count
+    v = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [5, 5, 5]])      # vertex 3: no face
+    assert np.allclose(np.linalg.norm(_vertex_normals(v, np.array([[0, 1, 2]])), axis=1), 1.0)
+    cube = trimesh.creation.box(extents=[0.05] * 3)
+    body = js.Body.from_mesh((cube.vertices, cube.faces), size=None, points=1000)
+    needle = trimesh.creation.cylinder(radius=0.0005, height=30.0, sections=3)
+    skin = bind_body_skin(body, needle.vertices, needle.faces)   # (extrapolated: warned)
+    assert skin.vertex_count >= len(needle.vertices)
+
+
+def test_a_gif_asked_faster_than_it_can_play_is_said(tmp_path, traj):
+    """Session 12's review: `--fps 100` for a GIF silently played at 50 frames/s (delays are
+    whole hundredths, at least 2); now said (30 frames/s plays at 33.3, said too); 25 frames/s
+    plays as asked, silently."""
+    import warnings
+
+    from jellysim.render import RenderOptions, render_trajectory
+
+    with pytest.warns(UserWarning, match=r"fps = 100 plays at 50 frames/s"):
+        render_trajectory(traj, tmp_path / "f.gif", RenderOptions(size=SIZE), fps=100.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        render_trajectory(traj, tmp_path / "s.gif", RenderOptions(size=SIZE), fps=25.0)

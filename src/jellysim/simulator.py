@@ -90,18 +90,17 @@ def springs_auto_substeps(model, dt) -> tuple[int, StabilityEstimate]:
 
 
 def _usable_threads(threads: int, backend) -> int:
-    """``threads`` capped at numba's pool (``NUMBA_NUM_THREADS``, by default the cores), with a
-    warning when more were asked: ``Simulator.threads`` is what the steps use."""
-    if backend is not Backend.NUMBA:
-        return threads
+    """``threads`` capped at numba's pool (``NUMBA_NUM_THREADS``, by default the cores), said
+    (by rank 0 under mpiexec): ``Simulator.threads`` is what the steps use."""
     import numba
 
+    from ._numba_cache import _rank
+
     most = int(numba.config.NUMBA_NUM_THREADS)
-    if threads > most:
+    if backend is Backend.NUMBA and threads > most and _rank() == "0":
         warnings.warn(f"threads = {threads}: numba runs at most {most} here (NUMBA_NUM_THREADS, "
                       f"by default the cores); using {most}", stacklevel=3)
-        return most
-    return threads
+    return min(threads, most) if backend is Backend.NUMBA else threads
 
 
 def auto_threads(point_count: int, spring_count: int | None = None) -> int:
@@ -192,6 +191,7 @@ class Simulator(HandleMethods, PhysicalStepping):
         if not isinstance(provot, ProvotParams):
             raise TypeError(f"provot must be a jellysim.ProvotParams (e.g. ProvotParams(tau="
                             f"0.01, loops=5)) or None (off), got {provot!r}")
+        implicit = ImplicitParams() if implicit is None else implicit
         if not isinstance(implicit, ImplicitParams):
             raise TypeError(f"implicit must be a jellysim.ImplicitParams, got {implicit!r}")
         if not isinstance(ground, GroundParams):

@@ -288,8 +288,13 @@ def _fine_enough(vertices, faces, points, tets):
     area = 0.5 * float(np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
                                       axis=1).sum())
     edge = max(spacing, float(np.sqrt(area / (0.433 * MAX_SKIN_FACES))))
-    fine_v, fine_f = trimesh.remesh.subdivide_to_size(vertices, faces, max_edge=edge,
-                                                      max_iter=12)
+    try:  # each pass halves the longest edge
+        fine_v, fine_f = trimesh.remesh.subdivide_to_size(
+            vertices, faces, max_edge=edge, max_iter=int(np.ceil(np.log2(longest / edge))) + 2)
+    except ValueError:  # (trimesh gave up: the skin is left as it is)
+        return vertices, faces
+    if len(fine_f) > 4 * MAX_SKIN_FACES:  # (a skin far larger than its body: a slip of units)
+        return vertices, faces
     return np.asarray(fine_v, dtype=np.float64), np.asarray(fine_f, dtype=np.int64)
 
 

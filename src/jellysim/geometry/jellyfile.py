@@ -268,7 +268,7 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
         idx_rows = []
         for r in range(count):
             rno, rtoks, _ = lines.next(f"row {r + 1} of {count} of section '{word}' ({what})")
-            if rtoks[0][1] in _SECTIONS or rtoks[0][1] == "end":
+            if rtoks[0][1] in _SECTIONS or rtoks[0][1] in ("end", "volume", "meta"):
                 raise lines.error(rno, rtoks[0][0], f"section '{word}' declares {count} rows "
                                   f"but '{rtoks[0][1]}' starts after {r}: make the count "
                                   f"{r}, or add the missing rows")

@@ -4,8 +4,9 @@
 separate parts can also have ONE part wound inward (two files concatenated, one exported
 inside out).  Its signed volume then subtracts that part, its skin shows the part inside out,
 and the shell check (:func:`jellysim.build.shell_overlap`) mistakes it for overlapping shells.
-:func:`outward_shells` turns each such part: a shell with a negative signed volume that no
-other shell encloses (a shell inside another is a cavity, wound inward on purpose).  Whether a
+:func:`outward_shells` turns each such part: a shell with a negative signed volume inside an
+even number of other shells (inside an odd number it is a cavity, wound inward on purpose;
+shells that overlap are left alone).  Whether a
 shell encloses a point is its generalised winding number there (the solid angle it subtends
 over 4 pi: 1 inside, 0 outside; Van Oosterom & Strackee, IEEE Trans. Biomed. Eng. 30, 1983).
 """
@@ -61,10 +62,12 @@ def outward_shells(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
 
     turned, out = [], f.copy()
     for s in np.flatnonzero(vol < 0):
-        # enclosed by another shell that does not contain it back (nested, not overlapping):
-        # a cavity, wound inward as it should be
-        if any(inside(s, t) and not inside(t, s) for t in range(count) if t != s):
-            continue
+        holders = [t for t in range(count) if t != s and inside(s, t)]
+        if any(inside(t, s) for t in holders):
+            continue  # overlapping shells: no telling which side is meant
+        if len(holders) % 2:
+            continue  # inside an odd number of shells: a cavity, wound inward as it should be
+        # (an even number: a solid part, e.g. a yolk inside the cavity of a hollow ball)
         out[label == s] = out[label == s][:, [0, 2, 1]]
         turned.append(float(vol[s]))
     return out, turned
@@ -100,9 +103,10 @@ def outward(mesh, name: str = "mesh"):
     return mesh
 
 
-def _winding_many(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray,
-                  block: int = 64) -> np.ndarray:
-    """:func:`winding_number` of one closed surface at each of ``points`` (p, 3)."""
+def _winding_many(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """:func:`winding_number` of one closed surface at each of ``points`` (p, 3), in blocks of
+    points that keep each temporary array near 2e5 entries (a few MB)."""
+    block = max(1, 200_000 // max(len(faces), 1))
     out = np.empty(len(points))
     tri = vertices[faces]
     for s in range(0, len(points), block):
@@ -117,7 +121,7 @@ def _winding_many(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray,
 
 
 def joined_parts(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray,
-                 tets: np.ndarray, *, max_work: float = 5e7) -> int:
+                 tets: np.ndarray, *, max_work: float = 1e7) -> int:
     """How many of ``tets`` (t, 4) join body ``points`` (n, 3) inside two separate parts of
     the closed mesh (shells apart from each other, neither inside the other): a grid coarser
     than the gap between two parts fuses them into one body.  0 for one part, nested or

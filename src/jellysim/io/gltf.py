@@ -120,7 +120,8 @@ def _vertex_normals(vertices: np.ndarray, faces) -> np.ndarray:
     for k in range(3):
         np.add.at(n, f[:, k], face_n)
     length = np.linalg.norm(n, axis=1, keepdims=True)
-    return (n / np.where(length > 0, length, 1.0)).astype(np.float32)
+    n = np.where(length > 0, n / np.where(length > 0, length, 1.0), [0.0, 1.0, 0.0])
+    return n.astype(np.float32)  # (a vertex of no face, or of degenerate ones only: +y, unit)
 
 
 def read_glb(path) -> tuple[dict, bytes]:

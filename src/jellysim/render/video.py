@@ -100,6 +100,13 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
     fps = 30.0 if fps is None else float(fps)  # (pictures: every frame asked, no rate)
     if not fps > 0:
         raise JellysimError(f"fps must be > 0, got {fps}")
+    played = 100.0 / max(2, round(100.0 / fps))  # a GIF's delays: whole hundredths, >= 2
+    if kind == "gif" and abs(played - fps) > 0.01 * fps:
+        import warnings
+
+        warnings.warn(f"{path}: a GIF's frame delays are whole hundredths of a second (at "
+                      f"least 2, or browsers slow them): fps = {fps:g} plays at {played:.4g} "
+                      "frames/s", UserWarning, stacklevel=2)
     if kind == "png":
         frames = frames[-1:]
     if options.background == "transparent" and kind not in ("png", "pngdir"):
