@@ -70,15 +70,7 @@ def _v3(value, what) -> np.ndarray:
 
 @dataclass(frozen=True, kw_only=True)
 class Plane(_Surface):
-    """The half-space behind a plane through ``point`` [m] with outward ``normal``.
-
-    Contact material (keywords, shared by ``Plane``, ``Sphere``, ``Box``): ``restitution`` e in
-    [0, 1] (default 0.3, :data:`~jellysim.params.CONTACT_RESTITUTION`); ``friction`` the
-    kinetic Coulomb coefficient mu_k >= 0 (default 0.6, ``CONTACT_FRICTION``);
-    ``static_friction`` mu_s >= mu_k (``None``, the default: mu_k); ``no_slip`` (default
-    ``False``): a touching point never moves along the surface but can lift off (mu_s = inf;
-    explicit integrators only, the implicit one refuses it).  A value out of range is a
-    ``ValueError`` once the obstacle is used (from a Simulator: a ``SceneError``)."""
+    """The half-space behind a plane through ``point`` [m] with outward ``normal``."""
 
     point: tuple = (0.0, 0.0, 0.0)
     normal: tuple = (0.0, 1.0, 0.0)
@@ -94,15 +86,7 @@ class Plane(_Surface):
 
 @dataclass(frozen=True, kw_only=True)
 class Sphere(_Surface):
-    """A solid ball of ``radius`` [m] around ``center`` [m].
-
-    Contact material (keywords, shared by ``Plane``, ``Sphere``, ``Box``): ``restitution`` e in
-    [0, 1] (default 0.3, :data:`~jellysim.params.CONTACT_RESTITUTION`); ``friction`` the
-    kinetic Coulomb coefficient mu_k >= 0 (default 0.6, ``CONTACT_FRICTION``);
-    ``static_friction`` mu_s >= mu_k (``None``, the default: mu_k); ``no_slip`` (default
-    ``False``): a touching point never moves along the surface but can lift off (mu_s = inf;
-    explicit integrators only, the implicit one refuses it).  A value out of range is a
-    ``ValueError`` once the obstacle is used (from a Simulator: a ``SceneError``)."""
+    """A solid ball of ``radius`` [m] around ``center`` [m]."""
 
     center: tuple = (0.0, 0.0, 0.0)
     radius: float = 1.0
@@ -116,15 +100,7 @@ class Sphere(_Surface):
 
 @dataclass(frozen=True, kw_only=True)
 class Box(_Surface):
-    """A solid axis-aligned box from ``lower`` to ``upper`` [m].
-
-    Contact material (keywords, shared by ``Plane``, ``Sphere``, ``Box``): ``restitution`` e in
-    [0, 1] (default 0.3, :data:`~jellysim.params.CONTACT_RESTITUTION`); ``friction`` the
-    kinetic Coulomb coefficient mu_k >= 0 (default 0.6, ``CONTACT_FRICTION``);
-    ``static_friction`` mu_s >= mu_k (``None``, the default: mu_k); ``no_slip`` (default
-    ``False``): a touching point never moves along the surface but can lift off (mu_s = inf;
-    explicit integrators only, the implicit one refuses it).  A value out of range is a
-    ``ValueError`` once the obstacle is used (from a Simulator: a ``SceneError``)."""
+    """A solid axis-aligned box from ``lower`` to ``upper`` [m]."""
 
     lower: tuple = (0.0, 0.0, 0.0)
     upper: tuple = (1.0, 1.0, 1.0)
@@ -135,6 +111,19 @@ class Box(_Surface):
         if not np.all(hi > lo):
             raise ValueError(f"a box's upper corner {hi.tolist()} must exceed {lo.tolist()}")
         return 2, [*lo, *hi, *self._material()]
+
+
+_MATERIAL_DOC = """
+
+    Contact material (keywords, shared by ``Plane``, ``Sphere``, ``Box``): ``restitution`` e in
+    [0, 1] (default 0.3, :data:`~jellysim.params.CONTACT_RESTITUTION`); ``friction`` the
+    kinetic Coulomb coefficient mu_k >= 0 (default 0.6, ``CONTACT_FRICTION``);
+    ``static_friction`` mu_s >= mu_k (``None``, the default: mu_k); ``no_slip`` (default
+    ``False``): a touching point never moves along the surface but can lift off (mu_s = inf;
+    explicit integrators only, the implicit one refuses it).  A value out of range is a
+    ``ValueError`` once the obstacle is used (from a Simulator: a ``SceneError``)."""
+for _cls in (Plane, Sphere, Box):
+    _cls.__doc__ += _MATERIAL_DOC
 
 
 def pack_obstacles(obstacles) -> tuple[np.ndarray, np.ndarray]:
