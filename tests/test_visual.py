@@ -190,14 +190,17 @@ def test_a_run_saved_faster_than_a_screen_plays_in_real_time(traj, tmp_path):
             delays.append(im.info["duration"])
     assert min(delays) >= 20  # browsers slow anything shorter
     assert sum(delays) / 1000.0 == pytest.approx(span, abs=max(delays) / 1000.0 + 1e-9)
-    # a 30 frames/s run: 30 ms per frame (1000 / 30 = 29.999... ms was truncated to 20: 1.5x fast)
+    # a 30 frames/s run: 3, 3, 4 hundredths (1000 / 30 = 29.999... ms was truncated to 20:
+    # 1.5x fast; then 30 ms throughout: 10 % fast), the total the run's time
     slow = dataclasses.replace(traj, times=traj.times[0] + np.arange(traj.frame_count) / 30.0)
     with Image.open(render_trajectory(slow, tmp_path / "slow.gif", RenderOptions(size=SIZE))) as im:
         slow_delays = []
         for k in range(im.n_frames):
             im.seek(k)
             slow_delays.append(im.info["duration"])
-    assert slow_delays == [30] * traj.frame_count
+    assert set(slow_delays) <= {30, 40} and min(slow_delays) >= 20
+    span30 = (traj.frame_count - 1) / 30.0
+    assert abs(sum(slow_delays[:-1]) / 1000.0 - span30) <= 0.005 + 1e-9
     folder = render_trajectory(fast, tmp_path / "pngs", RenderOptions(size=SIZE))
     assert len(list(folder.glob("frame_*.png"))) == fast.frame_count  # pictures: every frame
     stage = Usd.Stage.Open(str(export_usd(fast, tmp_path / "fast.usdc")))

@@ -67,6 +67,19 @@ def _frames_with_progress(renderer, frames, progress: bool, label: str):
             bar.stop()
 
 
+def _gif_delays(times, frames, fps: float, real_time: bool) -> list[float]:
+    """Each GIF frame's delay [ms]: whole hundredths of a second, at least 2 (browsers slow
+    shorter ones; Pillow truncates 29.999 ms to 20).  In real time the delays follow the
+    frames' simulated times, rounded as a running total (a 30 frames/s run: 3, 3, 4, 3, 3, 4
+    hundredths, not 3 throughout, which played 10 % fast); the last frame gets one step."""
+    step = max(2, round(100.0 / fps))
+    if not real_time or len(frames) < 2:
+        return [10.0 * step] * len(frames)
+    t = np.asarray(times, dtype=np.float64)[np.asarray(frames)]
+    hundredths = np.maximum(np.diff(np.round((t - t[0]) * 100.0)), 2)
+    return [10.0 * float(d) for d in hundredths] + [10.0 * step]
+
+
 def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
                       fps: float | None = None, frames=None, progress: bool = False,
                       beside=(), labels=None) -> Path:
@@ -95,6 +108,7 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
     if len(frames) == 0 or frames.min() < -traj.frame_count or (
             frames.max() >= traj.frame_count):
         raise JellysimError(f"frames must lie in [0, {traj.frame_count - 1}]")
+    real_time = fps is None
     if fps is None and kind in ("mp4", "gif"):  # real time: every k-th frame of a run saved
         frames, fps = real_time_playback(traj.times, frames, gif=kind == "gif")  # faster
     fps = 30.0 if fps is None else float(fps)  # (pictures: every frame asked, no rate)
@@ -138,9 +152,8 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
 
             stack = np.stack(list(images))
             with atomic_path(path) as tmp:
-                # whole hundredths (Pillow truncates 29.999... ms to 20), at least 2
-                delay_ms = 10.0 * max(2, round(100.0 / fps))
-                iio.imwrite(tmp, stack, extension=".gif", duration=delay_ms, loop=0)
+                iio.imwrite(tmp, stack, extension=".gif", loop=0,
+                            duration=_gif_delays(traj.times, frames, fps, real_time))
         elif kind == "png":
             import imageio.v3 as iio
 
