@@ -327,11 +327,11 @@ def test_a_marching_grid_joining_two_parts_is_said():
     import jellysim as js
     from jellysim.geometry.shells import joined_parts
 
-    def two(gap):
-        a = trimesh.creation.icosphere(3, radius=0.025)
+    def two(gap, radius=0.025):
+        a = trimesh.creation.icosphere(3, radius=radius)
         b = a.copy()
-        a.apply_translation([-0.025 - gap / 2, 0, 0])
-        b.apply_translation([0.025 + gap / 2, 0, 0])
+        a.apply_translation([-radius - gap / 2, 0, 0])
+        b.apply_translation([radius + gap / 2, 0, 0])
         m = trimesh.util.concatenate([a, b])
         with warnings.catch_warnings(record=True) as said:
             warnings.simplefilter("always")
@@ -342,6 +342,9 @@ def test_a_marching_grid_joining_two_parts_is_said():
 
     across, said = two(0.001)
     assert across > 0 and len(said) == 1 and "more points (a smaller h)" in said[0]
+    assert said[0].startswith(f"mesh: {across} tets")            # every one of them counted
+    across, said = two(0.001, radius=0.03)    # the verification's case (snapped corners)
+    assert across > 0 and len(said) == 1 and said[0].startswith(f"mesh: {across} tets")
     across, said = two(0.003)
     assert across == 0 and said == []
     outer = trimesh.creation.icosphere(3, radius=0.03)

@@ -982,7 +982,9 @@ def test_review_edge_cases_of_the_exports_and_the_skin(tmp_path, traj):
     stage = Usd.Stage.Open(str(export_usd(dataclasses.replace(traj, times=times),
                                           tmp_path / "twice.usda")))
     samples = UsdGeom.Mesh(stage.GetPrimAtPath("/jello/skin")).GetPointsAttr().GetTimeSamples()
-    assert len(samples) == traj.frame_count
+    assert len(samples) == traj.frame_count          # none lost, and still in real time:
+    rate = stage.GetTimeCodesPerSecond()
+    assert samples[-1] / rate == pytest.approx(times[-1] - times[0], abs=1e-6)
     v = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [5, 5, 5]])      # vertex 3: no face
     assert np.allclose(np.linalg.norm(_vertex_normals(v, np.array([[0, 1, 2]])), axis=1), 1.0)
     cube = trimesh.creation.box(extents=[0.05] * 3)

@@ -213,8 +213,8 @@ LARGE_BODY = 3.0
 """A body larger than this [m] is said (sizes are in metres: a slip of units is likely)."""
 
 
-def _warn_size(extent: float, what: str) -> None:
-    if extent > LARGE_BODY:
+def _warn_size(extent: float, what: str, limit: float = LARGE_BODY) -> None:
+    if extent > limit:
         import warnings
 
         warnings.warn(f"{what} is {extent:g} m across: sizes are in metres (10 cm = 0.1); a "

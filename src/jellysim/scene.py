@@ -311,7 +311,7 @@ class Scene:
             from .body import _warn_size
 
             _warn_size(float(np.ptp(body.points, axis=0).max()), f"{self.name}: the body file "
-                       f"{b['path']}")
+                       f"{b['path']}", limit=30.0)  # (lessons' chains and nets span metres)
             if body.skin_vertices is None:
                 return replace(body, points=self._place(body.points))
             # placed by its skin (what is drawn), as a mesh body is; the points move with it

@@ -121,7 +121,7 @@ def _winding_many(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray) -
 
 
 def joined_parts(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray,
-                 tets: np.ndarray, *, max_work: float = 1e7) -> int:
+                 tets: np.ndarray, *, max_work: float = 3e7) -> int:
     """How many of ``tets`` (t, 4) join body ``points`` (n, 3) inside two separate parts of
     the closed mesh (shells apart from each other, neither inside the other): a grid coarser
     than the gap between two parts fuses them into one body.  0 for one part, nested or
@@ -139,6 +139,13 @@ def joined_parts(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray,
     part = np.full(len(points), -1)
     for t in range(count):
         part[np.abs(_winding_many(v, f[label == t], points)) > 0.5] = t
+    outside = np.flatnonzero(part < 0)  # points snapped onto a surface (a hair outside it):
+    if len(outside):                    # the shell of the nearest vertex or face centre
+        from scipy.spatial import cKDTree
+
+        sites = np.concatenate([v[f[:, 0]], v[f].mean(axis=1)])
+        _, near = cKDTree(sites).query(points[outside])
+        part[outside] = np.concatenate([label, label])[near]
     corner = part[np.asarray(tets, dtype=np.int64)]
     known = corner.min(axis=1) >= 0
     return int(np.sum(known & (corner.min(axis=1) != corner.max(axis=1))))

@@ -82,11 +82,15 @@ def _time_codes(times, count: int, fps: float) -> list[float]:
     numbers for evenly spaced frames; a shorter last interval, or a stage rate other than the
     run's, still plays in real time)."""
     t = np.asarray(times, dtype=np.float64)[:count]
-    if len(t) != count or np.any(np.diff(t) <= 0):  # (no times, or frames sharing a time:
-        return [float(k) for k in range(count)]     # one code per frame, none lost)
+    if len(t) != count:  # (no times for these frames: one code per frame)
+        return [float(k) for k in range(count)]
     codes = (t - t[0]) * fps
     snapped = np.round(codes)
-    return np.where(np.abs(codes - snapped) < 1e-6, snapped, codes).tolist()
+    codes = np.where(np.abs(codes - snapped) < 1e-6, snapped, codes)
+    for k in range(1, count):  # a frame recorded twice (or out of order): just after the one
+        if codes[k] <= codes[k - 1]:  # before it, so that no sample is lost
+            codes[k] = codes[k - 1] + 1e-3
+    return codes.tolist()
 
 
 def export_usd(traj, path, *, fps: float | None = None, name: str = "jello") -> Path:
