@@ -243,6 +243,12 @@ def test_one_separate_shell_wound_inward_is_turned_a_cavity_is_not(tmp_path):
     assert m.defects.volume == pytest.approx(big.volume + abs(small.volume), rel=1e-6)
     over, inside_rule, signed = shell_overlap(m)
     assert not over and inside_rule == pytest.approx(signed, rel=0.02)
+    from click.testing import CliRunner
+
+    from jellysim.cli import cli
+
+    r = CliRunner().invoke(cli, ["inspect", str(tmp_path / "two.obj")])   # as build sees it
+    assert "separate shells wound inward" in r.output and "overlap/nest:     no" in r.output
     hollow = load_mesh(DATA / "hollow_sphere.obj")
     with warnings.catch_warnings():
         warnings.simplefilter("error")

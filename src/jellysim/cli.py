@@ -390,6 +390,9 @@ def inspect(path, settings=()) -> None:
                             "millimetres or another unit, scale it (--size, [body] size = 0.1 "
                             "for 10 cm, size= in Python)", fg="yellow", err=True)
             click.echo(mesh.defects.describe())
+            from .geometry.mesh import outward
+
+            mesh = outward(mesh, str(path))  # (as build does: said, via the CLI's warnings)
             if mesh.defects.watertight and mesh.defects.shells > 1:
                 from .build import shell_overlap
 
