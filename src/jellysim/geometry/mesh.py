@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from jellysim.errors import MeshError
+from jellysim.geometry.shells import _shell_of_faces, outward  # (outward: re-exported)
 
 __all__ = ["Mesh", "MeshDefects", "MESH_SUFFIXES", "UP_AXES", "load_mesh", "outward",
            "rotate_up"]
@@ -438,7 +439,7 @@ def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol:
     f = remap[f].astype(np.int64)
 
     _edge_report(f, d)
-    d.shells = _shell_count(f, len(v))
+    d.shells = _shell_of_faces(f, len(v))[0]
     a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
     d.volume = float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
     d.face_count = int(len(f))
@@ -566,16 +567,3 @@ def _edge_report(f: np.ndarray, d: MeshDefects) -> None:
     two = counts == 2
     d.inconsistent_edges = int((two & (n_fwd != 1)).sum())
 
-
-def _shell_count(f: np.ndarray, n_vertices: int) -> int:
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    rows = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
-    cols = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
-    g = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_vertices, n_vertices))
-    n, _ = connected_components(g, directed=False)
-    return int(n)
-
-
-from .shells import outward  # noqa: E402  (re-exported: load_mesh's callers use it)

@@ -53,17 +53,6 @@ def _momentum_shift(mass, dx):
 
 
 @njit(**_opts)
-def _remove_shift(dx, mass):
-    """``dx -= momentum_shift(mass, dx)`` in place (then ``x += dx`` is the spec's
-    ``x += step - shift``)."""
-    sx, sy, sz = _momentum_shift(mass, dx)
-    for p in prange(dx.shape[0]):
-        dx[p, 0] -= sx
-        dx[p, 1] -= sy
-        dx[p, 2] -= sz
-
-
-@njit(**_opts)
 def _provot_jacobi_springs(x, mass, springs, tau, spring_scalar, dx, count, max_corr):
     n = x.shape[0]
     rest = springs.rest
