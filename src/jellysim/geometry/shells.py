@@ -24,12 +24,8 @@ def winding_number(vertices: np.ndarray, faces: np.ndarray, point) -> float:
     """Generalised winding number of the closed triangle surface ``faces`` (m, 3) over
     ``vertices`` (n, 3) at ``point`` (3,): 1 inside a shell wound outward, -1 inside one
     wound inward, 0 outside."""
-    a, b, c = (vertices[faces[:, k]] - np.asarray(point, dtype=np.float64) for k in range(3))
-    la, lb, lc = (np.linalg.norm(v, axis=1) for v in (a, b, c))
-    det = np.einsum("ij,ij->i", a, np.cross(b, c))
-    den = (la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", a, c) * lb
-           + np.einsum("ij,ij->i", b, c) * la)
-    return float(2.0 * np.arctan2(det, den).sum() / (4.0 * np.pi))
+    return float(_winding_many(np.asarray(vertices, dtype=np.float64), np.asarray(faces),
+                               np.asarray(point, dtype=np.float64).reshape(1, 3))[0])
 
 
 def _shell_of_faces(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray]:
@@ -41,6 +37,17 @@ def _shell_of_faces(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray
     g = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_vertices, n_vertices))
     n, label = connected_components(g, directed=False)
     return int(n), label[faces[:, 0]]
+
+
+def _probe_inside(v: np.ndarray, f: np.ndarray, label: np.ndarray, count: int) -> np.ndarray:
+    """``inside[s, t]`` (count, count): is shell s's first vertex inside shell t (either
+    winding; False on the diagonal)."""
+    probe = np.array([v[f[np.argmax(label == s), 0]] for s in range(count)])
+    inside = np.zeros((count, count), dtype=bool)
+    for t in range(count):
+        inside[:, t] = np.abs(_winding_many(v, f[label == t], probe)) > 0.5
+    np.fill_diagonal(inside, False)
+    return inside
 
 
 def outward_shells(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, list]:
@@ -55,15 +62,11 @@ def outward_shells(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     vol = np.bincount(label, weights=np.einsum("ij,ij->i", tri[:, 0],
                                                np.cross(tri[:, 1], tri[:, 2])) / 6.0,
                       minlength=count)
-    probe = np.array([v[f[np.argmax(label == s), 0]] for s in range(count)])
-
-    def inside(p, t):  # is probe p inside shell t (either winding)?
-        return abs(winding_number(v, f[label == t], probe[p])) > 0.5
-
+    inside = _probe_inside(v, f, label, count)
     turned, out = [], f.copy()
     for s in np.flatnonzero(vol < 0):
-        holders = [t for t in range(count) if t != s and inside(s, t)]
-        if any(inside(t, s) for t in holders):
+        holders = np.flatnonzero(inside[s])
+        if inside[holders, s].any():
             continue  # overlapping shells: no telling which side is meant
         if len(holders) % 2:
             continue  # inside an odd number of shells: a cavity, wound inward as it should be
@@ -131,11 +134,8 @@ def joined_parts(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray,
     count, label = _shell_of_faces(f, len(v))
     if not 2 <= count <= 16 or len(points) * len(f) > max_work or len(tets) == 0:
         return 0
-    probe = np.array([v[f[np.argmax(label == s), 0]] for s in range(count)])
-    for s in range(count):  # any shell inside another (nested or overlapping): not checked
-        for t in range(count):
-            if s != t and abs(winding_number(v, f[label == t], probe[s])) > 0.5:
-                return 0
+    if _probe_inside(v, f, label, count).any():  # nested or overlapping: not checked
+        return 0
     part = np.full(len(points), -1)
     for t in range(count):
         part[np.abs(_winding_many(v, f[label == t], points)) > 0.5] = t
