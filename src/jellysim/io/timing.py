@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-__all__ = ["default_fps", "frame_rate", "real_time_playback"]
+__all__ = ["default_fps", "frame_rate", "gif_delay", "real_time_playback"]
 
 MAX_VIDEO_FPS = 60.0
 """A faster run is played in real time by showing every k-th frame (players and screens do not
@@ -15,6 +15,11 @@ MAX_GIF_FPS = 50.0
 60 frames/s GIF written at 1/100 s plays at 10 frames/s)."""
 MIN_FPS = 5.0
 """A slower run plays faster than real time, at this rate."""
+
+
+def gif_delay(fps: float) -> int:
+    """The GIF frame delay [1/100 s] nearest ``fps``: whole hundredths, at least 2."""
+    return max(2, round(100.0 / fps))
 
 
 def frame_rate(times: np.ndarray) -> float | None:
@@ -52,8 +57,8 @@ def real_time_playback(times: np.ndarray, frames: np.ndarray, *, gif: bool = Fal
         return frames, 30.0
     stride = max(1, math.ceil(rate / (MAX_GIF_FPS if gif else MAX_VIDEO_FPS) - 1e-9))
     fps = rate / stride
-    if gif:  # delay: whole hundredths, at least 2
-        fps = 100.0 / max(2, round(100.0 / fps))
+    if gif:
+        fps = 100.0 / gif_delay(fps)
     shown = frames[::stride]
     if shown[-1] != frames[-1]:  # the end state is always shown (its last interval shorter)
         shown = np.append(shown, frames[-1])

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import JellysimError
 from ..io.atomic import atomic_path
-from ..io.timing import default_fps, real_time_playback
+from ..io.timing import default_fps, gif_delay, real_time_playback
 from .offscreen import RenderOptions, Renderer
 
 __all__ = ["default_fps", "render_trajectory", "output_kind"]
@@ -72,7 +72,7 @@ def _gif_delays(times, frames, fps: float, real_time: bool) -> list[float]:
     shorter ones; Pillow truncates 29.999 ms to 20).  In real time the delays follow the
     frames' simulated times, rounded as a running total (a 30 frames/s run: 3, 3, 4, 3, 3, 4
     hundredths, not 3 throughout, which played 10 % fast); the last frame gets one step."""
-    step = max(2, round(100.0 / fps))
+    step = gif_delay(fps)
     if not real_time or len(frames) < 2:
         return [10.0 * step] * len(frames)
     t = np.asarray(times, dtype=np.float64)[np.asarray(frames)]
@@ -114,7 +114,7 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
     fps = 30.0 if fps is None else float(fps)  # (pictures: every frame asked, no rate)
     if not fps > 0:
         raise JellysimError(f"fps must be > 0, got {fps}")
-    played = 100.0 / max(2, round(100.0 / fps))  # a GIF's delays: whole hundredths, >= 2
+    played = 100.0 / gif_delay(fps)
     if kind == "gif" and abs(played - fps) > 0.01 * fps:
         import warnings
 
