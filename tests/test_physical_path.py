@@ -730,3 +730,37 @@ def test_a_pinned_body_settles_hanging_from_its_pin(tmp_path):
         run_scene(scene, tmp_path / "cut", progress=False, stop_after=15)
     res = run_scene(scene, tmp_path / "cut", progress=False, resume=True)
     assert np.array_equal(load_trajectory(res.trajectory).positions, t.positions)
+
+
+def test_a_timed_push_acts_from_t0_not_while_settling():
+    """Session 13's animator trial: a poke (a force released at 0.1 s) was applied while the
+    body settled, so the cube started already leaning, did not move during the push and
+    sprang back at its release.  A timed force is an event of the run: settled with it on
+    the points, the cube settles exactly as with no force at all (bitwise: the force is off
+    while settling), then the push moves its top along the force before the release, and
+    back after it; an untimed force is a load it settles under (the settled top is shifted
+    along it)."""
+    model = physical_model(_box((3, 3, 3), (0.05, 0.05, 0.05)), gelatin(damping_ratio=0.05))
+    y, x = model.point_x0[:, 1], model.point_x0[:, 0]
+    side = np.flatnonzero((x > 0.05 - 1e-9) & (y > 0.02))  # the +x face's upper points
+    top = np.flatnonzero(y > 0.05 - 1e-9)
+    push = [-0.05, 0.0, 0.0]  # [N] inwards, on the +x face
+
+    plain = Simulator(model, dt=1 / 60, ground=_ground())
+    plain.settle()
+    poked = Simulator(model, dt=1 / 60, ground=_ground())
+    poked.apply_force(side, push, until=0.1)
+    poked.settle()
+    assert np.array_equal(poked.state.x, plain.state.x)  # settled as if there were no push
+    start = poked.state.x[top, 0].mean()
+    poked.advance(6)                                      # 0.1 s: pushed
+    moved = poked.state.x[top, 0].mean() - start
+    assert moved < -1e-4                                  # along the push (-x), > 0.1 mm
+    assert np.all(poked.handles.point_force == 0.0)       # released at 0.1 s
+    poked.advance(60)                                     # 1 s later: back near the start
+    assert abs(poked.state.x[top, 0].mean() - start) < 0.3 * abs(moved)
+
+    loaded = Simulator(model, dt=1 / 60, ground=_ground())
+    loaded.apply_force(side, push)                        # no release: a load
+    loaded.settle()
+    assert loaded.state.x[top, 0].mean() - plain.state.x[top, 0].mean() < -1e-4

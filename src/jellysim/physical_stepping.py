@@ -69,8 +69,10 @@ class PhysicalStepping:
         (every point's velocity relaxing with a time constant of :data:`SETTLE_TIME` s) until
         no point moves more than ``speed`` x dt in a step, for three steps, or ``max_seconds`` of
         simulated time (then a warning).  The settled shape is the start: velocities zero, the
-        clock back to t = 0, step 0 (the material's own damping is untouched).  Physical path
-        only.  Returns the steps taken."""
+        clock back to t = 0, step 0 (the material's own damping is untouched).  A point force
+        with no release acts while settling (the body settles under that load); one given
+        ``until`` a release time is an event of the run and is off while settling (it acts
+        from t = 0 to its release).  Physical path only.  Returns the steps taken."""
         import dataclasses
         import math
 
@@ -89,7 +91,14 @@ class PhysicalStepping:
                              "on the clock settling uses): settle first, then pin it with its "
                              "path, or remove settle")
         s, model = self.state, self.model
-        releases = self.__dict__.pop("_releases", None)  # a timed force acts all the settle
+        # a timed force (released at some t) is an event of the run, from t = 0: it is off
+        # while settling (and its release clock is the run's); an untimed force is a load
+        # the body settles under
+        releases = self.__dict__.pop("_releases", None)
+        timed = (np.unique(np.concatenate([np.asarray(rows) for _, rows in releases]))
+                 if releases else np.zeros(0, dtype=np.int64))
+        held = self.handles.point_force[timed].copy()
+        self.handles.point_force[timed] = 0.0
         mass = np.asarray(model.point_mass, dtype=np.float64)
         self.model = dataclasses.replace(model, damping=float(model.damping)
                                          + float(mass.mean()) / SETTLE_TIME)
@@ -109,6 +118,7 @@ class PhysicalStepping:
                               "(at t = 0)", StabilityWarning, stacklevel=2)
         finally:
             self.model = model
+            self.handles.point_force[timed] = held
             if releases is not None:
                 self._releases = releases
         s.v[:] = 0.0
