@@ -146,35 +146,57 @@ def _serial_min(values, start):
     return m
 
 
-@njit(cache=True)
-def physical_steps(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arrays, scratch):
-    """``nsteps`` symplectic Euler steps of ``dt`` [s]: tet forces (+ springs), handles,
-    integration, contact, checks.  Returns ``(steps done, status)``."""
-    g, decay, q, ptr, slot = fem[8], fem[9], fem[10], fem[11], fem[12]
+@njit(cache=True, inline="always")
+def _substep_tail(s, nsteps, dt, x, v, a, fsum, model_arrays, handles, contact_arrays, scratch):
+    """The rest of substep ``s`` once the tet forces are in ``fsum``: springs (if k != 0),
+    handles and integration, contact; returns the status."""
     springs = model_arrays[3]
-    use_springs = springs[7]
-    kinds, data, rest_speed, center, bound2 = (contact_arrays[0], contact_arrays[1],
-                                               contact_arrays[2], contact_arrays[3],
-                                               contact_arrays[4])
-    tet_force, tet_j, fsum, scalar, min_j = (scratch[0], scratch[1], scratch[2], scratch[3],
-                                             scratch[4])
-    summed = tet_force.shape[0] == 0  # the caller runs one thread (see the module docstring)
+    if springs[7]:  # use_springs
+        _spring_forces(x, springs, scratch[3], fsum)
+    # pins move along the line from pin_from to pin_to over the nsteps steps
+    nonfinite, runaway = _integrate(x, v, a, fsum, model_arrays, handles, dt,
+                                    (s + 1.0) / nsteps, contact_arrays[3], contact_arrays[4])
+    if contact_arrays[0].shape[0] > 0:
+        contact(x, v, contact_arrays[0], contact_arrays[1], contact_arrays[2], dt)
+    return _status(nonfinite, runaway)
+
+
+@njit(cache=True)
+def _steps_summed(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arrays, scratch):
+    """One thread: each corner force added to its point at once (no corner-force array, no
+    gather pass: bitwise the same sums)."""
+    g, decay, q = fem[8], fem[9], fem[10]
+    tet_j, fsum, min_j = scratch[1], scratch[2], scratch[4]
     for s in range(nsteps):
-        if summed:
-            # no corner-force array and no gather pass: bitwise the same sums
-            tet_forces_summed(x, fem, g, decay, q, fsum, tet_j, min_j)
-        else:
-            tet_forces(x, fem, g, decay, q, tet_force, tet_j)
-            min_j[0] = _serial_min(tet_j, min_j[0])
-            gather_tet_forces(tet_force, ptr, slot, fsum)
-        if use_springs:
-            _spring_forces(x, springs, scalar, fsum)
-        # pins move along the line from pin_from to pin_to over the nsteps steps
-        nonfinite, runaway = _integrate(x, v, a, fsum, model_arrays, handles, dt,
-                                        (s + 1.0) / nsteps, center, bound2)
-        if kinds.shape[0] > 0:
-            contact(x, v, kinds, data, rest_speed, dt)
-        status = _status(nonfinite, runaway)
+        tet_forces_summed(x, fem, g, decay, q, fsum, tet_j, min_j)
+        status = _substep_tail(s, nsteps, dt, x, v, a, fsum, model_arrays, handles,
+                               contact_arrays, scratch)
         if status != STATUS_OK:
             return s + 1, status
     return nsteps, STATUS_OK
+
+
+@njit(cache=True)
+def _steps_gathered(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arrays, scratch):
+    """Threads: corner forces into rows (parallel over tets), then a gather per point."""
+    g, decay, q, ptr, slot = fem[8], fem[9], fem[10], fem[11], fem[12]
+    tet_force, tet_j, fsum, min_j = scratch[0], scratch[1], scratch[2], scratch[4]
+    for s in range(nsteps):
+        tet_forces(x, fem, g, decay, q, tet_force, tet_j)
+        min_j[0] = _serial_min(tet_j, min_j[0])
+        gather_tet_forces(tet_force, ptr, slot, fsum)
+        status = _substep_tail(s, nsteps, dt, x, v, a, fsum, model_arrays, handles,
+                               contact_arrays, scratch)
+        if status != STATUS_OK:
+            return s + 1, status
+    return nsteps, STATUS_OK
+
+
+def physical_steps(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arrays, scratch):
+    """``nsteps`` symplectic Euler steps of ``dt`` [s]: tet forces (+ springs), handles,
+    integration, contact, checks.  Returns ``(steps done, status)``.  A ``tet_force`` scratch
+    with no rows (one thread) runs the summed tet pass, else the parallel rows and gather: two
+    compiled drivers, chosen here, so that a run compiles only the one it uses (the other's
+    tet kernel is about 9 s of a first run's compiling)."""
+    driver = _steps_summed if scratch[0].shape[0] == 0 else _steps_gathered
+    return driver(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arrays, scratch)
