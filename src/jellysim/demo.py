@@ -182,15 +182,6 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
         raise JellysimError(f"--out {out_dir}: holds an earlier demo "
                             f"({', '.join(p.name for p in old if p.exists())}); pass "
                             "--overwrite to replace it, or choose another --out")
-    try:
-        body, skin = build_demo_body(scene, points, mesh, up)
-    except BuildError as exc:  # (its fixes name build options: the demo's is --points)
-        what = f"--mesh {mesh}" if mesh is not None else f"--scene {scene}"
-        raise BuildError(f"{what}: {exc} (demo: a larger --points gives a finer grid)"
-                         ) from None
-    # only checked here: run_scene deletes an earlier demo run once this one can start, and
-    # the video and USD below replace the old ones atomically (a failed demo keeps them)
-    prepare_out_dir(out_dir / stem, overwrite=overwrite, delete=False)
     shape = DEMO_SHAPES[scene]
     raw = dict(DEMO_SCENE, body=dict(DEMO_SCENE["body"], velocity=shape["velocity"]),
                material=dict(DEMO_SCENE["material"], **shape.get("material", {})))
@@ -201,6 +192,18 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
                + "), not [body] below\n" + sc.text)
     if threads is not None:
         sc.params["integrator"]["threads"] = int(threads)
+    from . import _warmup  # a first run: the step compiles beside the body's sampling
+
+    _warmup.start(sc.params)
+    try:
+        body, skin = build_demo_body(scene, points, mesh, up)
+    except BuildError as exc:  # (its fixes name build options: the demo's is --points)
+        what = f"--mesh {mesh}" if mesh is not None else f"--scene {scene}"
+        raise BuildError(f"{what}: {exc} (demo: a larger --points gives a finer grid)"
+                         ) from None
+    # only checked here: run_scene deletes an earlier demo run once this one can start, and
+    # the video and USD below replace the old ones atomically (a failed demo keeps them)
+    prepare_out_dir(out_dir / stem, overwrite=overwrite, delete=False)
     steps = sc.steps if frames is None else max(1, int(frames) - 1) * sc.frame_every
     result = run_scene(sc, out_dir / stem, progress=progress, vtu=vtu, steps=steps,
                        skin=skin, body=body, overwrite=overwrite)

@@ -287,6 +287,10 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
+            if body is None and scene.params["body"]["type"] == "mesh":
+                from . import _warmup  # compile the step beside the mesh's sampling
+
+                _warmup.start(scene.params)
             model = scene.build_model(body)
             settling = progress and not resume and bool(scene.params["body"].get("settle"))
             if settling:  # (it can take a while: say so)

@@ -467,6 +467,10 @@ class Simulator(HandleMethods, PhysicalStepping):
             return
         s = self.state
         thin_before = self._thinness(s.x) if self._collapse_check else None
+        from . import _warmup
+
+        if _warmup.pending():  # a first run's step kernels, compiled by a second process
+            _warmup.wait()
         import numba
 
         previous = numba.get_num_threads()
