@@ -46,6 +46,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "settle": Spec("bool", False, "Start at rest: before t = 0 the body settles under "
                        "gravity on its ground and obstacles (strongly damped, then the clock "
                        "set to 0), so a jello placed unsagged does not bounce through the run. "
+                       "A `[[handle]]` force with no `until` is a load it settles under; one "
+                       "with `until` acts from t = 0 only (off while settling). "
                        "Physical path; serial runs."),
         "up": Spec("str", "y", "Type 'mesh': the mesh's axis that points up ('z' for most CAD "
                    "and STL files), turned to +y before size and base.",
@@ -196,7 +198,7 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "nu": Spec("float", _G.nu, "Fraction of y acceleration removed on the ground (the "
                    "report's step, integrator 'paper', only: the others compute it afresh).",
                    lambda v: 0 <= v <= 1, "a number in [0, 1]"),
-        "restitution": Spec("float", _G.restitution, "Contact: coefficient of restitution e.",
+        "restitution": Spec("float", _G.restitution, "Contact: coefficient of restitution e of each point's impact (a free particle rebounds to e^2 h); a soft body's bounce is set by its material damping, hardly by e (docs/physics.md, \"Bounce and restitution\").",
                             lambda v: 0 <= v <= 1, "a number in [0, 1]"),
         "friction": _nonneg("Contact: kinetic Coulomb friction coefficient.", _G.friction),
         "static_friction": Spec("float", None, "Contact: static Coulomb coefficient "
