@@ -92,7 +92,7 @@ def test_gif_and_png_frames(traj, tmp_path):
     assert gif.shape[:3] == (3, SIZE[1], SIZE[0])
     folder = render_trajectory(traj, tmp_path / "frames", opts, frames=[0, 6])
     pngs = sorted(folder.glob("frame_*.png"))
-    assert len(pngs) == 2
+    assert [p.name for p in pngs] == ["frame_00000.png", "frame_00006.png"]  # frame numbers
     import imageio.v3 as iio
 
     a, b = (iio.imread(p)[..., :3].astype(float) for p in pngs)

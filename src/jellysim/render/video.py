@@ -163,7 +163,7 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
             import imageio.v3 as iio
 
             path.mkdir(parents=True, exist_ok=True)
-            for i, img in enumerate(images):
-                with atomic_path(path / f"frame_{i:05d}.png") as tmp:
+            for i, img in zip(frames, images):  # named by the run's frame number
+                with atomic_path(path / f"frame_{int(i) % traj.frame_count:05d}.png") as tmp:
                     iio.imwrite(tmp, img, extension=".png")
     return path
