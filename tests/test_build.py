@@ -218,6 +218,15 @@ def test_cli_inspect_a_scene_says_what_it_will_run(tmp_path):
     # --set as `jellysim run` takes it: 6^3 cells = 7^3 points (session 10's trial)
     res = CliRunner().invoke(cli, ["inspect", str(path), "--set", "body.points=216"])
     assert res.exit_code == 0 and "points       343" in res.output, res.output
+    # the handles and the points they hold (session 13's trial: it said only "handles 1"):
+    # the bottom layer of the 11^3 grid (121 points) pinned along a path, the top pushed
+    path.write_text(text + "[[handle]]\nkind = 'pin'\nbox = [[-1, -1, -1], [1, 0.001, 1]]\n"
+                    "path = [[0.5, 0.01, 0, 0]]\n[[handle]]\nkind = 'force'\n"
+                    "box = [[-1, 0.099, -1], [1, 1, 1]]\nforce = [0.1, 0, 0]\nuntil = 0.2\n")
+    res = CliRunner().invoke(cli, ["inspect", str(path)])
+    assert res.exit_code == 0, res.output
+    assert ("handles      2: 121 points pinned (121 along a path); a force on 121 points "
+            "(total [0.1, 0, 0] N)") in res.output, res.output
 
 
 def test_marching_box_fills_its_mesh_and_sits_on_its_base():
