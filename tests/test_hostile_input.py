@@ -997,3 +997,45 @@ def test_a_blow_up_mid_run_is_reported_as_one_not_as_a_bad_velocity(tmp_path):
     assert "went unstable" in r.output and "give velocities in m/s" not in r.output
     traj = load_trajectory(tmp_path / "r")
     assert traj.status.startswith("failed") and traj.frame_count > 1
+
+
+@pytest.mark.parametrize("physical", [True, False])
+def test_a_state_the_kernels_cannot_update_is_refused_before_any_step(physical):
+    """Session 13's hostile trial: ``sim.state.v = np.zeros((3, 3))`` then ``advance`` crashed
+    the process (segfault, glibc aborts: the kernels read and write past the array), an int
+    ``x`` was truncated at every step, a float32 one or a list gave a numba traceback, and a
+    State of another body was blamed on instability.  Each is now refused, naming the array,
+    the shape (n, 3) and float64 it must have, and the state is left untouched."""
+    import jellysim as js
+
+    if physical:
+        model = js.physical_model(js.Body.box(points=27), js.material("gelatin"))
+        sim = js.Simulator(model, dt=1 / 60, ground=js.GroundParams(model="contact"))
+    else:
+        body = js.Body.box(points=64, distribution="uniform", radius=0.05, seed=1)
+        model = js.finalize(body, stiffness=50.0, density=100.0)
+        sim = js.Simulator(model, dt=1e-3, ground=js.GroundParams())
+    n = model.point_count
+    good = {k: getattr(sim.state, k).copy() for k in "xva"}
+    frozen = good["x"].copy()
+    frozen.flags.writeable = False
+    bad = {"a short array": np.zeros((3, 3)), "int64": good["x"].astype(np.int64),
+           "float32": good["x"].astype(np.float32), "a list": good["x"].tolist(),
+           "read-only": frozen, "not contiguous": np.asfortranarray(good["x"])}
+    for name in "xva":
+        for what, value in bad.items():
+            setattr(sim.state, name, value)
+            with pytest.raises(SceneError, match=rf"state\.{name} .* float64 array of "
+                                                 rf"shape \({n}, 3\)"):
+                sim.advance(1)
+            setattr(sim.state, name, good[name].copy())
+    assert sim.state.step == 0 and np.array_equal(sim.state.x, good["x"])
+    sim.state.t = float("nan")
+    with pytest.raises(SceneError, match=r"state\.t .* finite"):
+        sim.advance(1)
+    sim.state.t = 0.0
+    sim.advance(2)                                   # a good state steps as before
+    assert sim.state.step == 2 and np.all(np.isfinite(sim.state.x))
+    other = js.physical_model(js.Body.box(points=8), js.material("gelatin")).state()
+    with pytest.raises(SceneError, match=rf"Simulator\(state=\): state\.x .* \({n}, 3\)"):
+        js.Simulator(model, dt=1 / 60, state=other)

@@ -89,6 +89,40 @@ def springs_auto_substeps(model, dt) -> tuple[int, StabilityEstimate]:
     return need, est
 
 
+def check_state(state, n: int, where: str) -> None:
+    """Refuse a state the kernels cannot update in place: ``x``, ``v``, ``a`` must each be a
+    writeable, C-contiguous float64 numpy array of shape (n, 3) (the kernels read and write
+    them without bounds checks: another shape read past its end, another dtype was
+    truncated), ``t`` a finite number of seconds and ``step`` a whole number >= 0."""
+    from .state import State
+
+    if not isinstance(state, State):
+        raise SceneError(f"{where}: the state must be a jellysim State (model.state(), or "
+                         f"sim.state), got {type(state).__name__}")
+    for name in ("x", "v", "a"):
+        a = getattr(state, name)
+        what = {"x": "positions [m]", "v": "velocities [m/s]", "a": "accelerations [m/s^2]"}
+        ok = (isinstance(a, np.ndarray) and a.dtype == np.float64 and a.shape == (n, 3)
+              and a.flags.c_contiguous and a.flags.writeable)
+        if not ok:
+            got = (f"{a.dtype} {a.shape}" + ("" if a.flags.c_contiguous else ", not contiguous")
+                   + ("" if a.flags.writeable else ", read-only")
+                   if isinstance(a, np.ndarray) else type(a).__name__)
+            raise SceneError(
+                f"{where}: state.{name} ({what[name]}) must be a writeable float64 array of "
+                f"shape ({n}, 3), one row per point of this model; got {got}.  Set its "
+                f"values in place (sim.state.{name}[:] = ...) rather than giving it another "
+                "array, or start from model.state()")
+    if isinstance(state.t, bool) or not isinstance(state.t, (int, float, np.number)) or (
+            not np.isfinite(state.t)):
+        raise SceneError(f"{where}: state.t (the simulated time [s]) must be a finite number, "
+                         f"got {state.t!r}")
+    if isinstance(state.step, bool) or not isinstance(state.step, (int, np.integer)) or (
+            state.step < 0):
+        raise SceneError(f"{where}: state.step must be a whole number >= 0, got "
+                         f"{state.step!r}")
+
+
 def _usable_threads(threads: int, backend) -> int:
     """``threads`` capped at numba's pool (``NUMBA_NUM_THREADS``, by default the cores), said
     (by rank 0 under mpiexec): ``Simulator.threads`` is what the steps use."""
@@ -291,6 +325,8 @@ class Simulator(HandleMethods, PhysicalStepping):
         if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
             raise SceneError(f"threads must be an integer >= 1 (or None: by size), got {threads!r}")
         self.threads = _usable_threads(int(threads), self.backend)
+        if state is not None:
+            check_state(state, n, "Simulator(state=)")
         self.state = model.state() if state is None else state
         x0 = model.point_x0
         self.center = np.ascontiguousarray(x0.mean(axis=0))
@@ -460,6 +496,7 @@ class Simulator(HandleMethods, PhysicalStepping):
         the state as it was after the failing step."""
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
             raise SceneError(f"advance(steps): steps must be a whole number >= 0, got {steps!r}")
+        check_state(self.state, self.model.point_count, "advance")
         self._advance_scheduled(int(steps))  # (split where a timed handle ends: handles.py)
 
     def _advance_chunk(self, steps: int) -> None:
