@@ -287,3 +287,34 @@ def test_a_yolk_wound_inward_inside_a_hollow_ball_is_turned():
     b.invert()
     both = trimesh.util.concatenate([a, b])
     assert outward_shells(both.vertices, both.faces)[1] == []
+
+
+@pytest.mark.parametrize("offset", [1e3, 1e5, 1e6])
+def test_a_mesh_far_from_the_origin_keeps_its_volume_and_winding(tmp_path, offset):
+    """Session 13's hostile trial: the enclosed volume was summed about the origin, so a
+    10 cm cube 100 km away came out 0.0124 m^3 (1000 km: -56), a radius body built from it
+    weighed 14.2 kg instead of 1.14, and an outward sphere there was 'turned outward' (flipped
+    inside out).  About the centroid: the cube's 1e-3 m^3 and the icosphere's own volume (the
+    divergence theorem, computed here about its centre) to 1e-7 relative (the coordinates' own
+    rounding at 1000 km is 2e-9 of the cube), wound outward,
+    whatever the offset, and the shells' check turns nothing."""
+    import warnings
+
+    import trimesh
+
+    from jellysim.geometry.shells import outward_shells
+
+    for name, m in (("cube", trimesh.creation.box(extents=[0.1] * 3)),
+                    ("ball", trimesh.creation.icosphere(3, 0.05))):
+        v0, f = np.asarray(m.vertices), np.asarray(m.faces)
+        want = np.einsum("ij,ij->i", v0[f[:, 0]], np.cross(v0[f[:, 1]], v0[f[:, 2]])).sum() / 6
+        path = tmp_path / f"{name}.obj"
+        path.write_text("".join("v %r %r %r\n" % tuple(map(float, p)) for p in v0 + offset)
+                        + "".join("f %d %d %d\n" % tuple(t + 1) for t in f))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # no "turned outward"
+            mesh = load_mesh(path)
+        assert mesh.defects.volume == pytest.approx(want, rel=1e-7)  # (the digits the file keeps)
+        assert name != "cube" or want == pytest.approx(1e-3, rel=1e-12)
+        faces, turned = outward_shells(mesh.vertices, mesh.faces)
+        assert turned == [] and np.array_equal(faces, mesh.faces)

@@ -440,8 +440,9 @@ def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol:
 
     _edge_report(f, d)
     d.shells = _shell_of_faces(f, len(v))[0]
-    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-    d.volume = float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+    from .shells import face_volumes
+
+    d.volume = float(face_volumes(v, f).sum())
     d.face_count = int(len(f))
     d.vertex_count = int(len(v))
     return Mesh(

@@ -62,9 +62,10 @@ def inside_out_note(traj) -> str | None:
     if np.any(np.unique(edges, axis=0, return_counts=True)[1] != 2):
         return None  # an open surface encloses no volume to check
 
+    from ..geometry.shells import face_volumes
+
     def volume(v):  # [m^3], the divergence theorem over the triangles
-        a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
-        return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6.0
+        return float(face_volumes(v, faces).sum())
 
     if not volume(frames[0]) > 0:
         return None
