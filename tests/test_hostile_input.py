@@ -1039,3 +1039,36 @@ def test_a_state_the_kernels_cannot_update_is_refused_before_any_step(physical):
     other = js.physical_model(js.Body.box(points=8), js.material("gelatin")).state()
     with pytest.raises(SceneError, match=rf"Simulator\(state=\): state\.x .* \({n}, 3\)"):
         js.Simulator(model, dt=1 / 60, state=other)
+
+
+def test_handle_tables_that_overlap_or_push_pinned_points_are_said():
+    """Session 13's hostile trial: a second [[handle]] force on some of the points of a first
+    silently replaced it there (1 N on every point plus 0.1 N up on the top layer ran with a
+    net [0.75, 0.1, 0] N), gravity tables likewise, a force on pinned points did nothing
+    without a word, and ``scale = true`` gave a Python traceback.  Overlapping force or
+    gravity tables are refused naming both tables; a force on pinned points is warned; a
+    non-number scale is refused naming its table."""
+    base = ('[material]\npreset = "gelatin"\n[body]\npoints = 27\n[physics]\n'
+            'gravity = [0, 0, 0]\n[ground]\nenabled = false\n')
+    every = '[[handle]]\nkind = "{kind}"\nbox = [[-1, -1, -1], [2, 2, 2]]\n{value}\n'
+    top = '[[handle]]\nkind = "{kind}"\nbox = [[-1, 0.099, -1], [2, 2, 2]]\n{value}\n'
+    for kind, value in (("force", "force = [1.0, 0.0, 0.0]"), ("gravity", "scale = 0.5")):
+        scene = Scene.from_text(base + every.format(kind=kind, value=value)
+                                + top.format(kind=kind, value=value), name="h.toml")
+        with pytest.raises(SceneError, match=r"h\.toml: \[\[handle\]\] #2 .* \[\[handle\]\] "
+                                             r"#1 already does .* disjoint"):
+            scene.simulator()
+    # disjoint tables: the net force is the sum of the two (no point's force replaced)
+    low = '[[handle]]\nkind = "force"\nbox = [[-1, -1, -1], [2, 0.098, 2]]\nforce = [1, 0, 0]\n'
+    sim = Scene.from_text(base + low + top.format(kind="force", value="force = [0, 0.1, 0]"),
+                          name="h.toml").simulator()
+    assert sim.handles.point_force.sum(axis=0) == pytest.approx([1.0, 0.1, 0.0], rel=1e-12)
+    pin = '[[handle]]\nkind = "pin"\nbox = [[-1, -1, -1], [2, 0.001, 2]]\n'
+    with pytest.warns(UserWarning, match=r"#2 pushes 16 pinned point\(s\).* does nothing"):
+        Scene.from_text(base + pin + every.format(kind="force", value="force = [1, 0, 0]"),
+                        name="h.toml").simulator()
+    bad = Scene.from_text(base + every.format(kind="gravity", value="scale = true"),
+                          name="h.toml")
+    with pytest.raises(SceneError, match=r"h\.toml: \[\[handle\]\] #1 scale must be a finite "
+                                         r"number"):
+        bad.simulator()

@@ -250,6 +250,7 @@ def apply_handle_tables(sim, tables, springs_reason: str | None = None) -> None:
                          f"springs: {springs_reason}")
     x = sim.state.x
     pinned_by = {}  # point -> the pin table holding it
+    taken = {"force": {}, "gravity": {}}  # point -> the force / gravity table on it
     for entry in tables:
         sphere = entry.get("sphere")
         idx = select_points(x, box=entry.get("box"),
@@ -268,14 +269,33 @@ def apply_handle_tables(sim, tables, springs_reason: str | None = None) -> None:
                                  "selections disjoint")
             pinned_by.update({int(i): (entry["_where"], moving) for i in idx})
             sim.pin(idx, path=entry.get("path"))
-        elif entry["kind"] == "force":
-            try:
+            continue
+        kind = "force" if entry["kind"] == "force" else "gravity"
+        both = [int(i) for i in idx if int(i) in taken[kind]]
+        if both:  # (the later table silently replaced the earlier one on those points)
+            what = "pushes" if kind == "force" else "scales gravity on"
+            raise SceneError(f"{entry['_where']} {what} {len(both)} point(s) that "
+                             f"{taken[kind][both[0]]} already does (point {both[0]}): each "
+                             f"point takes one {kind} table (a later one would replace the "
+                             "earlier there); make the selections disjoint, or give the "
+                             "overlap its own table with the combined value")
+        taken[kind].update({int(i): entry["_where"] for i in idx})
+        try:
+            if kind == "force":
                 sim.apply_force(idx, entry["force"], until=entry.get("until"))
-            except SceneError as exc:  # name the table, not the Python call
-                raise SceneError(f"{entry['_where']} {str(exc).removeprefix('apply_force: ')}") \
-                    from None
-        else:
-            sim.set_gravity_scale(idx, entry["scale"])
+            else:
+                sim.set_gravity_scale(idx, entry["scale"])
+        except (SceneError, ValueError, TypeError) as exc:  # name the table, not the call
+            msg = str(exc).removeprefix("apply_force: ").removeprefix("set_gravity_scale: ")
+            raise SceneError(f"{entry['_where']} {msg}") from None
+    held = sorted(set(taken["force"]) & set(pinned_by))
+    if held:
+        import warnings
+
+        warnings.warn(f"{taken['force'][held[0]]} pushes {len(held)} pinned point(s) "
+                      f"(point {held[0]}, pinned by {pinned_by[held[0]][0]}): a pinned point "
+                      "follows its pin, so the force on it does nothing", UserWarning,
+                      stacklevel=2)
 
 
 class HandleMethods:
@@ -391,7 +411,7 @@ class HandleMethods:
         self._require_physical("a gravity scale")
         if isinstance(scale, bool) or not isinstance(scale, (int, float, np.number)) or not (
                 np.isfinite(scale)):
-            raise ValueError(f"set_gravity_scale: scale must be a finite number (1 = normal "
+            raise SceneError(f"set_gravity_scale: scale must be a finite number (1 = normal "
                              f"gravity, 0 = none), got {scale!r}")
         self.handles.gravity_scale[self._point_indices(indices, "set_gravity_scale")] = float(
             scale)

@@ -28,7 +28,10 @@ def schema_markdown() -> str:
         lines.append(f"| `{key}` | {spec.kind} | {default} | {allowed} | {spec.doc} |")
     lines += ["", "### `[[handle]]` (any number; physical path)", "",
               "Hold or push chosen points (:mod:`jellysim.handles`).  Exactly one selection "
-              "per handle, taken at the start positions.", "",
+              "per handle, taken at the start positions.  Tables of one kind may not "
+              "share points (a pin along a path, a force, a gravity scale: the later one "
+              "would replace the earlier there; refused, naming both); a force on pinned "
+              "points does nothing and is warned.", "",
               "| key | type | meaning |", "|---|---|---|",
               "| `kind` | str | 'pin' (fix the points, or move them along `path`), 'force' "
               "(a constant total `force`), 'gravity' (multiply gravity by `scale`). |",
