@@ -692,3 +692,35 @@ def test_a_damaged_checkpoint_or_finished_trajectory_is_refused_by_name(tmp_path
     npz.unlink()
     with pytest.raises(CheckpointError, match=r"the run's frames are gone \(no trajectory.npz"):
         run_scene(scene, done, progress=False, resume=True, steps=2 * scene.steps)
+
+
+@pytest.mark.parametrize("physical", [False, True], ids=["springs", "physical"])
+def test_a_run_resumes_on_another_thread_count_and_its_command_keeps_the_flags(tmp_path,
+                                                                              physical):
+    """Session 13's hostile trial: a run stopped with ``--threads 2`` printed "continue with:
+    jellysim run s.toml --resume ..." and following it was refused ("integrator.threads: 2
+    then, None now"), though the results are bitwise the same for any thread count;
+    ``--precision`` was dropped from the command likewise.  A run stopped on 1 thread now
+    resumes on 2 (and back), bitwise the uninterrupted run, and the printed command carries
+    the backend options given (as --set items)."""
+    text = (('[material]\npreset = "gelatin"\n[body]\npoints = 125\nlower = [0, 0.01, 0]\n'
+             'upper = [0.05, 0.06, 0.05]\n[integrator]\ndt = 0.016666666666666666\n'
+             'steps = 24\n{threads}[output]\nevery = 4\nvtu = false\n') if physical else
+            EXPLICIT.replace("[integrator]\n", "[integrator]\n{threads}"))
+    scene = lambda t: Scene.from_text(text.format(threads=t), name="s.toml")  # noqa: E731
+    ref = load_trajectory(run_scene(scene("threads = 1\n"), tmp_path / "ref",
+                                    progress=False).trajectory)
+    for first, later in (("threads = 1\n", "threads = 2\n"), ("threads = 2\n", "")):
+        cut = tmp_path / f"cut{len(later)}"
+        with pytest.raises(RunInterrupted):
+            run_scene(scene(first), cut, progress=False, stop_after=2 * ref.frame_count // 3
+                      * scene(first).frame_every // 2)
+        res = run_scene(scene(later), cut, progress=False, resume=True)
+        _same(load_trajectory(res.trajectory), ref)
+    if not physical:
+        path = tmp_path / "s.toml"
+        path.write_text(text.format(threads=""))
+        numpy = Scene.load(path).with_backend("numpy")
+        with pytest.raises(RunInterrupted) as info:
+            run_scene(numpy, tmp_path / "np", progress=False, stop_after=4)
+        assert "--set integrator.backend=numpy" in str(info.value)

@@ -493,7 +493,12 @@ class Scene:
         check_backend(it["backend"], it["name"], it["device"], it["precision"], where=self.name,
                       physical=_wants_fem(self.params))
         scene = Scene({**self.params, "integrator": it}, text=self.text, name=self.name)
-        scene.overrides, scene.given = self.overrides, self.given
+        # (as --set items, so that an interrupted run's "continue with" line keeps them)
+        scene.overrides = self.overrides + tuple(
+            f"integrator.{key}={value}" for key, value in (
+                ("backend", backend), ("device", device), ("precision", precision))
+            if value is not None)
+        scene.given = self.given
         return scene
 
     def simulator(self, model=None, *, settle: bool = True, **overrides):

@@ -56,18 +56,23 @@ def _version() -> str:
     return __version__
 
 
-def _hashed_params(scene) -> str:
-    """The resolved parameters without the run's length, as canonical JSON."""
+def _hashed_params(scene, threads: bool = False) -> str:
+    """The resolved parameters without the run's length and (unless ``threads``) the thread
+    count, as canonical JSON."""
     params = {k: dict(v) if isinstance(v, dict) else v for k, v in scene.params.items()}
     if isinstance(params.get("integrator"), dict):
         params["integrator"].pop("steps", None)
+        if not threads:
+            params["integrator"].pop("threads", None)
     return json.dumps(params, sort_keys=True, default=str)
 
 
-def scene_hash(scene) -> str:
+def scene_hash(scene, threads: bool = False) -> str:
     """Hash of the resolved parameters (the text's and every ``--set``), without the run's
-    length: a run continued for more steps is the same scene."""
-    return hashlib.sha256(_hashed_params(scene).encode("utf-8")).hexdigest()
+    length (a run continued for more steps is the same scene) and the thread count (the
+    results are bitwise the same for any: a run stopped on 2 threads resumes on 1; hashes
+    written before session 13 held it: ``threads=True``)."""
+    return hashlib.sha256(_hashed_params(scene, threads).encode("utf-8")).hexdigest()
 
 
 def _differences(written: str, scene) -> str:
@@ -180,7 +185,8 @@ def read_checkpoint(path, *, scene=None, model=None) -> Checkpoint:
     if ck.version != _version():
         raise CheckpointError(f"{path}: written by jellysim {ck.version}, this is "
                               f"{_version()}; resume with that version or start afresh")
-    if scene is not None and ck.scene_sha256 not in (scene_hash(scene), _legacy_hash(scene)):
+    if scene is not None and ck.scene_sha256 not in (scene_hash(scene), _legacy_hash(scene),
+                                                     scene_hash(scene, threads=True)):
         raise CheckpointError(f"{path}: written for another scene (its parameters differ from "
                               f"{scene.name}'s, the run's length aside"
                               f"{_differences(ck.scene_params, scene)}); resume with the same "
