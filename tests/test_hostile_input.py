@@ -1072,3 +1072,25 @@ def test_handle_tables_that_overlap_or_push_pinned_points_are_said():
     with pytest.raises(SceneError, match=r"h\.toml: \[\[handle\]\] #1 scale must be a finite "
                                          r"number"):
         bad.simulator()
+
+
+def test_select_points_takes_the_scenes_sphere_and_names_bad_input():
+    """Session 13's hostile trial: ``js.select_points(x, sphere={"center": ..., "radius":
+    ...})`` (the scene's own form) raised ``KeyError: 0``, 2-D points a numpy broadcast error,
+    and ``radius = true`` selected as radius 1 m.  The dict form now selects the same points as
+    the tuple form (those within the radius, counted here directly); the rest are SceneErrors
+    naming what to give."""
+    import jellysim as js
+
+    x = js.Body.box(points=27).points
+    c, r = np.array([0.05, 0.05, 0.05]), 0.03
+    want = np.flatnonzero(np.linalg.norm(x - c, axis=1) <= r)
+    assert 0 < len(want) < len(x)
+    assert np.array_equal(js.select_points(x, sphere={"center": c.tolist(), "radius": r}), want)
+    assert np.array_equal(js.select_points(x, sphere=(c, r)), want)
+    for kw, msg in ((dict(sphere={"center": c.tolist()}), "exactly 'center' and 'radius'"),
+                    (dict(sphere=(c, True)), r"sphere must be \(\[x, y, z\], radius\)")):
+        with pytest.raises(SceneError, match=msg):
+            js.select_points(x, **kw)
+    with pytest.raises(SceneError, match=r"shape \(n, 3\) .* got shape \(64, 2\)"):
+        js.select_points(x[:, :2], box=[[0, 0, 0], [1, 1, 1]])

@@ -25,15 +25,27 @@ __all__ = ["Handles", "HandleMethods", "PinPath", "select_points"]
 def select_points(points: np.ndarray, *, box=None, sphere=None, indices=None,
                   what: str = "selection") -> np.ndarray:
     """Indices (int64, sorted) of ``points`` [m], shape (n, 3), inside an axis-aligned
-    ``box = (lower, upper)`` [m], a ``sphere = (center, radius)`` [m], or given as
+    ``box = (lower, upper)`` [m], a ``sphere = (center, radius)`` [m] (or the scene's
+    ``{"center": [...], "radius": r}``), or given as
     ``indices``.  Exactly one of the three; an empty selection is an error naming ``what``."""
     given = [name for name, val in (("box", box), ("sphere", sphere), ("indices", indices))
              if val is not None]
     if len(given) != 1:
         raise SceneError(f"{what}: give exactly one of box, sphere or indices "
                          f"(got {', '.join(given) or 'none'})")
-    p = np.asarray(points, dtype=np.float64)
+    try:
+        p = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError):
+        p = np.zeros((0, 0))
+    if p.ndim != 2 or p.shape[1] != 3 or not len(p):
+        raise SceneError(f"{what}: points must be positions [m] of shape (n, 3) (e.g. "
+                         f"sim.state.x), got shape {np.shape(points)}")
     n = p.shape[0]
+    if isinstance(sphere, dict):  # the scene's own form, {center = [...], radius = r}
+        if set(sphere) != {"center", "radius"}:
+            raise SceneError(f"{what}: sphere as a dict needs exactly 'center' and 'radius', "
+                             f"got {sorted(sphere)}")
+        sphere = (sphere["center"], sphere["radius"])
     if indices is not None:
         idx = np.asarray(indices)
         if idx.size == 0:
@@ -57,7 +69,9 @@ def select_points(points: np.ndarray, *, box=None, sphere=None, indices=None,
         try:
             center = np.asarray(sphere[0], dtype=np.float64).reshape(3)
             radius = float(sphere[1])
-        except (TypeError, ValueError, IndexError):
+            if isinstance(sphere[1], bool) or len(sphere) != 2:
+                raise ValueError
+        except (TypeError, ValueError, IndexError, KeyError):
             raise SceneError(f"{what}: sphere must be ([x, y, z], radius) in metres") from None
         if not (np.isfinite(radius) and radius > 0 and np.all(np.isfinite(center))):
             raise SceneError(f"{what}: sphere radius must be a number > 0 (m), got {radius:g}")
