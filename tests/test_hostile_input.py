@@ -1094,3 +1094,31 @@ def test_select_points_takes_the_scenes_sphere_and_names_bad_input():
             js.select_points(x, **kw)
     with pytest.raises(SceneError, match=r"shape \(n, 3\) .* got shape \(64, 2\)"):
         js.select_points(x[:, :2], box=[[0, 0, 0], [1, 1, 1]])
+
+
+def test_keys_a_run_would_not_read_are_said():
+    """Session 13's hostile trial: on the springs path these ran bitwise as without them,
+    silently: the implicit integrator's keys with another integrator, the tet material's
+    keys on springs, the ground's keys with the ground off.  Each is now warned, naming the
+    keys and why; a scene giving none of them warns nothing."""
+    import warnings
+
+    text = ('[body]\npoints = 40\nlower = [0.0, 0.1, 0.0]\nupper = [0.2, 0.3, 0.2]\n'
+            '[springs]\nradius = 0.1\nstiffness = 100.0\n[integrator]\ndt = 0.001\n'
+            'steps = 5\n{i}\n[material]\n{m}\n[ground]\n{g}\n')
+    cases = [(dict(i="theta = 0.5\nscheme = 'bdf2'"),
+              r"\[integrator\] scheme, theta apply to name = 'implicit' only"),
+             (dict(i="cg_tolerance = 0.5"), r"cg_tolerance apply to name = 'implicit'"),
+             (dict(m="poisson_ratio = 0.1\ndamping_ratio = 0.9"),
+              r"\[material\] poisson_ratio, damping_ratio act on the physical .* springs"),
+             (dict(m="mass_scaling = 0.05"), r"mass_scaling act on the physical"),
+             (dict(g="enabled = false\nmu = 0.0"), r"\[ground\] mu given, but the ground is off")]
+    for given, said in cases:
+        kw = dict(i="", m="", g="") | given
+        with pytest.warns(UserWarning, match=said):
+            scene = Scene.from_text(text.format(**kw), name="s.toml")
+            scene.simulator(scene.build_model())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene = Scene.from_text(text.format(i="", m="", g=""), name="s.toml")
+        scene.simulator(scene.build_model()).advance(1)

@@ -462,7 +462,15 @@ class Scene:
         """The fem model of the body (``[material] model`` 'fem', or 'auto' with tets), else
         ``None`` (the springs path; why is kept for the handles' error)."""
         self._springs_reason = springs_reason(self.params, body)
-        return scene_fem_model(self.params, body)
+        model = scene_fem_model(self.params, body)
+        idle = [k for k in ("poisson_ratio", "damping_ratio", "damping_frequency", "mass_scaling")
+                if k in self.given.get("material", ())]
+        if model is None and idle:  # (calibrated springs read E and the density only)
+            warnings.warn(f"{self.name}: [material] {', '.join(idle)} act on the physical "
+                          f"(tet) path only; this body runs on springs "
+                          f"({self._springs_reason or 'no tets'}), which ignore them",
+                          UserWarning, stacklevel=3)
+        return model
 
     def provot_params(self):
         p = self.params["provot"]

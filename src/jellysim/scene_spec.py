@@ -281,12 +281,34 @@ def check_given_keys(user: dict, preset_raw: dict, out: dict, name: str, preset)
                       f"only (integrator 'paper', which reuses the stored acceleration); the "
                       f"{integrator} integrator computes it afresh from the forces, so nu "
                       "changes nothing here (mu still acts)", stacklevel=3)
+    _said_unused(user, out, name)
     if "density" in user.get("mass", set()) and out["material"]["density"] is not None:
         source = (f", from the preset {preset!r}" if "density" not in user.get("material", set())
                   else "")
         raise SceneError(f"{name}: [mass] density is not used: [material] density "
                          f"({out['material']['density']:g} kg/m^3{source}) sets the body's "
                          "mass; set [material] density instead")
+
+
+IMPLICIT_KEYS = ("scheme", "theta", "cg_tolerance", "cg_max_iterations")
+"""``[integrator]`` keys read by ``name = "implicit"`` only."""
+
+
+def _said_unused(user: dict, out: dict, name: str) -> None:
+    """Warn of keys the scene gives that its run will not read: the implicit integrator's
+    with another integrator, the ground's with the ground off (session 13's hostile trial:
+    each ran bitwise as without it, silently)."""
+    import warnings
+
+    integrator = out.get("integrator", {}).get("name")
+    idle = [k for k in IMPLICIT_KEYS if k in user.get("integrator", set())]
+    if idle and integrator != "implicit":
+        warnings.warn(f"{name}: [integrator] {', '.join(idle)} apply to name = 'implicit' only; "
+                      f"the {integrator} integrator ignores them", UserWarning, stacklevel=4)
+    ground = [k for k in sorted(user.get("ground", set())) if k != "enabled"]
+    if ground and not out.get("ground", {}).get("enabled", True):
+        warnings.warn(f"{name}: [ground] {', '.join(ground)} given, but the ground is off "
+                      "(enabled = false): they do nothing", UserWarning, stacklevel=4)
 
 
 def given_keys(raw: dict, schema: dict, presets: dict, by_value: bool = True) -> dict:
