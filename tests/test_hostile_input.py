@@ -1122,3 +1122,22 @@ def test_keys_a_run_would_not_read_are_said():
         warnings.simplefilter("error")
         scene = Scene.from_text(text.format(i="", m="", g=""), name="s.toml")
         scene.simulator(scene.build_model()).advance(1)
+
+
+def test_python_options_that_were_taken_loosely_are_refused():
+    """Session 13's hostile trial: ``Simulator(precision="float16")`` ran in float64,
+    ``apply_force(total="no")`` split the force (a non-empty string is true) and
+    ``drag([0, 1], ...)`` dragged point 0 only, each silently."""
+    import jellysim as js
+
+    model = js.physical_model(js.Body.box(points=27), js.material("gelatin"))
+    with pytest.raises(SceneError, match="precision must be 'float64' or 'float32'"):
+        js.Simulator(model, dt=1 / 60, precision="float16")
+    sim = js.Simulator(model, dt=1 / 60)
+    with pytest.raises(SceneError, match="total must be True .* or False"):
+        sim.apply_force([0, 1], [1.0, 0.0, 0.0], total="no")
+    assert not sim.handles.point_force.any()
+    with pytest.raises(SceneError, match="drag: point must be one point index"):
+        sim.drag([0, 1], [0.0, 0.0, 0.0])
+    sim.apply_force([0, 1], [1.0, 0.0, 0.0], total=False)   # each point gets the force
+    assert sim.handles.point_force[[0, 1], 0].tolist() == [1.0, 1.0]

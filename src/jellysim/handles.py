@@ -388,6 +388,9 @@ class HandleMethods:
         is released (set to zero on those points) at that simulated time, on the step nearest
         to it (:meth:`advance` stops there): a push, then a free wobble."""
         self._require_physical("point forces")
+        if not isinstance(total, (bool, np.bool_)):
+            raise SceneError(f"apply_force: total must be True (the force is split over the "
+                             f"points) or False (each point gets it), got {total!r}")
         idx = self._point_indices(indices, "apply_force")
         f = _vec3(force, "apply_force: force [N]")
         release = None if until is None else release_step(until, self.dt, self.state.step)
@@ -452,6 +455,9 @@ class HandleMethods:
                                                and np.isfinite(stiffness) and stiffness > 0):
             raise SceneError(f"drag: stiffness must be a spring constant > 0 [N/m], got "
                              f"{stiffness!r}")
+        if np.ndim(point) != 0 or isinstance(point, bool):
+            raise SceneError(f"drag: point must be one point index (its patch comes with it; "
+                             f"radius= widens it), got {point!r}")
         p = int(self._point_indices([point], "drag")[0])
         goal = _vec3(target, "drag: target [m]")
         if int(d[0]) != p or radius is not None:  # a new grab: choose the patch

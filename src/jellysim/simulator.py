@@ -305,6 +305,8 @@ class Simulator(HandleMethods, PhysicalStepping):
                              f"got {backend!r}") from None
         from .scene import check_backend
 
+        if precision not in ("float64", "float32"):
+            raise SceneError(f"precision must be 'float64' or 'float32', got {precision!r}")
         check_backend(self.backend.value, self.integrator.value, device or "auto", precision)
         self._k = get_backend(self.backend, device=device, precision=precision)
         self.precision = precision
