@@ -5,11 +5,11 @@ groups of kernels one after the other: the body's (point-in-mesh test, sampling)
 is built, then the time step's when the simulation starts.  :func:`start` runs the second group
 in a second process meanwhile: it builds the same scene on a tiny box body and takes one step,
 so numba writes the step's kernels to its on-disk cache; :func:`wait`, called before the first
-step of the physical path (:func:`jellysim.kernels.fem_numba.physical_steps`), lets that process
-finish, and the step's kernels are then loaded from the cache instead of compiled.
+frames of the physical path (``Simulator._advance_physical``), lets that process finish, and
+the step's kernels are then loaded from the cache instead of compiled.
 
-Measured (``jellysim demo`` on a cold cache, BENCHMARKS.md "First run"): the step's kernels
-compile in the second process while the mould is sampled.
+Measured (``jellysim demo`` on a cold cache, BENCHMARKS.md "The demo", session 13): 68-71 s
+before, 48-56 s after (the split of the step's drivers included).
 
 Nothing is started when the kernels are already cached, under ``mpiexec``, on one core, when
 numba's cache is off, or with ``JELLYSIM_WARMUP=0``.  The second process writes nothing but

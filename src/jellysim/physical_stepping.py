@@ -215,6 +215,9 @@ class PhysicalStepping:
         hooks :meth:`_physical_chunk`, :meth:`_agreed_min_j` and :meth:`_announce` are what
         the MPI driver (:class:`jellysim.distributed.fem.PhysicalMethods`) replaces.
         Returns ``(steps done, status)``."""
+        from . import _warmup
+
+        _warmup.wait()  # a first run's step kernels, compiled by a second process (if any)
         s, hd = self.state, self.handles
         done = 0
         status = STATUS_OK

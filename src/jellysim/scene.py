@@ -24,7 +24,8 @@ from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-
                               make_obstacle, validate_obstacles)
 from .scene_schema import SCHEMA
 from .scene_spec import (Spec, as_toml, check_backend, check_given_keys, check_value,
-                         given_keys, plain, grid_radius, missing_path, refuse_unused_keys)
+                         given_keys, plain, grid_radius, missing_path, refuse_unused_keys,
+                         said_springs_ignore)
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
 from .scene_doc import schema_markdown as make
@@ -463,13 +464,8 @@ class Scene:
         ``None`` (the springs path; why is kept for the handles' error)."""
         self._springs_reason = springs_reason(self.params, body)
         model = scene_fem_model(self.params, body)
-        idle = [k for k in ("poisson_ratio", "damping_ratio", "damping_frequency", "mass_scaling")
-                if k in self.given.get("material", ())]
-        if model is None and idle:  # (calibrated springs read E and the density only)
-            warnings.warn(f"{self.name}: [material] {', '.join(idle)} act on the physical "
-                          f"(tet) path only; this body runs on springs "
-                          f"({self._springs_reason or 'no tets'}), which ignore them",
-                          UserWarning, stacklevel=3)
+        if model is None:  # (calibrated springs read E and the density only)
+            said_springs_ignore(self.given, self.name, self._springs_reason)
         return model
 
     def provot_params(self):
@@ -501,12 +497,9 @@ class Scene:
         check_backend(it["backend"], it["name"], it["device"], it["precision"], where=self.name,
                       physical=_wants_fem(self.params))
         scene = Scene({**self.params, "integrator": it}, text=self.text, name=self.name)
-        # (as --set items, so that an interrupted run's "continue with" line keeps them)
-        scene.overrides = self.overrides + tuple(
-            f"integrator.{key}={value}" for key, value in (
-                ("backend", backend), ("device", device), ("precision", precision))
-            if value is not None)
-        scene.given = self.given
+        scene.given = self.given  # (as --set items: an interrupted run's command keeps them)
+        scene.overrides = self.overrides + tuple(f"integrator.{k}={v}" for k, v in (
+            ("backend", backend), ("device", device), ("precision", precision)) if v is not None)
         return scene
 
     def simulator(self, model=None, *, settle: bool = True, **overrides):

@@ -154,6 +154,8 @@ def check_backend(backend: str, integrator: str, device: str = "auto",
     backend implements)."""
 
     at = f"{where}: " if where else ""
+    if precision not in ("float64", "float32"):
+        raise SceneError(f"{at}precision must be 'float64' or 'float32', got {precision!r}")
     if backend == "warp" and integrator not in WARP_INTEGRATORS:
         raise SceneError(
             f"{at}[integrator] backend = 'warp' supports integrators "
@@ -309,6 +311,19 @@ def _said_unused(user: dict, out: dict, name: str) -> None:
     if ground and not out.get("ground", {}).get("enabled", True):
         warnings.warn(f"{name}: [ground] {', '.join(ground)} given, but the ground is off "
                       "(enabled = false): they do nothing", UserWarning, stacklevel=4)
+
+
+def said_springs_ignore(given: dict, name: str, reason: str | None) -> None:
+    """Warn of the tet material's keys given to a body that runs on springs (they are read by
+    the physical path only)."""
+    import warnings
+
+    idle = [k for k in ("poisson_ratio", "damping_ratio", "damping_frequency", "mass_scaling")
+            if k in given.get("material", ())]
+    if idle:
+        warnings.warn(f"{name}: [material] {', '.join(idle)} act on the physical (tet) path "
+                      f"only; this body runs on springs ({reason or 'no tets'}), which ignore "
+                      "them", UserWarning, stacklevel=4)
 
 
 def given_keys(raw: dict, schema: dict, presets: dict, by_value: bool = True) -> dict:

@@ -23,7 +23,9 @@ from .params import (MAX_ALL_PAIRS_POINTS, GroundModel, GroundParams, ImplicitPa
 from .handles import HandleMethods
 from .physical_stepping import PhysicalStepping, blowup_error, travel_error
 from .physics.contact import start_checks
-from .stability import StabilityEstimate, estimate_stability, implicit_accuracy
+from .stability import (MAX_AUTO_SUBSTEPS, StabilityEstimate, estimate_stability,  # noqa: F401
+                        implicit_accuracy, springs_auto_substeps)
+from .state import check_state
 
 __all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads",
            "springs_auto_substeps"]
@@ -67,65 +69,12 @@ STATUS_COLLAPSE = 102
 """``SimulationError.status`` of a body that collapsed in one call (not a kernel code)."""
 
 
-MAX_AUTO_SUBSTEPS = 10_000
-"""``substeps = "auto"`` on the springs' symplectic path refuses to go beyond this."""
-
-
-def springs_auto_substeps(model, dt) -> tuple[int, StabilityEstimate]:
-    """Substeps of the springs' symplectic integrator for ``substeps = "auto"``: ``dt`` [s]
-    over 0.9 of the estimated stable step (as the physical path counts its own; the report's
-    ``paper`` integrator keeps one step per ``dt``), and the estimate."""
-    est = estimate_stability(model, Integrator.SYMPLECTIC, float(dt))
-    if not (est.dt_max > 0 and np.isfinite(est.dt_max)):
-        return 1, est
-    need = max(1, int(np.ceil(float(dt) / (0.9 * est.dt_max))))
-    if need > MAX_AUTO_SUBSTEPS:
-        raise SceneError(
-            f"the springs are too stiff for dt = {float(dt):g} s: the symplectic integrator "
-            f"would need {need} substeps per step (stable limit {est.dt_max:.3g} s, "
-            f"{est.reason}); soften them, use integrator = 'implicit', or for a tet body "
-            "(connect = 'marching' or 'delaunay') the physical material "
-            "([material] model = 'fem')")
-    return need, est
-
-
-def check_state(state, n: int, where: str) -> None:
-    """Refuse a state the kernels cannot update in place: ``x``, ``v``, ``a`` must each be a
-    writeable, C-contiguous float64 numpy array of shape (n, 3) (the kernels read and write
-    them without bounds checks: another shape read past its end, another dtype was
-    truncated), ``t`` a finite number of seconds and ``step`` a whole number >= 0."""
-    from .state import State
-
-    if not isinstance(state, State):
-        raise SceneError(f"{where}: the state must be a jellysim State (model.state(), or "
-                         f"sim.state), got {type(state).__name__}")
-    for name in ("x", "v", "a"):
-        a = getattr(state, name)
-        what = {"x": "positions [m]", "v": "velocities [m/s]", "a": "accelerations [m/s^2]"}
-        ok = (isinstance(a, np.ndarray) and a.dtype == np.float64 and a.shape == (n, 3)
-              and a.flags.c_contiguous and a.flags.writeable)
-        if not ok:
-            got = (f"{a.dtype} {a.shape}" + ("" if a.flags.c_contiguous else ", not contiguous")
-                   + ("" if a.flags.writeable else ", read-only")
-                   if isinstance(a, np.ndarray) else type(a).__name__)
-            raise SceneError(
-                f"{where}: state.{name} ({what[name]}) must be a writeable float64 array of "
-                f"shape ({n}, 3), one row per point of this model; got {got}.  Set its "
-                f"values in place (sim.state.{name}[:] = ...) rather than giving it another "
-                "array, or start from model.state()")
-    if isinstance(state.t, bool) or not isinstance(state.t, (int, float, np.number)) or (
-            not np.isfinite(state.t)):
-        raise SceneError(f"{where}: state.t (the simulated time [s]) must be a finite number, "
-                         f"got {state.t!r}")
-    if isinstance(state.step, bool) or not isinstance(state.step, (int, np.integer)) or (
-            state.step < 0):
-        raise SceneError(f"{where}: state.step must be a whole number >= 0, got "
-                         f"{state.step!r}")
-
-
 def _usable_threads(threads: int, backend) -> int:
     """``threads`` capped at numba's pool (``NUMBA_NUM_THREADS``, by default the cores), said
     (by rank 0 under mpiexec): ``Simulator.threads`` is what the steps use."""
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise SceneError(f"threads must be an integer >= 1 (or None: by size), got {threads!r}")
+    threads = int(threads)
     import numba
 
     from ._numba_cache import _rank
@@ -305,8 +254,6 @@ class Simulator(HandleMethods, PhysicalStepping):
                              f"got {backend!r}") from None
         from .scene import check_backend
 
-        if precision not in ("float64", "float32"):
-            raise SceneError(f"precision must be 'float64' or 'float32', got {precision!r}")
         check_backend(self.backend.value, self.integrator.value, device or "auto", precision)
         self._k = get_backend(self.backend, device=device, precision=precision)
         self.precision = precision
@@ -324,12 +271,8 @@ class Simulator(HandleMethods, PhysicalStepping):
             threads = 1  # a substep's work is too small to pay for thread synchronisation
         if threads is None:  # (the physical path's work is its tets, counted above)
             threads = auto_threads(n, None if self.physical else model.spring_count)
-        if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-            raise SceneError(f"threads must be an integer >= 1 (or None: by size), got {threads!r}")
-        self.threads = _usable_threads(int(threads), self.backend)
-        if state is not None:
-            check_state(state, n, "Simulator(state=)")
-        self.state = model.state() if state is None else state
+        self.threads = _usable_threads(threads, self.backend)
+        self.state = model.state() if state is None else check_state(state, n, "Simulator(state=)")
         x0 = model.point_x0
         self.center = np.ascontiguousarray(x0.mean(axis=0))
         if runaway_distance is None:
@@ -506,10 +449,6 @@ class Simulator(HandleMethods, PhysicalStepping):
             return
         s = self.state
         thin_before = self._thinness(s.x) if self._collapse_check else None
-        from . import _warmup
-
-        if _warmup.pending():  # a first run's step kernels, compiled by a second process
-            _warmup.wait()
         import numba
 
         previous = numba.get_num_threads()

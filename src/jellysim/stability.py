@@ -26,9 +26,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import SceneError
 from .params import Integrator
 
-__all__ = ["StabilityEstimate", "estimate_stability", "max_eigenvalue"]
+__all__ = ["MAX_AUTO_SUBSTEPS", "StabilityEstimate", "estimate_stability", "max_eigenvalue",
+           "springs_auto_substeps"]
 
 POWER_ITERATION_MAX_SPRINGS = 2_000_000
 
@@ -193,3 +195,25 @@ def implicit_accuracy(omega_max: float, dt: float, *, theta: float = 1.0,
                  f"{'resolved' if z < 1 else 'not resolved'}), which loses {loss:.1%} of its "
                  "amplitude per step")
     return z, loss, words
+
+
+MAX_AUTO_SUBSTEPS = 10_000
+"""``substeps = "auto"`` on the springs' symplectic path refuses to go beyond this."""
+
+
+def springs_auto_substeps(model, dt) -> tuple[int, StabilityEstimate]:
+    """Substeps of the springs' symplectic integrator for ``substeps = "auto"``: ``dt`` [s]
+    over 0.9 of the estimated stable step (as the physical path counts its own; the report's
+    ``paper`` integrator keeps one step per ``dt``), and the estimate."""
+    est = estimate_stability(model, Integrator.SYMPLECTIC, float(dt))
+    if not (est.dt_max > 0 and np.isfinite(est.dt_max)):
+        return 1, est
+    need = max(1, int(np.ceil(float(dt) / (0.9 * est.dt_max))))
+    if need > MAX_AUTO_SUBSTEPS:
+        raise SceneError(
+            f"the springs are too stiff for dt = {float(dt):g} s: the symplectic integrator "
+            f"would need {need} substeps per step (stable limit {est.dt_max:.3g} s, "
+            f"{est.reason}); soften them, use integrator = 'implicit', or for a tet body "
+            "(connect = 'marching' or 'delaunay') the physical material "
+            "([material] model = 'fem')")
+    return need, est

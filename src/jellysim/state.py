@@ -5,9 +5,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import SceneError
+
 from .kernels.records import point_arrays, spring_arrays
 
-__all__ = ["State"]
+__all__ = ["State", "check_state"]
 
 
 @dataclass(eq=False)
@@ -51,3 +53,36 @@ class State:
         self.a[:] = other.a
         self.t = other.t
         self.step = other.step
+
+
+def check_state(state, n: int, where: str) -> "State":
+    """Refuse a state the kernels cannot update in place: ``x``, ``v``, ``a`` must each be a
+    writeable, C-contiguous float64 numpy array of shape (n, 3) (the kernels read and write
+    them without bounds checks: another shape read past its end, another dtype was
+    truncated), ``t`` a finite number of seconds and ``step`` a whole number >= 0."""
+    if not isinstance(state, State):
+        raise SceneError(f"{where}: the state must be a jellysim State (model.state(), or "
+                         f"sim.state), got {type(state).__name__}")
+    for name in ("x", "v", "a"):
+        a = getattr(state, name)
+        what = {"x": "positions [m]", "v": "velocities [m/s]", "a": "accelerations [m/s^2]"}
+        ok = (isinstance(a, np.ndarray) and a.dtype == np.float64 and a.shape == (n, 3)
+              and a.flags.c_contiguous and a.flags.writeable)
+        if not ok:
+            got = (f"{a.dtype} {a.shape}" + ("" if a.flags.c_contiguous else ", not contiguous")
+                   + ("" if a.flags.writeable else ", read-only")
+                   if isinstance(a, np.ndarray) else type(a).__name__)
+            raise SceneError(
+                f"{where}: state.{name} ({what[name]}) must be a writeable float64 array of "
+                f"shape ({n}, 3), one row per point of this model; got {got}.  Set its "
+                f"values in place (sim.state.{name}[:] = ...) rather than giving it another "
+                "array, or start from model.state()")
+    if isinstance(state.t, bool) or not isinstance(state.t, (int, float, np.number)) or (
+            not np.isfinite(state.t)):
+        raise SceneError(f"{where}: state.t (the simulated time [s]) must be a finite number, "
+                         f"got {state.t!r}")
+    if isinstance(state.step, bool) or not isinstance(state.step, (int, np.integer)) or (
+            state.step < 0):
+        raise SceneError(f"{where}: state.step must be a whole number >= 0, got "
+                         f"{state.step!r}")
+    return state
