@@ -1141,3 +1141,9 @@ def test_python_options_that_were_taken_loosely_are_refused():
         sim.drag([0, 1], [0.0, 0.0, 0.0])
     sim.apply_force([0, 1], [1.0, 0.0, 0.0], total=False)   # each point gets the force
     assert sim.handles.point_force[[0, 1], 0].tolist() == [1.0, 1.0]
+    # substeps = 1e10 ran for hours without a word: refused beyond 100 x the auto limit
+    from jellysim.simulator import MAX_AUTO_SUBSTEPS
+
+    with pytest.raises(SceneError, match=r"substeps = 1e\+10 per step .* smaller dt"):
+        js.Simulator(model, dt=1 / 60, substeps=1e10)
+    assert js.Simulator(model, dt=1 / 60, substeps=2 * MAX_AUTO_SUBSTEPS).substeps == 20_000

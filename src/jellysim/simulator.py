@@ -206,6 +206,10 @@ class Simulator(HandleMethods, PhysicalStepping):
         if isinstance(substeps, bool) or not isinstance(substeps, (int, float, np.number)) or (
                 not np.isfinite(substeps) or substeps != int(substeps) or substeps < 1):
             raise SceneError(f"substeps must be an integer >= 1 or 'auto', got {substeps!r}")
+        if substeps > 100 * max(MAX_AUTO_SUBSTEPS, self.needed_substeps):  # (1e10 ran for hours)
+            raise SceneError(f"substeps = {substeps:g} per step is more than 100 x "
+                             f"{max(MAX_AUTO_SUBSTEPS, self.needed_substeps)}: one step would "
+                             "run for minutes to hours; give a smaller dt, or 'auto'")
         self.substeps = int(substeps)
         if self.physical and self.substeps < self.needed_substeps:
             warnings.warn(
