@@ -28,10 +28,14 @@ from jellysim.simulator import StabilityWarning
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _rests(path, points=None):
+def _rests(path, points=None, size=None, youngs_modulus=None):
     scene = Scene.load(path)
     if points is not None:
         scene.params["body"]["points"] = points
+    if size is not None:
+        scene.params["body"]["size"] = size
+    if youngs_modulus is not None:
+        scene.params["material"]["youngs_modulus"] = youngs_modulus
     mesh = scene.resolve(scene.params["body"]["path"])
     if not mesh.exists():
         pytest.skip(f"{mesh} not found (the Stanford bunny is not shipped with jellysim)")
@@ -59,3 +63,19 @@ def test_gelatin_bunny_rests_with_its_ears_folded():
 
 def test_firm_gelatin_cow_stands():
     assert 0.9 <= _rests(ROOT / "examples" / "spot_drop.toml", points=800) <= 1.01
+
+
+def test_dessert_gelatin_cow_stands_when_small_and_sags_as_rho_g_l_over_e():
+    """At rest a body's strain depends on its size L and stiffness E only through
+    rho g L / E (the weight per area over the stiffness): a 3 cm cow of dessert gelatin
+    (10 kPa) has the legs' strain of a 10 cm cow at 33 kPa, a tenth of the 10 cm dessert
+    cow's 50 %.  Measured: the 3 cm dessert cow stands within 10 % of its height, and the
+    10 cm cow at 10 kPa x 10 / 3 rests at the same fraction of its height (to 1 %: the
+    similarity is exact for the continuum and for a mesh scaled with the body)."""
+    small = _rests(ROOT / "examples" / "spot_drop.toml", points=800, size=0.03,
+                   youngs_modulus=1.0e4)
+    large = _rests(ROOT / "examples" / "spot_drop.toml", points=800, size=0.1,
+                   youngs_modulus=1.0e4 * 0.1 / 0.03)
+    assert 0.9 <= small <= 1.01
+    assert large == pytest.approx(small, rel=0.01)
+
