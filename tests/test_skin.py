@@ -199,8 +199,18 @@ def test_a_skin_part_the_body_does_not_fill_is_said():
     from jellysim.skin import default_skin
 
     body = js.Body.from_mesh((both.vertices, both.faces), size=None, points=1000)
-    with pytest.warns(UserWarning, match=r"skin: 162 of its 804 vertices \(around \(0.07, "):
+    with pytest.warns(UserWarning, match=r"skin: 162 of its 804 vertices \(162 around \(0.07, "):
         default_skin(None, body)           # (what a run, a Recorder or the demo binds)
+    # two such parts on either side (session 13's teapot: spout and handle): each is named,
+    # where the mean of all of them pointed at the ball's middle, at neither
+    other = crumb.copy()
+    other.apply_translation([-0.14, 0.0, 0.0])
+    three = trimesh.util.concatenate([ball, crumb, other])
+    body = js.Body.from_mesh((three.vertices, three.faces), size=None, points=1000)
+    with pytest.warns(UserWarning) as said:
+        default_skin(None, body)
+    msg = [str(w.message) for w in said if "extrapolation" in str(w.message)][0]
+    assert "162 around (0.07, " in msg and "162 around (-0.07, " in msg, msg
     alone = js.Body.from_mesh((ball.vertices, ball.faces), size=None, points=1000)
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter("always")

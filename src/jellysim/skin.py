@@ -243,13 +243,34 @@ def _say_extrapolated(vertices: np.ndarray, amplification: np.ndarray) -> None:
         return
     import warnings
 
-    c = vertices[far].mean(axis=0)
-    warnings.warn(f"skin: {int(far.sum())} of its {len(vertices)} vertices (around ({c[0]:.3g}, "
-                  f"{c[1]:.3g}, {c[2]:.3g}) m) lie well outside the body's tets and follow them "
-                  f"by extrapolation, moving up to {float(amplification.max()):.3g}x the "
-                  "nearest corners: a part thinner than the point spacing or a piece apart "
-                  "from the body has no points of its own; more points, or a thicker part, "
-                  "carry it", UserWarning, stacklevel=3)
+    where = _places(vertices[far], amplification[far], np.ptp(vertices, axis=0).max())
+    warnings.warn(f"skin: {int(far.sum())} of its {len(vertices)} vertices ({where}) lie well "
+                  f"outside the body's tets and follow them by extrapolation, moving up to "
+                  f"{float(amplification.max()):.3g}x the nearest corners: a part thinner than "
+                  "the point spacing or a piece apart from the body has no points of its own; "
+                  "more points, or a thicker part, carry it", UserWarning, stacklevel=3)
+
+
+def _places(x: np.ndarray, amp: np.ndarray, extent: float, most: int = 3) -> str:
+    """Where the vertices ``x`` [m] lie, as up to ``most`` groups (vertices within 5 % of
+    the skin's ``extent`` of one another), largest amplification first: "12 around (x, y, z)
+    m, up to 4.2x; ...".  (One mean of all of them pointed between a teapot's handle and its
+    spout, at neither.)"""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(x).query_pairs(0.05 * max(extent, 1e-300), output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                       shape=(len(x), len(x))) if len(pairs) else coo_matrix((len(x), len(x)))
+    count, label = connected_components(graph, directed=False)
+    groups = sorted(range(count), key=lambda g: -amp[label == g].max())
+    parts = []
+    for g in groups[:most]:
+        c = x[label == g].mean(axis=0)
+        parts.append(f"{int((label == g).sum())} around ({c[0]:.3g}, {c[1]:.3g}, {c[2]:.3g}) m, "
+                     f"up to {float(amp[label == g].max()):.3g}x")
+    return "; ".join(parts) + (f"; and {count - most} more places" if count > most else "")
 
 
 def bind_body_skin(body, vertices: np.ndarray, faces: np.ndarray) -> Skin:
