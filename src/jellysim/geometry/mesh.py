@@ -440,9 +440,9 @@ def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol:
 
     _edge_report(f, d)
     d.shells = _shell_of_faces(f, len(v))[0]
-    from .shells import face_volumes
+    from .shells import face_volumes_x6
 
-    d.volume = float(face_volumes(v, f).sum())
+    d.volume = float(face_volumes_x6(v, f).sum() / 6.0)
     d.face_count = int(len(f))
     d.vertex_count = int(len(v))
     return Mesh(

@@ -62,10 +62,10 @@ def inside_out_note(traj) -> str | None:
     if np.any(np.unique(edges, axis=0, return_counts=True)[1] != 2):
         return None  # an open surface encloses no volume to check
 
-    from ..geometry.shells import face_volumes
+    from ..geometry.shells import face_volumes_x6
 
     def volume(v):  # [m^3], the divergence theorem over the triangles
-        return float(face_volumes(v, faces).sum())
+        return float(face_volumes_x6(v, faces).sum()) / 6.0
 
     if not volume(frames[0]) > 0:
         return None
