@@ -1007,3 +1007,42 @@ def test_a_gif_asked_faster_than_it_can_play_is_said(tmp_path, traj):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         render_trajectory(traj, tmp_path / "s.gif", RenderOptions(size=SIZE), fps=25.0)
+
+
+def test_a_second_process_renders_the_same_pictures(tmp_path, monkeypatch):
+    """A video's odd frames are rendered by a second process (render/parallel.py): the
+    pictures are those of one process, pixel for pixel (every PNG byte for byte), the helper
+    really delivered its half, and a helper that fails leaves its frames to this process
+    (the same pictures again)."""
+    from jellysim.render import RenderOptions, parallel, render_trajectory
+
+    out = tmp_path / "run"
+    text = SCENE.replace("every = 40", "every = 10").replace("vtu = true", "vtu = false")
+    run_scene(Scene.from_text(text, name="scene.toml"), out, progress=False)
+    traj = load_trajectory(out / "trajectory.npz")
+    assert traj.frame_count >= parallel.MIN_FRAMES
+    delivered = []
+    plain_next = parallel.FrameHelper.next
+
+    def counted(self):
+        img = plain_next(self)
+        delivered.append(img is not None)
+        return img
+
+    monkeypatch.setattr(parallel.FrameHelper, "next", counted)
+    opts = RenderOptions(size=SIZE)
+    pictures = {}
+    for name, processes, command in (("one", "1", None), ("two", "2", None),
+                                     ("failed", "2", (sys.executable, "-c", "exit(3)"))):
+        monkeypatch.setenv("JELLYSIM_RENDER_PROCESSES", processes)
+        if command is not None:
+            monkeypatch.setattr(parallel, "COMMAND", command)
+        delivered.clear()
+        folder = render_trajectory(traj, tmp_path / name, opts)
+        pictures[name] = {p.name: p.read_bytes() for p in sorted(folder.glob("*.png"))}
+        if name == "two":
+            assert sum(delivered) == traj.frame_count // 2  # the helper's half, all of it
+        if name == "failed":
+            assert delivered and not any(delivered)          # it failed over at once
+    assert len(pictures["one"]) == traj.frame_count
+    assert pictures["two"] == pictures["one"] and pictures["failed"] == pictures["one"]

@@ -34,6 +34,9 @@ TIMEOUT_S = 120.0
 
 _HEADER = struct.Struct("<Q")
 
+COMMAND = (sys.executable, "-m", "jellysim.render.parallel")
+"""The helper's command line (its payload comes on stdin, its frames go to stdout)."""
+
 
 def wanted(count: int) -> bool:
     """Whether ``count`` frames are worth a second process here."""
@@ -56,7 +59,7 @@ class FrameHelper:
         try:
             payload = pickle.dumps((list(runs), options, list(labels),
                                     [int(f) for f in frames]), protocol=pickle.HIGHEST_PROTOCOL)
-            self._proc = subprocess.Popen([sys.executable, "-m", "jellysim.render.parallel"],
+            self._proc = subprocess.Popen(list(COMMAND),
                                           env=env, stdin=subprocess.PIPE,
                                           stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
             self._proc.stdin.write(payload)
