@@ -318,3 +318,25 @@ def test_a_mesh_far_from_the_origin_keeps_its_volume_and_winding(tmp_path, offse
         assert name != "cube" or want == pytest.approx(1e-3, rel=1e-12)
         faces, turned = outward_shells(mesh.vertices, mesh.faces)
         assert turned == [] and np.array_equal(faces, mesh.faces)
+
+
+def test_two_shells_far_apart_each_keep_their_volume(tmp_path):
+    """Session 13's verification: with one centre for the whole mesh, a cube at the origin
+    and a ball 1,700 km away summed to -65 m^3 and the ball was 'turned outward'.  Each shell
+    is taken about its own centre: the sum of the two volumes, nothing turned."""
+    import warnings
+
+    import trimesh
+
+    cube, ball = trimesh.creation.box(extents=[0.1] * 3), trimesh.creation.icosphere(3, 0.05)
+    ball.apply_translation([1e6, 1e6, 1e6])
+    both = trimesh.util.concatenate([cube, ball])
+    path = tmp_path / "two.obj"
+    path.write_text("".join("v %r %r %r\n" % tuple(map(float, p)) for p in both.vertices)
+                    + "".join("f %d %d %d\n" % tuple(t + 1) for t in both.faces))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "turned outward"
+        mesh = load_mesh(path)
+    assert mesh.defects.shells == 2
+    assert mesh.defects.volume == pytest.approx(1e-3 + trimesh.creation.icosphere(
+        3, 0.05).volume, rel=1e-7)

@@ -65,8 +65,8 @@ def start(params: dict) -> bool:
     """Start compiling the time step of the scene ``params`` (a scene's parameter dict,
     :attr:`jellysim.scene.Scene.params`) in a second process; True if one was started."""
     global _proc
-    if _proc is not None or os.environ.get("JELLYSIM_WARMUP", "1").lower() in ("0", "no",
-                                                                                  "off"):
+    if _proc is not None or os.environ.get("JELLYSIM_WARMUP", "1").strip().lower() in (
+            "0", "no", "off", "false"):
         return False
     if _mpi() or (os.cpu_count() or 1) < 2 or os.environ.get("NUMBA_DISABLE_JIT") == "1":
         return False

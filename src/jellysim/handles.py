@@ -455,10 +455,10 @@ class HandleMethods:
                                                and np.isfinite(stiffness) and stiffness > 0):
             raise SceneError(f"drag: stiffness must be a spring constant > 0 [N/m], got "
                              f"{stiffness!r}")
-        if np.ndim(point) != 0 or isinstance(point, bool):
+        if np.size(point) != 1 or isinstance(point, bool):
             raise SceneError(f"drag: point must be one point index (its patch comes with it; "
                              f"radius= widens it), got {point!r}")
-        p = int(self._point_indices([point], "drag")[0])
+        p = int(self._point_indices(np.reshape(point, 1), "drag")[0])
         goal = _vec3(target, "drag: target [m]")
         if int(d[0]) != p or radius is not None:  # a new grab: choose the patch
             x = self.state.x

@@ -154,7 +154,7 @@ def check_backend(backend: str, integrator: str, device: str = "auto",
     backend implements)."""
 
     at = f"{where}: " if where else ""
-    if precision not in ("float64", "float32"):
+    if not isinstance(precision, str) or precision not in ("float64", "float32"):
         raise SceneError(f"{at}precision must be 'float64' or 'float32', got {precision!r}")
     if backend == "warp" and integrator not in WARP_INTEGRATORS:
         raise SceneError(

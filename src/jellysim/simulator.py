@@ -258,6 +258,11 @@ class Simulator(HandleMethods, PhysicalStepping):
                              f"got {backend!r}") from None
         from .scene import check_backend
 
+        if not isinstance(precision, str):  # np.float64, np.dtype("float32"): their names
+            try:
+                precision = np.dtype(precision).name
+            except TypeError:
+                pass
         check_backend(self.backend.value, self.integrator.value, device or "auto", precision)
         self._k = get_backend(self.backend, device=device, precision=precision)
         self.precision = precision

@@ -439,10 +439,10 @@ def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol:
     f = remap[f].astype(np.int64)
 
     _edge_report(f, d)
-    d.shells = _shell_of_faces(f, len(v))[0]
+    d.shells, shell = _shell_of_faces(f, len(v))
     from .shells import face_volumes_x6
 
-    d.volume = float(face_volumes_x6(v, f).sum() / 6.0)
+    d.volume = float(face_volumes_x6(v, f, shell).sum() / 6.0)
     d.face_count = int(len(f))
     d.vertex_count = int(len(v))
     return Mesh(

@@ -28,18 +28,33 @@ def winding_number(vertices: np.ndarray, faces: np.ndarray, point) -> float:
                                np.asarray(point, dtype=np.float64).reshape(1, 3))[0])
 
 
-def face_volumes_x6(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Six times each triangle's signed volume [units^3] (f,) of the tetrahedron it spans with the
-    centre of the vertices' bounding box: their sum over a closed, outward shell is its
-    enclosed volume (the divergence theorem).  Taken about the box's centre, not the origin,
-    so a mesh far from the origin keeps its digits (a 10 cm cube 100 km away summed about the
-    origin came out 12x its volume, 1000 km away negative); a mesh centred on the origin gets
-    exactly the figures it had (an open surface's "volume" depends on that point)."""
+def face_volumes_x6(vertices: np.ndarray, faces: np.ndarray,
+                    label: np.ndarray | None = None) -> np.ndarray:
+    """Six times each triangle's signed volume [units^3] (f,): of the tetrahedron it spans
+    with the centre of its shell's bounding box (``label``: each face's shell, from
+    :func:`_shell_of_faces`; default: one box for all).  Their sum over a closed, outward
+    shell is six times its enclosed volume (the divergence theorem; divide the sum, not each
+    term: [-1, 1]^3 then gives exactly 8.0).  Taken about the box's centre, not the origin, so
+    a mesh far from the origin keeps its digits (a 10 cm cube 100 km away summed about the
+    origin came out 12x its volume, 1000 km away negative, and two shells far apart need a
+    centre each); a mesh centred on the origin gets exactly the figures it had (an open
+    surface's "volume" depends on that point)."""
     v = np.asarray(vertices, dtype=np.float64)
-    v = v - 0.5 * (v.min(axis=0) + v.max(axis=0)) if len(v) else v
-    a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
-    return np.einsum("ij,ij->i", a, np.cross(b, c))  # (divided by 6 after the sum: exact
-    # for [-1, 1]^3, 8.0, where dividing each term first gave 7.999999999999999)
+    f = np.asarray(faces, dtype=np.int64)
+    if label is None or len(f) == 0:
+        centre = 0.5 * (v.min(axis=0) + v.max(axis=0)) if len(v) else np.zeros(3)
+        a, b, c = v[f[:, 0]] - centre, v[f[:, 1]] - centre, v[f[:, 2]] - centre
+    else:
+        count = int(label.max()) + 1
+        tri = v[f]                                          # (f, 3, 3)
+        lo = np.full((count, 3), np.inf)
+        hi = np.full((count, 3), -np.inf)
+        np.minimum.at(lo, label, tri.min(axis=1))
+        np.maximum.at(hi, label, tri.max(axis=1))
+        centre = (0.5 * (lo + hi))[label][:, None, :]
+        tri = tri - centre
+        a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    return np.einsum("ij,ij->i", a, np.cross(b, c))
 
 
 def _shell_of_faces(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray]:
@@ -72,7 +87,7 @@ def outward_shells(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     count, label = _shell_of_faces(f, len(v))
     if count < 2 or count > MAX_SHELLS:
         return f, []
-    vol = np.bincount(label, weights=face_volumes_x6(v, f), minlength=count) / 6.0
+    vol = np.bincount(label, weights=face_volumes_x6(v, f, label), minlength=count) / 6.0
     inside = _probe_inside(v, f, label, count)
     turned, out = [], f.copy()
     for s in np.flatnonzero(vol < 0):
