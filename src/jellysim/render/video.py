@@ -46,9 +46,7 @@ class _SideBySide:
         return np.concatenate(images, axis=1)
 
 
-def _frames_with_progress(renderer, frames, progress: bool, label: str, helper=None):
-    """The images of ``frames`` in order; a :class:`~.parallel.FrameHelper` (given) renders
-    every other one (it fails over to ``renderer``)."""
+def _frames_with_progress(renderer, frames, progress: bool, label: str):
     bar = None
     if progress:
         from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
@@ -60,14 +58,11 @@ def _frames_with_progress(renderer, frames, progress: bool, label: str, helper=N
         bar.start()
         task = bar.add_task(label, total=len(frames))
     try:
-        for k, f in enumerate(frames):
-            img = helper.next() if helper is not None and k % 2 == 1 else None
-            yield renderer.render(int(f)) if img is None else img
+        for f in frames:
+            yield renderer.render(int(f))
             if bar is not None:
                 bar.advance(task)
     finally:
-        if helper is not None:
-            helper.close()
         if bar is not None:
             bar.stop()
 
@@ -138,11 +133,7 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
             t, options, frame_with=[u for u in runs if u is not t] if beside else (),
             label=labels[k])) for k, t in enumerate(runs)]
         r = renderers[0] if not beside else _SideBySide(renderers)
-        from .parallel import FrameHelper, wanted
-
-        helper = FrameHelper(runs, options, labels, frames[1::2]) if (
-            kind != "png" and wanted(len(frames))) else None
-        images = _frames_with_progress(r, frames, progress, f"rendering {path.name}", helper)
+        images = _frames_with_progress(r, frames, progress, f"rendering {path.name}")
         if kind == "mp4":
             import imageio.v2 as iio
 
