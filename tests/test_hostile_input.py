@@ -1064,8 +1064,14 @@ def test_handle_tables_that_overlap_or_push_pinned_points_are_said():
                           name="h.toml").simulator()
     assert sim.handles.point_force.sum(axis=0) == pytest.approx([1.0, 0.1, 0.0], rel=1e-12)
     pin = '[[handle]]\nkind = "pin"\nbox = [[-1, -1, -1], [2, 0.001, 2]]\n'
-    with pytest.warns(UserWarning, match=r"#2 pushes 16 pinned point\(s\).* does nothing"):
+    with pytest.warns(UserWarning, match=r"#2 pushes 16 pinned point\(s\).* does nothing there"):
         Scene.from_text(base + pin + every.format(kind="force", value="force = [1, 0, 0]"),
+                        name="h.toml").simulator()
+    with pytest.warns(UserWarning, match=r"#2 scales gravity on 16 pinned point\(s\)"):
+        Scene.from_text(base + pin + every.format(kind="gravity", value="scale = 0.5"),
+                        name="h.toml").simulator()
+    with pytest.raises(SceneError, match=r"indices must be point numbers, not true/false"):
+        Scene.from_text(base + '[[handle]]\nkind = "pin"\nindices = [true, 2]\n',
                         name="h.toml").simulator()
     bad = Scene.from_text(base + every.format(kind="gravity", value="scale = true"),
                           name="h.toml")

@@ -47,6 +47,9 @@ def select_points(points: np.ndarray, *, box=None, sphere=None, indices=None,
                              f"got {sorted(sphere)}")
         sphere = (sphere["center"], sphere["radius"])
     if indices is not None:
+        if any(isinstance(i, (bool, np.bool_)) for i in np.ravel(np.asarray(indices, dtype=object))):
+            raise SceneError(f"{what}: indices must be point numbers, not true/false (a "
+                             f"boolean mask goes to the Python methods), got {indices!r}")
         idx = np.asarray(indices)
         if idx.size == 0:
             raise SceneError(f"{what}: indices is empty; list the points to select")
@@ -302,14 +305,15 @@ def apply_handle_tables(sim, tables, springs_reason: str | None = None) -> None:
         except (SceneError, ValueError, TypeError) as exc:  # name the table, not the call
             msg = str(exc).removeprefix("apply_force: ").removeprefix("set_gravity_scale: ")
             raise SceneError(f"{entry['_where']} {msg}") from None
-    held = sorted(set(taken["force"]) & set(pinned_by))
-    if held:
-        import warnings
+    for kind, what in (("force", "pushes"), ("gravity", "scales gravity on")):
+        held = sorted(set(taken[kind]) & set(pinned_by))
+        if held:
+            import warnings
 
-        warnings.warn(f"{taken['force'][held[0]]} pushes {len(held)} pinned point(s) "
-                      f"(point {held[0]}, pinned by {pinned_by[held[0]][0]}): a pinned point "
-                      "follows its pin, so the force on it does nothing", UserWarning,
-                      stacklevel=2)
+            warnings.warn(f"{taken[kind][held[0]]} {what} {len(held)} pinned point(s) "
+                          f"(point {held[0]}, pinned by {pinned_by[held[0]][0]}): a pinned "
+                          f"point follows its pin, so the {kind} table does nothing there",
+                          UserWarning, stacklevel=2)
 
 
 class HandleMethods:
