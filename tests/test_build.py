@@ -225,8 +225,8 @@ def test_cli_inspect_a_scene_says_what_it_will_run(tmp_path):
                     "box = [[-1, 0.099, -1], [1, 1, 1]]\nforce = [0.1, 0, 0]\nuntil = 0.2\n")
     res = CliRunner().invoke(cli, ["inspect", str(path)])
     assert res.exit_code == 0, res.output
-    assert ("handles      2: 121 points pinned (121 along a path); a force on 121 points "
-            "(total [0.1, 0, 0] N)") in res.output, res.output
+    assert ("handles      2: #1 pin, 121 points along a path; #2 force [0.1, 0, 0] N on "
+            "121 points until 0.2 s") in res.output, res.output
 
 
 def test_marching_box_fills_its_mesh_and_sits_on_its_base():

@@ -81,31 +81,35 @@ def scene_summary(scene, said: list | None = None) -> list[tuple[str, str]]:
                 if kind == "contact" else f", mu {g['mu']:g}, nu {g['nu']:g}"))
     rows.append(("ground", ground))
     rows.append(("obstacles", f"{len(scene.obstacles())}"))
-    rows.append(("handles", _handles(sim, len(p.get('handle') or []))))
+    rows.append(("handles", _handles(sim, p.get("handle") or [])))
     return rows
 
 
-def _handles(sim, tables: int) -> str:
-    """The ``[[handle]]`` tables and the points they hold: pinned (on a path), pushed,
-    lighter or heavier."""
-    hd = getattr(sim, "handles", None)
-    if not tables or hd is None:
-        return f"{tables}"
+def _handles(sim, tables: list) -> str:
+    """The ``[[handle]]`` tables, each with the points it holds: "2: #1 pin, 121 points along
+    a path; #2 force [0.1, 0, 0] N on 121 points until 0.2 s"."""
+    from .handles import select_points
+
     parts = []
-    pinned = int(np.count_nonzero(hd.pinned))
-    if pinned:
-        moving = len(np.unique(np.concatenate([np.asarray(i) for i, _ in hd.paths]))) if (
-            hd.paths) else 0
-        parts.append(f"{pinned} points pinned" + (f" ({moving} along a path)" if moving else ""))
-    pushed = int(np.count_nonzero(np.any(hd.point_force != 0.0, axis=1)))
-    if pushed:
-        total = hd.point_force.sum(axis=0)
-        parts.append(f"a force on {pushed} points (total [" + ", ".join(
-            f"{c:.4g}" for c in total) + "] N)")
-    scaled = int(np.count_nonzero(hd.gravity_scale != 1.0))
-    if scaled:
-        parts.append(f"gravity scaled on {scaled} points")
-    return f"{tables}" + (": " + "; ".join(parts) if parts else "")
+    for k, entry in enumerate(tables, 1):
+        sphere = entry.get("sphere")
+        try:
+            count = len(select_points(sim.state.x, box=entry.get("box"), indices=entry.get(
+                "indices"), sphere=None if sphere is None else (sphere["center"],
+                                                                 sphere["radius"])))
+        except JellysimError:
+            count = 0
+        kind = entry["kind"]
+        if kind == "pin":
+            text = f"#{k} pin, {count} points" + (" along a path" if entry.get("path") else "")
+        elif kind == "force":
+            text = (f"#{k} force [" + ", ".join(f"{c:.4g}" for c in entry["force"])
+                    + f"] N on {count} points"
+                    + (f" until {entry['until']:g} s" if entry.get("until") is not None else ""))
+        else:
+            text = f"#{k} gravity x {entry['scale']:g} on {count} points"
+        parts.append(text)
+    return f"{len(tables)}" + (": " + "; ".join(parts) if parts else "")
 
 
 def _points_note(b: dict, s: dict, count: int) -> str:
