@@ -724,3 +724,6 @@ def test_a_run_resumes_on_another_thread_count_and_its_command_keeps_the_flags(t
         with pytest.raises(RunInterrupted) as info:
             run_scene(numpy, tmp_path / "np", progress=False, stop_after=4)
         assert "--set integrator.backend=numpy" in str(info.value)
+        with pytest.raises(CheckpointError, match=r"integrator\.backend: 'numpy' then, 'numba' "
+                                                  r"now.* --backend / --device / --precision"):
+            run_scene(Scene.load(path), tmp_path / "np", progress=False, resume=True)

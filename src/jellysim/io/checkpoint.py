@@ -190,7 +190,9 @@ def read_checkpoint(path, *, scene=None, model=None) -> Checkpoint:
         raise CheckpointError(f"{path}: written for another scene (its parameters differ from "
                               f"{scene.name}'s, the run's length aside"
                               f"{_differences(ck.scene_params, scene)}); resume with the same "
-                              "scene file and --set items, or start afresh without --resume")
+                              "scene file, --set items and --backend / --device / --precision "
+                              "(the command the interrupted run printed), or start afresh "
+                              "without --resume")
     if model is not None and ck.model_sha256 != model_hash(model):
         raise CheckpointError(f"{path}: the body built from {getattr(scene, 'name', 'the scene')}"
                               " differs from the checkpoint's (a mesh or body file changed?); "
