@@ -8,8 +8,9 @@ so numba writes the step's kernels to its on-disk cache; :func:`wait`, called be
 frames of the physical path (``Simulator._advance_physical``), lets that process finish, and
 the step's kernels are then loaded from the cache instead of compiled.
 
-Measured (``jellysim demo`` on a cold cache, BENCHMARKS.md "The demo", session 13): 68-71 s
-before, 48-56 s after (the split of the step's drivers included).
+Measured (``jellysim demo`` on a cold cache, ``benchmarks/bench_first_run.py``, BENCHMARKS.md
+"The demo", session 13): 70-74 s before, 54-59 s after (the split of the step's drivers
+included).
 
 Nothing is started when the kernels are already cached, under ``mpiexec``, on one core, when
 numba's cache is off, or with ``JELLYSIM_WARMUP=0``.  The second process writes nothing but
@@ -25,17 +26,12 @@ import subprocess
 import sys
 from pathlib import Path
 
-__all__ = ["start", "wait", "pending"]
+__all__ = ["start", "wait"]
 
 _proc: subprocess.Popen | None = None
 
 WAIT_S = 300.0
 """Longest wait [s] for the second process at the first step (it takes about 15 s of CPU)."""
-
-
-def pending() -> bool:
-    """Whether a warm-up process was started and not yet waited for."""
-    return _proc is not None
 
 
 def _mpi() -> bool:
@@ -113,7 +109,7 @@ def _end() -> None:
         proc.wait()
 
 
-def _tiny_body(params: dict):
+def _tiny_body():
     """A 3 x 3 x 3 grid box with its tets, where the scene's body would be (same arrays'
     types as any body of the scene's builders)."""
     from .body import Body
@@ -131,7 +127,7 @@ def _compile(params: dict) -> None:
     params = dict(params)
     params["handle"] = []  # the scene's handles select points of its own body
     sc = Scene.from_dict(params, name="warm-up")
-    model = sc.build_model(_tiny_body(params))
+    model = sc.build_model(_tiny_body())
     sim = sc.simulator(model, settle=False)
     sim.advance(1)
 
