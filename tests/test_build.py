@@ -362,3 +362,69 @@ def test_a_marching_grid_joining_two_parts_is_said():
     hollow = trimesh.util.concatenate([outer, inner])
     pts = np.array([[0.0, 0.0, 0.02], [0.0, 0.0, -0.02], [0.02, 0.0, 0.0], [0.0, 0.02, 0.0]])
     assert joined_parts(hollow.vertices, hollow.faces, pts, np.array([[0, 1, 2, 3]])) == 0
+
+
+def _slab_with_fin(path):
+    """A 10 x 5 x 5 cm slab standing on y = 0 with a 4 mm thick fin rising 3.5 cm from its top
+    (one closed surface: an extruded profile), written as OBJ; and the slab alone beside it
+    (``*_slab.obj``)."""
+    import trimesh
+
+    def extrude(profile, caps):  # profile counter-clockwise in (x, y), extruded along z
+        n = len(profile)
+        v = np.array([[x, y, z] for z in (-0.025, 0.025) for x, y in profile])
+        f = [[a + n, b + n, c + n] for a, b, c in caps] + [[c, b, a] for a, b, c in caps]
+        for i in range(n):
+            j = (i + 1) % n
+            f += [[i, j, j + n], [i, j + n, i + n]]
+        mesh = trimesh.Trimesh(v, np.array(f))
+        assert mesh.is_watertight and mesh.volume > 0
+        return mesh
+
+    fin = [(-0.05, 0.0), (0.05, 0.0), (0.05, 0.05), (0.032, 0.05), (0.032, 0.085),
+           (0.028, 0.085), (0.028, 0.05), (-0.05, 0.05)]
+    caps = [(0, 1, 2), (0, 2, 3), (0, 3, 6), (0, 6, 7), (6, 3, 4), (6, 4, 5)]
+    extrude(fin, caps).export(path)
+    extrude([(-0.05, 0.0), (0.05, 0.0), (0.05, 0.05), (-0.05, 0.05)],
+            [(0, 1, 2), (0, 2, 3)]).export(str(path).replace(".obj", "_slab.obj"))
+    return path
+
+
+def test_a_mesh_standing_on_the_ground_is_a_mesh_body_on_it(tmp_path):
+    """Session 14: a scene naming only ``path`` (no ``type``) was read as the default box and
+    refused the path; and a mesh modelled standing on y = 0 was refused as starting 1.2e-7 m
+    below the ground (the marching grid's cut points lay up to edge / 2^15 outside the mesh):
+    now the path means a mesh, and the cut points are the last ones found inside."""
+    from jellysim.scene import Scene
+
+    _slab_with_fin(tmp_path / "fin.obj")
+    for points in (300, 1000):
+        scene = Scene.from_text(f"[material]\npreset = 'gelatin'\n[body]\npath = "
+                                f"'{tmp_path / 'fin_slab.obj'}'\npoints = {points}\n")
+        assert scene.params["body"]["type"] == "mesh"
+        sim = scene.simulator()  # (refused before: "starts 1.238e-07 m below the ground")
+        y = sim.state.x[:, 1]
+        assert 0.0 <= y.min() < 1e-6  # on the ground, not below it
+        assert y.max() == pytest.approx(0.05, abs=1e-6)
+    text = f"[material]\npreset = 'gelatin'\n[body]\npath = 'b.jello'\n"
+    assert Scene.from_text(text).params["body"]["type"] == "file"
+
+
+def test_build_says_a_part_too_thin_for_its_points(tmp_path):
+    """A 4 mm fin at a 7 mm point spacing gets no points: `jellysim build` says so, where (a
+    run would say it when it binds the skin; build said nothing)."""
+    mesh = _slab_with_fin(tmp_path / "fin.obj")
+    res = CliRunner().invoke(cli, ["build", str(mesh), "--points", "1000", "-o",
+                                   str(tmp_path / "fin.jello")])
+    assert res.exit_code == 0, res.output
+    body = read_body(tmp_path / "fin.jello")
+    assert body.points[:, 1].max() < 0.058  # the fin (up to 8.5 cm) has no points of its own
+    import re
+
+    places = re.findall(r"(\d+) around \(([^)]*)\) m", res.output)
+    assert len(places) == 1, res.output  # one part, one place (it was listed as nine)
+    x, y, _ = (float(c) for c in places[0][1].split(","))
+    assert x == pytest.approx(0.03, abs=0.002) and 0.057 < y < 0.085  # the fin's upper part
+    res = CliRunner().invoke(cli, ["build", str(tmp_path / "fin_slab.obj"), "--points",
+                                   "1000", "-o", str(tmp_path / "slab.jello")])
+    assert res.exit_code == 0 and "warning" not in res.output, res.output  # the slab alone

@@ -297,6 +297,10 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
                               surface_vertices=surface_vertices,
                               surface_samples=surface_samples, relax=relax, density=density,
                               seed=seed, size=size, snap=snap, up=up)
+            if getattr(body, "skin_vertices", None) is not None:  # as a run will bind it:
+                from .skin import bind_body_skin  # says which parts the points cannot carry
+
+                bind_body_skin(body, body.skin_vertices, body.skin_faces)
         write_body(out_file, body)
     except JellysimError as exc:
         _fail(str(exc))

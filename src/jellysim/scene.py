@@ -24,8 +24,8 @@ from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-
                               make_obstacle, validate_obstacles)
 from .scene_schema import SCHEMA
 from .scene_spec import (Spec, as_toml, check_backend, check_given_keys, check_value,
-                         given_keys, plain, grid_radius, missing_path, refuse_unused_keys,
-                         said_springs_ignore)
+                         given_keys, plain, grid_radius, infer_body_type, missing_path,
+                         refuse_unused_keys, said_springs_ignore)
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
 from .scene_doc import schema_markdown as make
@@ -149,6 +149,7 @@ class Scene:
         """The scene's parameters; ``user``: its given keys (:func:`given_keys`: a file's
         written keys, a dictionary's by value; default: by value)."""
         user = given_keys(raw, SCHEMA, PRESETS) if user is None else user
+        raw = infer_body_type(raw)  # path = "cow.obj" alone means type = 'mesh'
         preset = raw.get("material", {}).get("preset") if isinstance(
             raw.get("material"), dict) else None
         if preset is not None:

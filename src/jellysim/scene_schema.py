@@ -17,7 +17,8 @@ _P, _G, _I, _M = ProvotParams(), GroundParams(), ImplicitParams(), Material()
 SCHEMA: dict[str, dict[str, Spec]] = {
     "body": {
         "type": Spec("str", "box", "Where the body comes from: 'box' (a random field), 'mesh' "
-                     "(points inside a surface mesh file) or 'file' (a .jello/.npz body).",
+                     "(points inside a surface mesh file) or 'file' (a .jello/.npz body); "
+                     "left out with a path given: 'file' for .jello/.npz, else 'mesh'.",
                      choices=("box", "mesh", "file")),
         "path": Spec("str", None, "Mesh or body file (type 'mesh' / 'file'), relative to the "
                      "scene file.", allowed="a file name"),

@@ -226,6 +226,21 @@ UNUSED_BY_TYPE = {
 silently ignored (a body file has its own points, springs and units; a box has no mesh)."""
 
 
+BODY_FILE_SUFFIXES = (".jello", ".npz")
+
+
+def infer_body_type(raw: dict) -> dict:
+    """``raw`` with ``[body] type`` filled in when it names a ``path`` but no type: ``'file'``
+    for a body file (.jello, .npz), else ``'mesh'`` (a scene saying only ``path = "cow.obj"``
+    means the mesh, not the default box, whose keys would refuse the path)."""
+    body = raw.get("body")
+    if not isinstance(body, dict) or "type" in body or not isinstance(body.get("path"), str):
+        return raw
+    suffix = "." + body["path"].rsplit(".", 1)[-1].lower() if "." in body["path"] else ""
+    kind = "file" if suffix in BODY_FILE_SUFFIXES else "mesh"
+    return {**raw, "body": {**body, "type": kind}}
+
+
 def refuse_unused_keys(raw: dict, kind: str, name: str, schema: dict) -> None:
     """A :class:`SceneError` for the first key of ``raw`` (the scene as written, with its
     preset) that ``[body] type = kind`` would ignore, given a value other than its default

@@ -243,7 +243,10 @@ def _say_extrapolated(vertices: np.ndarray, amplification: np.ndarray) -> None:
         return
     import warnings
 
-    where = _places(vertices[far], amplification[far], np.ptp(vertices, axis=0).max())
+    from scipy.spatial import cKDTree
+
+    spacing = float(np.median(cKDTree(vertices).query(vertices, k=2)[0][:, 1]))
+    where = _places(vertices[far], amplification[far], np.ptp(vertices, axis=0).max(), spacing)
     warnings.warn(f"skin: {int(far.sum())} of its {len(vertices)} vertices ({where}) lie well "
                   f"outside the body's tets and follow them by extrapolation, moving up to "
                   f"{float(amplification.max()):.3g}x the nearest corners: a part thinner than "
@@ -251,16 +254,19 @@ def _say_extrapolated(vertices: np.ndarray, amplification: np.ndarray) -> None:
                   "more points, or a thicker part, carry it", UserWarning, stacklevel=3)
 
 
-def _places(x: np.ndarray, amp: np.ndarray, extent: float, most: int = 3) -> str:
+def _places(x: np.ndarray, amp: np.ndarray, extent: float, spacing: float = 0.0,
+            most: int = 3) -> str:
     """Where the vertices ``x`` [m] lie, as up to ``most`` groups (vertices within 5 % of
-    the skin's ``extent`` of one another), largest amplification first: "12 around (x, y, z)
-    m, up to 4.2x; ...".  (One mean of all of them pointed between a teapot's handle and its
-    spout, at neither.)"""
+    the skin's ``extent``, or four of its vertex ``spacing`` [m], of one another), largest
+    amplification first: "12 around (x, y, z) m, up to 4.2x; ...".  (One mean of all of them
+    pointed between a teapot's handle and its spout, at neither.)"""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
-    pairs = cKDTree(x).query_pairs(0.05 * max(extent, 1e-300), output_type="ndarray")
+    # one part is one place: linked within 5 % of the skin's size or 4 of its vertex spacings
+    pairs = cKDTree(x).query_pairs(max(0.05 * extent, 4.0 * spacing, 1e-300),
+                                   output_type="ndarray")
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
                        shape=(len(x), len(x))) if len(pairs) else coo_matrix((len(x), len(x)))
     count, label = connected_components(graph, directed=False)

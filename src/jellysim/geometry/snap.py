@@ -42,7 +42,7 @@ WARP_MIN_QUALITY = 0.35
 """Warped tets below this quality are dropped (a Kuhn tet of the grid has 0.59)."""
 
 BISECTIONS = 14
-"""Bisection steps locating each cut point: within ``edge / 2^15`` of the surface."""
+"""Bisection steps locating each cut point: inside the surface, within ``edge / 2^14`` of it."""
 
 
 def warp_to_surface(nodes, inside, tets, inside_fn, *, alpha: float = WARP_ALPHA,
@@ -74,7 +74,9 @@ def warp_to_surface(nodes, inside, tets, inside_fn, *, alpha: float = WARP_ALPHA
         mid = 0.5 * (lo + hi)
         ins = np.asarray(inside_fn(pa + mid[:, None] * (pb - pa)), dtype=bool)
         lo, hi = np.where(ins, mid, lo), np.where(ins, hi, mid)
-    s = 0.5 * (lo + hi)  # the cut point as a fraction of the way from a to b
+    # the cut point, as a fraction of the way from a to b: the last point found inside, so a
+    # body cut from a mesh standing on the ground does not start below it (by edge / 2^15)
+    s = lo
     point = pa + s[:, None] * (pb - pa)
     length = np.linalg.norm(pb - pa, axis=1)
     # candidate moves: (node, distance, cut point), each node to its nearest cut point
