@@ -300,3 +300,35 @@ def finalize_springs():
     from bodies import kuhn_box
 
     return finalize(kuhn_box((2, 2, 2), upper=(0.02, 0.02, 0.02)), stiffness=50.0)
+
+
+def test_a_block_tilted_slowly_holds_to_its_friction_angle_and_slips_past_it():
+    """The classroom plank: a gelatin block (its own 3 x 1.5 x 2.5 cm, E = 30 kPa, nu = 0.45)
+    settled on the contact ground, then gravity turned 1 deg every 0.1 s.  With one Coulomb
+    coefficient mu = 0.5 (atan 26.57 deg) it holds still through 25 deg (centre of mass
+    < 0.1 mm along the slope, at rest) and slides once past 27 deg, as a rigid block does.
+    (With a lower kinetic coefficient it slips earlier, at a macroscopic static friction
+    between the two: precursor slip, docs/physics.md section 2.)"""
+    import dataclasses
+
+    import jellysim as js
+
+    body = js.Body.box(lower=(0, 0, 0), upper=(0.03, 0.015, 0.025), points=300)
+    mat = js.material("gelatin", youngs_modulus=3e4, poisson_ratio=0.45, damping_ratio=0.05,
+                      damping_frequency=20.0)
+    model = js.physical_model(body, mat)
+    sim = js.Simulator(model, dt=1 / 240, ground=GroundParams(
+        model=GroundModel.CONTACT, friction=0.5, static_friction=0.5, restitution=0.0))
+    sim.settle()
+    m = model.point_mass / model.point_mass.sum()
+    x0 = float(m @ sim.state.x[:, 0])
+    for theta in range(1, 31):
+        t = np.radians(theta)
+        sim.model = dataclasses.replace(sim.model, gravity=np.array(
+            [G * np.sin(t), -G * np.cos(t), 0.0]))
+        sim.advance(24)
+        moved, speed = float(m @ sim.state.x[:, 0]) - x0, float(m @ sim.state.v[:, 0])
+        if theta <= 25:
+            assert abs(moved) < 1e-4 and abs(speed) < 1e-3, (theta, moved, speed)
+        if theta == 30:
+            assert moved > 5e-3 and speed > 0.05, (moved, speed)

@@ -1,0 +1,50 @@
+"""The classroom plank: where a jello block starts to slide as its slope is raised slowly.
+
+A 3 x 1.5 x 2.5 cm block (E = 30 kPa, nu = 0.45, zeta = 0.05 at 20 Hz) is settled on the
+contact ground; then gravity is turned by 1 deg every 0.1 s.  The breakaway angle is the first
+at which the centre of mass moves faster than 1 mm/s along the slope at the end of a stage.  A
+rigid block would break away at atan(mu_s) whatever mu_k is; an elastic one does so only with
+one coefficient (mu_s = mu_k).  With a lower kinetic coefficient its edges slip first (their
+pressure is lowest, their shear highest), slipping points hold only mu_k, and the slip spreads
+across the base at a lower angle: the macroscopic static friction of a soft body is below the
+local mu_s (precursor slip: Iwashita, Matsukawa & Otsuki, Sci. Rep. 13, 2023,
+doi:10.1038/s41598-023-29764-w; Tromborg et al., arXiv:1105.3325, 2011).  docs/physics.md section 2 quotes the output.
+
+Run:  PYTHONPATH=src python examples/validate_tilt.py
+"""
+import dataclasses
+import warnings
+
+import numpy as np
+
+import jellysim as js
+
+
+def breakaway(mu_s, mu_k, *, points=300, step_deg=1.0, max_deg=30.0):
+    """The breakaway angle [deg] (None if it holds to ``max_deg``)."""
+    body = js.Body.box(lower=(0, 0, 0), upper=(0.03, 0.015, 0.025), points=points)
+    mat = js.material("gelatin", youngs_modulus=3e4, poisson_ratio=0.45, damping_ratio=0.05,
+                      damping_frequency=20.0)
+    ground = js.GroundParams(model="contact", friction=mu_k, static_friction=mu_s,
+                             restitution=0.0)
+    model = js.physical_model(body, mat)
+    sim = js.Simulator(model, dt=1 / 240, ground=ground)
+    sim.settle()
+    m = model.point_mass / model.point_mass.sum()
+    for theta in np.arange(step_deg, max_deg + 1e-9, step_deg):
+        t = np.radians(theta)
+        sim.model = dataclasses.replace(sim.model, gravity=np.array(
+            [9.81 * np.sin(t), -9.81 * np.cos(t), 0.0]))
+        sim.advance(24)
+        if float(m @ sim.state.v[:, 0]) > 1e-3:
+            return float(theta)
+    return None
+
+
+if __name__ == "__main__":
+    warnings.simplefilter("ignore")
+    print("mu_s  mu_k  atan(mu_s) atan(mu_k)  breakaway [deg] at 300 / 2400 points")
+    for mu_s, mu_k in [(0.5, 0.5), (0.5, 0.45), (0.5, 0.3), (0.5, 0.1)]:
+        got = [breakaway(mu_s, mu_k, points=n) for n in (300, 2400)]
+        print(f"{mu_s:4.2f}  {mu_k:4.2f}  {np.degrees(np.arctan(mu_s)):9.2f}  "
+              f"{np.degrees(np.arctan(mu_k)):9.2f}   {got[0]} / {got[1]}", flush=True)
