@@ -1008,3 +1008,20 @@ def test_a_gif_asked_faster_than_it_can_play_is_said(tmp_path, traj):
         warnings.simplefilter("error")
         render_trajectory(traj, tmp_path / "s.gif", RenderOptions(size=SIZE), fps=25.0)
 
+
+
+def test_the_floor_and_shadow_lie_strictly_under_a_resting_skin(traj):
+    """Skin vertices that dip below the ground are lifted exactly onto it (Skin.deform), so a
+    floor drawn at the ground's height z-fought them: a saw-toothed contact patch through the
+    translucent jello (session 14's trial).  The floor is now drawn below every skin point of
+    every frame, and the contact shadow between the two."""
+    from jellysim.render.offscreen import Renderer, RenderOptions, ground_height
+
+    r = Renderer(traj, RenderOptions(size=SIZE))
+    gh = ground_height(traj)
+    floor = float(r.floor.points[:, 1].max())
+    shadow = float(r.shadow.points[:, 1].max())
+    lowest = min(float(np.asarray(r._surface_frames(f))[:, 1].min())
+                 for f in range(traj.frame_count))
+    assert lowest == pytest.approx(gh, abs=1e-12)  # the resting skin touches the ground
+    assert floor < shadow < lowest

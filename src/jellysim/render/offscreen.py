@@ -14,6 +14,11 @@ __all__ = ["RenderOptions", "Renderer", "ground_height"]
 
 JELLO_RED = "#d81e3c"
 
+FLOOR_BELOW = 0.001
+"""The floor is drawn this fraction of the motion's extent below the ground height (0.1 mm
+for a 10 cm jello), the contact shadow half as far: both then lie strictly under the skin,
+whose points below the ground are lifted exactly onto it."""
+
 FOLLOW_RATIO = 4.0
 """``camera = "auto"`` follows a body whose horizontal travel exceeds this many body sizes."""
 
@@ -208,7 +213,11 @@ class Renderer:
                 #                          stays the body's
                 ext = 2.0 * float(np.max(self._track[1]))
             size = 100.0 * max(ext, 1e-3)  # its far edge out of the frame
-            self.floor = pv.Plane(center=(c[0], floor_y, c[2]), direction=(0, 1, 0),
+            # drawn a hair below the ground: a skin resting on it is lifted onto y = floor_y
+            # (Skin.deform), and a floor in that plane z-fights it (a saw-toothed contact
+            # patch through the translucent jello, session 14's trial)
+            self.floor = pv.Plane(center=(c[0], floor_y - FLOOR_BELOW * ext, c[2]),
+                                  direction=(0, 1, 0),
                                   i_size=size, j_size=size, i_resolution=1, j_resolution=1)
             self._floor_points = np.array(self.floor.points)
             if self._track is None:
@@ -234,8 +243,8 @@ class Renderer:
                                                     np.full(16, floor_y),
                                                     mid[2] + radius * np.sin(rim)], axis=1)])
                 self._floor_y = floor_y + 0.0045 * ext
-            else:
-                self._floor_y = floor_y + 0.0005 * ext
+            else:  # between the floor and the skin's lowest points
+                self._floor_y = floor_y - 0.5 * FLOOR_BELOW * ext
         near = self._add_obstacles(traj, lo, hi)  # the solids the body meets: framed too
         if near is not None:
             extra = near if extra is None else np.vstack([extra, near])
