@@ -428,3 +428,51 @@ def test_build_says_a_part_too_thin_for_its_points(tmp_path):
     res = CliRunner().invoke(cli, ["build", str(tmp_path / "fin_slab.obj"), "--points",
                                    "1000", "-o", str(tmp_path / "slab.jello")])
     assert res.exit_code == 0 and "warning" not in res.output, res.output  # the slab alone
+
+
+def test_a_body_in_separate_pieces_is_said_not_to_collide_with_itself(tmp_path):
+    """A cube and a ball beside it (two shells 1 cm apart) build a body of two pieces that no
+    spring or tet joins: they pass through each other where they meet (no self-collision),
+    said at build (session 14's trial: the ball rolled 1.9 cm into the cube, unsaid); one
+    piece says nothing."""
+    import trimesh
+
+    cube = trimesh.creation.box(extents=[0.04, 0.04, 0.04])
+    ball = trimesh.creation.icosphere(subdivisions=3, radius=0.02)
+    ball.apply_translation([0.05, 0.0, 0.0])
+    path = tmp_path / "two.obj"
+    trimesh.util.concatenate([cube, ball]).export(path)
+    for connect in ("marching", "delaunay"):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            body = build_body(str(path), points=800, connect=connect)
+        said = [str(w.message) for w in caught if "separate pieces" in str(w.message)]
+        assert len(said) == 1 and "the body is 2 separate pieces" in said[0], said
+        left = body.points[:, 0] < 0.025  # the cube's points; the ball's start at x = 0.03
+        assert f"{left.sum()}" in said[0] and f"{(~left).sum()}" in said[0]
+        assert not np.any(left[body.springs[:, 0]] != left[body.springs[:, 1]])  # none across
+    cube.export(tmp_path / "cube.obj")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        build_body(str(tmp_path / "cube.obj"), points=300, connect="marching")
+
+
+def test_inspect_a_body_file_gives_the_skin_a_run_carries(tmp_path):
+    """A body built from a coarse mesh (the 12-triangle-per-face cube) runs with its skin
+    subdivided to the point spacing: `inspect` gives that skin's counts, the ones a point
+    cache of the run has (session 14's trial: it gave only the mesh's 26 vertices)."""
+    from jellysim.skin import bind_body_skin
+
+    out = tmp_path / "cube.jello"
+    res = CliRunner().invoke(cli, ["build", str(mesh_path("cube.obj")), "--size", "0.05",
+                                   "--points", "300", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    body = read_body(out)
+    skin = bind_body_skin(body, body.skin_vertices, body.skin_faces)
+    assert len(skin.rest_vertices) > len(body.skin_vertices)
+    np.testing.assert_array_equal(skin.rest_vertices[:len(body.skin_vertices)],
+                                  body.skin_vertices)  # the mesh's vertices first
+    res = CliRunner().invoke(cli, ["inspect", str(out)])
+    assert (f"{len(body.skin_vertices)} vertices, {len(body.skin_faces)} faces" in res.output
+            and f"{len(skin.rest_vertices)} vertices, {len(skin.faces)} faces, the first "
+            f"{len(body.skin_vertices)} those of the mesh" in res.output), res.output

@@ -324,6 +324,21 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
     click.echo(f"wrote {out_file}")
 
 
+def _skin_row(body) -> str:
+    """``inspect``'s skin row for a body file: the mesh it was built from, and the skin a run
+    carries when that mesh is coarser than the points (subdivided: its vertices first)."""
+    from .skin import _fine_enough, body_tets
+
+    v, f = body.skin_vertices, body.skin_faces
+    row = f"{len(v)} vertices, {len(f)} faces (the mesh it was built from"
+    fine_v, fine_f = _fine_enough(v, f, body.points, body_tets(body.points, body.springs,
+                                                                  body.tets))
+    if len(fine_v) == len(v):
+        return row + ": a run's skin)"
+    return (row + f"; a run's skin subdivides it to the point spacing: {len(fine_v)} "
+            f"vertices, {len(fine_f)} faces, the first {len(v)} those of the mesh)")
+
+
 @cli.command()
 @click.argument("path", type=click.Path(dir_okay=False))
 @click.option("--set", "settings", multiple=True, metavar="SECTION.KEY=VALUE",
@@ -359,9 +374,7 @@ def inspect(path, settings=()) -> None:
             st = body_stats(body)
             click.echo(f"{path}: body")
             skin = ("none" + (" (a run shows the surface triangles)" if st["triangles"] else "")
-                    if body.skin_vertices is None
-                    else f"{len(body.skin_vertices)} vertices, {len(body.skin_faces)} faces (the "
-                    "mesh it was built from: a run's skin)")
+                    if body.skin_vertices is None else _skin_row(body))
             rows = [
                 ("points", st["points"]), ("springs", st["springs"]), ("tets", st["tets"]),
                 ("surface triangles", st["triangles"]), ("skin", skin),

@@ -6,6 +6,7 @@ __all__ = ["schema_markdown"]
 
 def schema_markdown() -> str:
     """The scene format as a Markdown table (for docs/scene.md)."""
+    from .presets import PRESETS
     from .scene import OBSTACLE_SCHEMA, SCHEMA
     from .scene_spec import REQUIRED
 
@@ -15,6 +16,10 @@ def schema_markdown() -> str:
                   "|---|---|---|---|---|"]
         for key, spec in keys.items():
             default = "**required**" if spec.default is REQUIRED else f"`{_shown(spec.default)!r}`"
+            given = [name for name, p in PRESETS.items() if key in p.get(section, {})]
+            if spec.default is REQUIRED and given:  # (the gelatin preset's dt = 1/60 s ...)
+                default += " unless a preset gives it (" + ", ".join(
+                    f"{name}: `{_brief(PRESETS[name][section][key])}`" for name in given) + ")"
             allowed = spec.allowed or (", ".join(f"`{c}`" for c in spec.choices))
             lines.append(f"| `{key}` | {spec.kind} | {default} | {allowed} | {spec.doc} |")
         lines.append("")
@@ -47,6 +52,11 @@ def schema_markdown() -> str:
               "until then: a push, then a free wobble); default: the whole run. |",
               "| `scale` | float | Gravity: factor on gravity [-]. |"]
     return "\n".join(lines)
+
+
+def _brief(value) -> str:
+    """A preset's value, a float to 4 digits (1/60 s: 0.01667)."""
+    return f"{value:.4g}" if isinstance(value, float) else repr(_shown(value))
 
 
 def _shown(value):

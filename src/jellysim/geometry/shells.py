@@ -119,13 +119,15 @@ def outward(mesh, name: str = "mesh"):
         return mesh
     if d.volume < 0:
         warnings.warn(f"{name}: its faces are wound inward (the mesh is inside out, signed "
-                      f"volume {d.volume:.4g}): turned outward", UserWarning, stacklevel=3)
+                      f"volume {d.volume:.4g}): read turned outward (the file is left as it is)",
+                      UserWarning, stacklevel=3)
         mesh = replace(mesh, faces=np.ascontiguousarray(mesh.faces[:, [0, 2, 1]]),
                        defects=replace(d, volume=-d.volume))
     faces, turned = outward_shells(mesh.vertices, mesh.faces) if d.watertight else (None, [])
     if turned:  # (one part of several wound inward: .shells)
         warnings.warn(f"{name}: {len(turned)} of its {d.shells} separate shells wound inward "
-                      f"(signed volume {sum(turned):.4g}): turned outward", UserWarning,
+                      f"(signed volume {sum(turned):.4g}): read turned outward (the file is left as "
+                      "it is)", UserWarning,
                       stacklevel=3)
         mesh = replace(mesh, faces=faces, defects=replace(
             mesh.defects, volume=mesh.defects.volume - 2.0 * sum(turned)))
