@@ -3,6 +3,7 @@ import os
 import shutil
 from pathlib import Path
 import subprocess
+import warnings
 import sys
 import xml.etree.ElementTree as ET
 
@@ -1025,3 +1026,19 @@ def test_the_floor_and_shadow_lie_strictly_under_a_resting_skin(traj):
                  for f in range(traj.frame_count))
     assert lowest == pytest.approx(gh, abs=1e-12)  # the resting skin touches the ground
     assert floor < shadow < lowest
+
+
+def test_an_fps_other_than_the_runs_says_how_fast_it_plays(traj, tmp_path):
+    """`render --fps N` shows each saved frame once at N frames/s: for a run saved every
+    0.04 s (25 frames/s), fps = 50 plays at 2x real time and is said (session 14's trial took
+    `--fps 24` on a 30 frames/s run for a resampling and got 0.8x, unsaid); the run's own rate
+    says nothing."""
+    from jellysim.render import RenderOptions, render_trajectory
+
+    step = float(np.median(np.diff(traj.times)))
+    assert step == pytest.approx(0.04)
+    with pytest.warns(UserWarning, match=r"plays at 2x real time"):
+        render_trajectory(traj, tmp_path / "fast.mp4", RenderOptions(size=SIZE), fps=50.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        render_trajectory(traj, tmp_path / "same.mp4", RenderOptions(size=SIZE), fps=25.0)

@@ -298,8 +298,9 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
 @_show
 @_size_opt
 @click.option("--fps", type=click.FloatRange(min=0.1), default=None,
-              help="Frames per second (default: real time; a run saved faster than 60 "
-                   "frames/s, 50 for a GIF, shows every k-th frame; at least 5).")
+              help="Frames per second, each saved frame shown once (another rate than the "
+                   "run's plays slower or faster, said; default: real time; a run saved "
+                   "faster than 60 frames/s, 50 for a GIF, shows every k-th frame; at least 5).")
 @_color
 @_opacity
 @_floor

@@ -121,6 +121,14 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
         warnings.warn(f"{path}: a GIF's frame delays are whole hundredths of a second (at "
                       f"least 2, or browsers slow them): fps = {fps:g} plays at {played:.4g} "
                       "frames/s", UserWarning, stacklevel=2)
+    if not real_time and kind in ("mp4", "gif") and len(frames) > 1:
+        step = float(np.median(np.diff(np.asarray(traj.times)[frames])))
+        if step > 0 and abs(fps * step - 1.0) > 0.01:  # (said: session 14's trial took
+            import warnings                            # --fps 24 for a resampling)
+
+            warnings.warn(f"{path}: each saved frame is shown once at fps = {fps:g}: the run "
+                          f"(a frame every {step:.4g} s) plays at {fps * step:.3g}x real time; "
+                          f"leave out --fps for real time", UserWarning, stacklevel=2)
     if kind == "png":
         frames = frames[-1:]
     if options.background == "transparent" and kind not in ("png", "pngdir"):
