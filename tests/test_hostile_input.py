@@ -1153,3 +1153,42 @@ def test_python_options_that_were_taken_loosely_are_refused():
     with pytest.raises(SceneError, match=r"substeps = 1e\+10 per step .* smaller dt"):
         js.Simulator(model, dt=1 / 60, substeps=1e10)
     assert js.Simulator(model, dt=1 / 60, substeps=2 * MAX_AUTO_SUBSTEPS).substeps == 20_000
+
+
+def test_api_arguments_are_refused_as_jellysim_errors_naming_them():
+    """Session 14's researcher trial: finalize took NaN gravity and NaN or negative rest
+    lengths (the run then blamed dt at step 1, or ran on); and the API's argument errors were
+    plain ValueErrors that ``except jellysim.JellysimError`` (the README's advice) missed.
+    They are ParameterErrors: both a JellysimError and a ValueError."""
+    import jellysim as js
+
+    body = js.Body.box(points=27)
+    with pytest.raises(js.ParameterError, match=r"gravity must be 3 finite"):
+        js.finalize(body, stiffness=10.0, point_mass=0.01, gravity=(0.0, float("nan"), 0.0))
+    for bad in (-1.0, float("nan")):
+        body.rest_length = np.full(len(body.springs), 0.01)
+        body.rest_length[3] = bad
+        with pytest.raises(js.JellysimError, match=r"rest_length .* \(spring 3: "):
+            js.finalize(body, stiffness=10.0, point_mass=0.01)
+    with pytest.raises(ValueError):  # (still a ValueError for older callers)
+        js.GroundParams(friction=-1.0)
+    with pytest.raises(js.JellysimError):
+        js.GroundParams(friction=-1.0)
+
+
+def test_a_random_box_of_two_or_three_points_is_a_springs_body():
+    """`[body] points` allows 2: a random box of 2 or 3 points failed with "cloud_tets needs
+    points of shape (n >= 4, 3)" though the springs path needs no tets.  Now it has none; a
+    free pair falls as one (gravity only: y drops g t^2 / 2 at both ends, to the scheme's
+    error), and the FEM material says it needs tets."""
+    import jellysim as js
+
+    for n in (2, 3):
+        body = js.Body.box(points=n, distribution="uniform", radius=1.0)
+        assert body.point_count == n and len(body.tets) == 0 and len(body.springs) > 0
+        sim = js.Simulator(js.finalize(body, stiffness=10.0, point_mass=0.01), dt=1e-3)
+        sim.advance(100)
+        assert sim.state.x[:, 1] - body.points[:, 1] == pytest.approx(
+            -0.5 * 9.8 * 0.1**2, rel=2e-2)
+        with pytest.raises(js.JellysimError, match="needs a body with tets"):
+            js.physical_model(body, js.material("gelatin"))

@@ -137,7 +137,7 @@ def test_no_source_file_over_600_lines():
 
 
 LEAF_MODULES = {"jellysim.params", "jellysim.errors"}
-"""Modules that import nothing of ours: every module imports them at its top, where the
+"""Modules that import nothing of ours (params only errors): every module imports them at its top, where the
 dependency graph shows, never inside a function."""
 
 
@@ -151,5 +151,6 @@ def test_leaf_modules_are_imported_at_module_level():
         top = _imports(name, path, modules, top_level_only=True)
         hidden += [f"{name} -> {m}" for m in sorted((anywhere - top) & LEAF_MODULES)]
     assert not hidden, "import these at the module's top: " + ", ".join(hidden)
-    for leaf in LEAF_MODULES:
-        assert not _imports(leaf, modules[leaf], modules, top_level_only=False)
+    for leaf in LEAF_MODULES:  # (params raises errors' ParameterError: the one edge)
+        allowed = {"jellysim.errors"} if leaf == "jellysim.params" else set()
+        assert not _imports(leaf, modules[leaf], modules, top_level_only=False) - allowed

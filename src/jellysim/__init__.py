@@ -67,6 +67,7 @@ _LAZY = {
     "Trajectory": ("io.trajectory", "Trajectory"),
     "Skin": ("skin", "Skin"),
     "JellysimError": ("errors", "JellysimError"),
+    "ParameterError": ("errors", "ParameterError"),
 }
 """Public name -> (module under ``jellysim``, attribute), imported on first access."""
 

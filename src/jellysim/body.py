@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .params import REPORT_DENSITY, _user_stacklevel
+from .errors import ParameterError
 
 __all__ = ["Body"]
 
@@ -67,24 +68,24 @@ class Body:
             pts = np.asarray(self.points, dtype=np.float64)
             springs = np.asarray(self.springs)
         except (TypeError, ValueError):
-            raise ValueError("Body: points must be an (n, 3) array of positions [m] and springs "
+            raise ParameterError("Body: points must be an (n, 3) array of positions [m] and springs "
                              "a (k, 2) array of point indices") from None
         if pts.ndim != 2 or pts.shape[1] != 3:
-            raise ValueError(f"Body: points must have shape (n, 3) [m], got {pts.shape}")
+            raise ParameterError(f"Body: points must have shape (n, 3) [m], got {pts.shape}")
         if springs.size == 0:
             springs = springs.reshape(0, 2).astype(np.int64)
         if springs.ndim != 2 or springs.shape[1] != 2 or springs.dtype.kind not in "iu":
-            raise ValueError(f"Body: springs must be a (k, 2) array of integer point indices, "
+            raise ParameterError(f"Body: springs must be a (k, 2) array of integer point indices, "
                              f"got shape {springs.shape} of {springs.dtype}")
         if self.volume is not None and not (np.isfinite(self.volume) and self.volume > 0):
-            raise ValueError(f"Body: volume must be > 0 [m^3] (or None: unknown), got "
+            raise ParameterError(f"Body: volume must be > 0 [m^3] (or None: unknown), got "
                              f"{self.volume!r}")
         self.points, self.springs = pts, springs
         for name, shape, unit in (("masses", (len(pts),), "kg"),
                                   ("stiffness", (len(springs),), "N/m")):
             value = getattr(self, name)
             if value is not None and np.shape(value) != shape:
-                raise ValueError(f"Body: {name} must have shape {shape} [{unit}], one per "
+                raise ParameterError(f"Body: {name} must have shape {shape} [{unit}], one per "
                                  f"{'point' if name == 'masses' else 'spring'}, got shape "
                                  f"{np.shape(value)}" + (
                                      " (one value for all: finalize(body, point_mass=...))"
@@ -163,10 +164,10 @@ class Body:
         lo = np.asarray(lower, dtype=np.float64).reshape(3)
         hi = np.asarray(upper, dtype=np.float64).reshape(3)
         if not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)) or not np.all(hi > lo):
-            raise ValueError(f"{name}: the box needs upper > lower in x, y and z [m], got "
+            raise ParameterError(f"{name}: the box needs upper > lower in x, y and z [m], got "
                              f"lower = {lo.tolist()}, upper = {hi.tolist()}")
         if distribution not in ("grid", "uniform", "edge"):
-            raise ValueError(f"{name}: distribution must be 'grid', 'uniform' or 'edge', got "
+            raise ParameterError(f"{name}: distribution must be 'grid', 'uniform' or 'edge', got "
                              f"{distribution!r}")
         if distribution == "grid":
             from .geometry.lattice import grid_points, grid_radius, grid_tets
@@ -176,7 +177,7 @@ class Body:
             tets, info = grid_tets(pts), None
         else:
             if radius is None:
-                raise ValueError(f"{name}: a random box ({distribution!r}) needs a spring "
+                raise ParameterError(f"{name}: a random box ({distribution!r}) needs a spring "
                                  "radius [m] (radius=...), or distribution='grid'")
             pts = box_field(points, lo, hi, distribution=distribution, seed=seed)
             # Delaunay tets of the points (a box is convex: nothing to carve), for

@@ -519,6 +519,8 @@ def _radius_tets(pts, inside_fn, vertices=None, faces=None, *, seed: int = 0,
     ``info["orphans"]`` counts them."""
     from .geometry.tetra import cloud_tets
 
+    if len(pts) < 4:  # (2 or 3 points: springs only; no tet spans them)
+        return pts, np.zeros((0, 4), dtype=np.int64), {"tet_volume": 0.0, "orphans": len(pts)}
     try:
         tets, orphans, info = cloud_tets(pts, inside_fn, vertices, faces, seed=seed)
     except BuildError as exc:

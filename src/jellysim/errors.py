@@ -23,6 +23,11 @@ class SceneError(JellysimError, ValueError):
     """A scene file or scene parameter is invalid."""
 
 
+class ParameterError(JellysimError, ValueError):
+    """A Python API argument is invalid (a shape, a unit's range, a choice): the message names
+    the parameter and what would fix it."""
+
+
 class SimulationError(JellysimError, RuntimeError):
     """A run went unstable (non-finite values or a runaway point)."""
 

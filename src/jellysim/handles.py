@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import SceneError, did_you_mean
+from .errors import SceneError, did_you_mean, ParameterError
 
 __all__ = ["Handles", "HandleMethods", "PinPath", "select_points"]
 

@@ -12,6 +12,7 @@ import numpy as np
 from .body import Body
 from .params import GRAVITY, REPORT_DENSITY
 from .state import State
+from .errors import ParameterError
 
 __all__ = ["Model", "finalize"]
 
@@ -123,35 +124,43 @@ def finalize(
     """
     points = np.asarray(body.points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3 or points.shape[0] == 0:
-        raise ValueError(f"body points must have shape (n, 3) with n >= 1, got {points.shape}")
+        raise ParameterError(f"body points must have shape (n, 3) with n >= 1, got {points.shape}")
     if not np.all(np.isfinite(points)):
-        raise ValueError("body points contain NaN or infinite coordinates")
+        raise ParameterError("body points contain NaN or infinite coordinates")
     n = points.shape[0]
     springs = np.asarray(body.springs, dtype=np.int64).reshape(-1, 2)
     k = springs.shape[0]
     if k and (springs.min() < 0 or springs.max() >= n):
-        raise ValueError(f"spring indices must lie in [0, {n - 1}]")
+        raise ParameterError(f"spring indices must lie in [0, {n - 1}]")
     if k and np.any(springs[:, 0] >= springs[:, 1]):
-        raise ValueError("every spring row must satisfy i < j")
+        raise ParameterError("every spring row must satisfy i < j")
     order = np.lexsort((springs[:, 1], springs[:, 0]))
     if k and np.any(np.all(np.diff(springs[order], axis=0) == 0, axis=1)):
-        raise ValueError("duplicate springs")
+        raise ParameterError("duplicate springs")
 
     if body.rest_length is None:
         rest = np.linalg.norm(points[springs[:, 1]] - points[springs[:, 0]], axis=1)
     else:
         rest = np.asarray(body.rest_length, dtype=np.float64).reshape(k)
+        if not np.all(np.isfinite(rest) & (rest >= 0)):
+            bad = int(np.flatnonzero(~(np.isfinite(rest) & (rest >= 0)))[0])
+            raise ParameterError(f"body.rest_length must be >= 0 m and finite for every spring "
+                                 f"(spring {bad}: {float(rest[bad])!r}); leave it None to take the "
+                                 "springs' start lengths")
     stiff = _stiffness(body, stiffness, k)
     springs, rest, stiff = springs[order], rest[order], stiff[order]
     mass = _masses(body, n, density, volume, point_mass)
     if not np.all(np.isfinite(mass) & (mass > 0)):
-        raise ValueError("every point mass must be a positive finite number of kg")
+        raise ParameterError("every point mass must be a positive finite number of kg")
     if not (damping >= 0 and np.isfinite(damping)):
-        raise ValueError(f"damping must be >= 0 kg/s, got {damping}")
+        raise ParameterError(f"damping must be >= 0 kg/s, got {damping}")
     if np.shape(gravity) != (3,):
-        raise ValueError(f"gravity must be a vector of 3 accelerations [m/s^2], e.g. (0, -9.81, "
-                         f"0) (y is up), got {gravity!r}")
+        raise ParameterError(f"gravity must be a vector of 3 accelerations [m/s^2], e.g. (0, "
+                             f"-9.81, 0) (y is up), got {gravity!r}")
     gravity = np.asarray(gravity, dtype=np.float64)
+    if not np.all(np.isfinite(gravity)):
+        raise ParameterError(f"gravity must be 3 finite accelerations [m/s^2], e.g. (0, -9.81, "
+                             f"0), got {gravity.tolist()!r}")
 
     first_ptr = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(np.bincount(springs[:, 0], minlength=n), out=first_ptr[1:])
@@ -185,20 +194,20 @@ def _stiffness(body: Body, stiffness, k: int) -> np.ndarray:
         if given.ndim == 0:
             given = np.full(k, float(given))
         elif given.shape != (k,):
-            raise ValueError(f"stiffness must be one number or an array of shape ({k},) (one "
+            raise ParameterError(f"stiffness must be one number or an array of shape ({k},) (one "
                              f"per spring), got shape {given.shape}")
         if not np.all(np.isfinite(given) & (given >= 0)):
-            raise ValueError("stiffness must be >= 0 N/m and finite for every spring")
+            raise ParameterError("stiffness must be >= 0 N/m and finite for every spring")
     if body.stiffness is None:
         if given is None:
             if k:
-                raise ValueError("spring stiffness k [N/m] is not given: pass stiffness= (a "
+                raise ParameterError("spring stiffness k [N/m] is not given: pass stiffness= (a "
                                  "number or one per spring) or set body.stiffness")
             given = np.zeros(0)
         return given
     own = np.asarray(body.stiffness, dtype=np.float64).reshape(k)
     if given is not None and not np.allclose(given, own, rtol=1e-12, atol=0.0):
-        raise ValueError("stiffness given, but body.stiffness is already set and differs; "
+        raise ParameterError("stiffness given, but body.stiffness is already set and differs; "
                          "pass one of them (dataclasses.replace(body, stiffness=None) drops "
                          "the body's)")
     return own
@@ -209,11 +218,11 @@ def _masses(body: Body, n: int, density, volume, point_mass) -> np.ndarray:
     if body.masses is not None:
         built = body.meta.get("density") if isinstance(body.meta, dict) else None
         if point_mass is not None:
-            raise ValueError("point_mass given, but body.masses is already set; drop one "
+            raise ParameterError("point_mass given, but body.masses is already set; drop one "
                              "(dataclasses.replace(body, masses=None) drops the body's)")
         if density is not None and not (built is not None and float(built) == float(density)):
             at = f" at {built:g} kg/m^3" if built is not None else ""
-            raise ValueError(
+            raise ParameterError(
                 f"density={density:g} kg/m^3 given, but body.masses is already set (lumped"
                 f"{at} when the body was built, at the size it was built), so it would be "
                 "ignored: build the body at its final size and density (Body.from_mesh(path, "
@@ -225,8 +234,8 @@ def _masses(body: Body, n: int, density, volume, point_mass) -> np.ndarray:
         return np.full(n, float(point_mass))
     vol = volume if volume is not None else body.volume
     if vol is None:
-        raise ValueError("cannot derive masses: give point masses, point_mass or a volume")
+        raise ParameterError("cannot derive masses: give point masses, point_mass or a volume")
     density = REPORT_DENSITY if density is None else float(density)
     if not (np.isfinite(density) and density > 0):
-        raise ValueError(f"density must be a positive number of kg/m^3, got {density}")
+        raise ParameterError(f"density must be a positive number of kg/m^3, got {density}")
     return np.full(n, density * float(vol) / n)

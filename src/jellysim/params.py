@@ -6,6 +6,8 @@ import numbers
 from dataclasses import dataclass
 from enum import Enum
 
+from .errors import ParameterError
+
 __all__ = [
     "Integrator",
     "ProvotPairs",
@@ -130,13 +132,13 @@ class ProvotParams:
             try:
                 object.__setattr__(self, name, enum(getattr(self, name)))
             except ValueError:
-                raise ValueError(f"provot {name} must be one of {[e.value for e in enum]}, got "
+                raise ParameterError(f"provot {name} must be one of {[e.value for e in enum]}, got "
                                  f"{getattr(self, name)!r}") from None
         _check_range("provot tau", self.tau, 0.0, 1.0, "a fraction of the rest length in "
                      "(0, 1)", open_low=True, open_high=True)
         if (isinstance(self.loops, bool) or not isinstance(self.loops, numbers.Integral)
                 or self.loops < 1):
-            raise ValueError(f"provot loops must be an integer >= 1, got {self.loops!r}")
+            raise ParameterError(f"provot loops must be an integer >= 1, got {self.loops!r}")
         _check_range("provot tolerance", self.tolerance, 0.0, float("inf"), "a distance >= 0 "
                      "[m]")
 
@@ -180,7 +182,7 @@ class GroundParams:
         try:
             object.__setattr__(self, "model", GroundModel(self.model))
         except ValueError:
-            raise ValueError(f"ground model must be one of {[m.value for m in GroundModel]}, "
+            raise ParameterError(f"ground model must be one of {[m.value for m in GroundModel]}, "
                              f"got {self.model!r}") from None
         paper = {k: getattr(self, k) for k in ("mu", "nu")
                  if getattr(self, k) != _GROUND_DEFAULTS[k]}
@@ -188,12 +190,12 @@ class GroundParams:
                                                   "no_slip")
                    if getattr(self, k) != _GROUND_DEFAULTS[k]}
         if self.model is GroundModel.CONTACT and paper:
-            raise ValueError(f"ground {', '.join(f'{k} = {v}' for k, v in paper.items())}: "
+            raise ParameterError(f"ground {', '.join(f'{k} = {v}' for k, v in paper.items())}: "
                              "mu and nu are the report's paper ground's (model = 'paper'); the "
                              "contact ground's Coulomb coefficient is friction (and its bounce "
                              "restitution)")
         if self.model is GroundModel.PAPER and contact:
-            raise ValueError(f"ground {', '.join(f'{k} = {v}' for k, v in contact.items())}: "
+            raise ParameterError(f"ground {', '.join(f'{k} = {v}' for k, v in contact.items())}: "
                              "used by the contact ground only; give model = 'contact' (the "
                              "paper ground's rule has mu and nu)")
 
@@ -207,7 +209,7 @@ def _check_range(what, value, low, high, expected, *, open_low=False, open_high=
         ok = ((low < value) if open_low else (low <= value)) and (
             (value < high) if open_high else (value <= high))
     if not ok:
-        raise ValueError(f"{what} must be {expected}, got {value!r}")
+        raise ParameterError(f"{what} must be {expected}, got {value!r}")
 
 
 _GROUND_DEFAULTS = {"mu": 0.1, "nu": 0.2, "restitution": CONTACT_RESTITUTION,
@@ -260,14 +262,14 @@ class ImplicitParams:
         try:
             object.__setattr__(self, "scheme", ImplicitScheme(self.scheme))
         except ValueError:
-            raise ValueError(f"implicit scheme must be 'theta' or 'bdf2', got {self.scheme!r}") \
+            raise ParameterError(f"implicit scheme must be 'theta' or 'bdf2', got {self.scheme!r}") \
                 from None
         if not 0.5 <= self.theta <= 1.0:
-            raise ValueError(f"implicit theta must lie in [0.5, 1], got {self.theta}")
+            raise ParameterError(f"implicit theta must lie in [0.5, 1], got {self.theta}")
         if not self.cg_tolerance > 0:
-            raise ValueError(f"implicit cg_tolerance must be > 0, got {self.cg_tolerance}")
+            raise ParameterError(f"implicit cg_tolerance must be > 0, got {self.cg_tolerance}")
         if not self.max_iterations >= 1:
-            raise ValueError(f"implicit max_iterations must be >= 1, got {self.max_iterations}")
+            raise ParameterError(f"implicit max_iterations must be >= 1, got {self.max_iterations}")
 
 
 class MaterialModel(str, Enum):
@@ -320,7 +322,7 @@ class Material:
                      "damping_frequency", "mass_scaling"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, numbers.Real):
-                raise ValueError(f"material {name} must be a number, got {value!r} "
+                raise ParameterError(f"material {name} must be a number, got {value!r} "
                                  f"({type(value).__name__})")
             narrow = getattr(getattr(value, "dtype", None), "itemsize", 8) < 8
             if narrow and not isinstance(value, numbers.Integral):  # a numpy float32:
@@ -335,11 +337,11 @@ class Material:
         for name, ok, allowed in checks:
             value = getattr(self, name)
             if not (math.isfinite(value) and ok):  # (numbers: checked above)
-                raise ValueError(f"material {name} must be {allowed}, got {value!r}")
+                raise ParameterError(f"material {name} must be {allowed}, got {value!r}")
         try:
             object.__setattr__(self, "model", MaterialModel(self.model))
         except ValueError:
-            raise ValueError(f"material model must be one of "
+            raise ParameterError(f"material model must be one of "
                              f"{[m.value for m in MaterialModel]}, got {self.model!r}") from None
         slip = density_slip(self.density)
         if slip:

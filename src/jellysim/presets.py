@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import copy
 
-from .errors import did_you_mean
+from .errors import did_you_mean, ParameterError
 from .params import CONTACT_FRICTION, CONTACT_RESTITUTION, REPORT_DENSITY, Material
 
 __all__ = ["PRESETS", "GELATIN_DENSITY", "GELATIN_YOUNGS_MODULUS", "GELATIN_POISSON_RATIO",
@@ -127,7 +127,7 @@ def gelatin(**changes):
     unknown = sorted(set(changes) - known)
     if unknown:
         hints = [f"{k!r}" + did_you_mean(k, sorted(known), "{!r}") for k in unknown]
-        raise ValueError(f"unknown material parameter {', '.join(hints)}; the parameters are "
+        raise ParameterError(f"unknown material parameter {', '.join(hints)}; the parameters are "
                          + ", ".join(sorted(known)))
     values.update(changes)
     return Material(**values)
@@ -137,6 +137,6 @@ def material(name: str = "gelatin", **changes):
     """A named material preset as a :class:`~jellysim.params.Material` (``"gelatin"``);
     keyword changes win (e.g. ``material("gelatin", youngs_modulus=5e3)``)."""
     if name != "gelatin":
-        raise ValueError(f"unknown material {name!r}; available: 'gelatin' (the paper-2010 "
+        raise ParameterError(f"unknown material {name!r}; available: 'gelatin' (the paper-2010 "
                          "preset is a springs-only scene preset, not a material)")
     return gelatin(**changes)

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import ParameterError
+
 __all__ = ["radius_springs", "canonical_springs"]
 
 
@@ -18,7 +20,7 @@ def canonical_springs(pairs: np.ndarray) -> np.ndarray:
     """
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     if np.any(pairs[:, 0] == pairs[:, 1]):
-        raise ValueError("a spring joins a point to itself")
+        raise ParameterError("a spring joins a point to itself")
     pairs = np.sort(pairs, axis=1)
     return np.unique(pairs, axis=0)
 
@@ -47,9 +49,9 @@ def radius_springs(points: np.ndarray, r: float, *, method: str = "auto") -> np.
     from scipy.spatial import cKDTree
 
     if not (r > 0 and np.isfinite(r)):
-        raise ValueError(f"connection radius r must be a positive finite length in m, got {r}")
+        raise ParameterError(f"connection radius r must be a positive finite length in m, got {r}")
     if method not in ("auto", "kdtree", "grid"):
-        raise ValueError(f"method must be 'auto', 'kdtree' or 'grid', got {method!r}")
+        raise ParameterError(f"method must be 'auto', 'kdtree' or 'grid', got {method!r}")
     points = np.asarray(points, dtype=np.float64)
     if method == "grid" or (method == "auto" and len(points) >= GRID_MIN_POINTS):
         from ._grid_pairs import grid_pairs
@@ -80,9 +82,9 @@ def choose_radius(points: np.ndarray, neighbours: float = 24.0, *, sample: int =
     points = np.asarray(points, dtype=np.float64)
     n = len(points)
     if n < 2:
-        raise ValueError("need at least 2 points to choose a radius")
+        raise ParameterError("need at least 2 points to choose a radius")
     if not 0 < neighbours < n:
-        raise ValueError(f"target neighbour count must lie in (0, {n}), got {neighbours}")
+        raise ParameterError(f"target neighbour count must lie in (0, {n}), got {neighbours}")
     tree = cKDTree(points)
     rng = np.random.default_rng(seed)
     idx = rng.choice(n, size=min(sample, n), replace=False)

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import ParameterError
+
 __all__ = ["grid_points", "grid_point_volumes", "grid_radius", "grid_tets", "cell_tets",
            "kuhn_offsets"]
 
@@ -22,9 +24,9 @@ def grid_points(count: int, lower, upper) -> np.ndarray:
     lower = np.asarray(lower, dtype=np.float64).reshape(3)
     upper = np.asarray(upper, dtype=np.float64).reshape(3)
     if count < 8:
-        raise ValueError(f"a grid needs at least 8 points, got {count}")
+        raise ParameterError(f"a grid needs at least 8 points, got {count}")
     if not np.all(upper > lower):
-        raise ValueError(f"box upper corner {upper.tolist()} must exceed lower {lower.tolist()}")
+        raise ParameterError(f"box upper corner {upper.tolist()} must exceed lower {lower.tolist()}")
     size = upper - lower
     h = (np.prod(size) / count) ** (1.0 / 3.0)
     cells = np.maximum(1, np.round(size / h).astype(int))
@@ -99,7 +101,7 @@ def grid_tets(points: np.ndarray, *, mirrored: bool = True) -> np.ndarray:
     points = np.asarray(points, dtype=np.float64)
     counts = [len(np.unique(points[:, c])) for c in range(3)]
     if int(np.prod(counts)) != points.shape[0]:
-        raise ValueError("grid_tets needs a full box grid (grid_points)")
+        raise ParameterError("grid_tets needs a full box grid (grid_points)")
     nx, ny, nz = (c - 1 for c in counts)
     cells = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"),
                      axis=-1).reshape(-1, 3)

@@ -18,6 +18,8 @@ from enum import Enum
 
 import numpy as np
 
+from ..errors import ParameterError
+
 __all__ = ["Distribution", "box_field", "morton_order", "sample_inside", "sample_surface",
            "surface_distance", "surface_distance_fn", "relax_interior"]
 
@@ -54,9 +56,9 @@ def box_field(
     lower = np.asarray(lower, dtype=np.float64).reshape(3)
     upper = np.asarray(upper, dtype=np.float64).reshape(3)
     if count < 1:
-        raise ValueError(f"point count must be >= 1, got {count}")
+        raise ParameterError(f"point count must be >= 1, got {count}")
     if not np.all(upper > lower):
-        raise ValueError(f"box upper corner {upper.tolist()} must exceed lower {lower.tolist()}")
+        raise ParameterError(f"box upper corner {upper.tolist()} must exceed lower {lower.tolist()}")
     rng = np.random.default_rng(seed)
     u = rng.random((count, 3))
     if distribution is Distribution.EDGE:
@@ -116,7 +118,7 @@ def sample_inside(inside_fn, lower, upper, count: int, *,
     lower = np.asarray(lower, dtype=np.float64).reshape(3)
     upper = np.asarray(upper, dtype=np.float64).reshape(3)
     if count < 1:
-        raise ValueError(f"point count must be >= 1, got {count}")
+        raise ParameterError(f"point count must be >= 1, got {count}")
     rng = np.random.default_rng(seed)
     extent = upper - lower
     box_volume = float(np.prod(extent))
@@ -139,7 +141,7 @@ def sample_inside(inside_fn, lower, upper, count: int, *,
             if have >= count:
                 pts = np.concatenate(kept)[:count]
                 return pts[morton_order(pts)]
-        raise ValueError(f"only {have} of {count} random points fell inside after {tried} "
+        raise ParameterError(f"only {have} of {count} random points fell inside after {tried} "
                          "tries: is the mesh closed and does it enclose a volume?")
     vol = volume if volume else box_volume
     spacing = (vol / count) ** (1.0 / 3.0)
@@ -162,7 +164,7 @@ def sample_inside(inside_fn, lower, upper, count: int, *,
             pts = ok[np.sort(rng.choice(len(ok), size=count, replace=False))]
             return pts[morton_order(pts)]
         spacing *= 0.93 * (len(ok) / count) ** (1.0 / 3.0) if len(ok) else 0.5
-    raise ValueError(f"could not place {count} {method.value} points inside the region")
+    raise ParameterError(f"could not place {count} {method.value} points inside the region")
 
 
 FEATURE_ANGLE = np.radians(30.0)
@@ -187,7 +189,7 @@ def sample_surface(vertices, faces, spacing: float, *, seed: int = 0,
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
     if not (np.isfinite(spacing) and spacing > 0):
-        raise ValueError(f"surface spacing must be a positive length [m], got {spacing}")
+        raise ParameterError(f"surface spacing must be a positive length [m], got {spacing}")
     tm = trimesh.Trimesh(v, f, process=False, validate=False)
     fixed = [v]
     if len(tm.face_adjacency):

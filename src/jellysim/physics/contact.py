@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, ParameterError
 from ..kernels.records import OBSTACLE_MU_S  # the static coefficient's column (inf: no slip)
 from ..params import CONTACT_FRICTION, CONTACT_RESTITUTION, _user_stacklevel
 
@@ -52,11 +52,11 @@ class _Surface:
         if self.no_slip:
             mu_s = np.inf
         if not 0.0 <= self.restitution <= 1.0:
-            raise ValueError(f"restitution must lie in [0, 1], got {self.restitution}")
+            raise ParameterError(f"restitution must lie in [0, 1], got {self.restitution}")
         if not self.friction >= 0.0:
-            raise ValueError(f"friction must be >= 0, got {self.friction}")
+            raise ParameterError(f"friction must be >= 0, got {self.friction}")
         if not mu_s >= self.friction:
-            raise ValueError(f"static friction ({mu_s}) must be >= kinetic friction "
+            raise ParameterError(f"static friction ({mu_s}) must be >= kinetic friction "
                              f"({self.friction})")
         return [float(self.restitution), float(mu_s), float(self.friction)]
 
@@ -65,7 +65,7 @@ def _v3(value, what) -> np.ndarray:
     try:
         return np.asarray(value, dtype=np.float64).reshape(3)
     except (TypeError, ValueError):
-        raise ValueError(f"{what} must be 3 numbers (x, y, z), got {value!r}") from None
+        raise ParameterError(f"{what} must be 3 numbers (x, y, z), got {value!r}") from None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -79,7 +79,7 @@ class Plane(_Surface):
         nrm = _v3(self.normal, "a plane's normal")
         length = float(np.linalg.norm(nrm))
         if not length > 0:
-            raise ValueError("a plane's normal must be a non-zero vector")
+            raise ParameterError("a plane's normal must be a non-zero vector")
         return 0, [*_v3(self.point, "a plane's point [m]"), *(nrm / length),
                    *self._material()]
 
@@ -93,7 +93,7 @@ class Sphere(_Surface):
 
     def row(self):
         if not self.radius > 0:
-            raise ValueError(f"a sphere's radius must be > 0 m, got {self.radius}")
+            raise ParameterError(f"a sphere's radius must be > 0 m, got {self.radius}")
         return 1, [*_v3(self.center, "a sphere's center [m]"), float(self.radius), 0.0, 0.0,
                    *self._material()]
 
@@ -109,7 +109,7 @@ class Box(_Surface):
         lo = _v3(self.lower, "a box's lower corner [m]")
         hi = _v3(self.upper, "a box's upper corner [m]")
         if not np.all(hi > lo):
-            raise ValueError(f"a box's upper corner {hi.tolist()} must exceed {lo.tolist()}")
+            raise ParameterError(f"a box's upper corner {hi.tolist()} must exceed {lo.tolist()}")
         return 2, [*lo, *hi, *self._material()]
 
 
@@ -133,7 +133,7 @@ def pack_obstacles(obstacles) -> tuple[np.ndarray, np.ndarray]:
     rows = [o.row() for o in obstacles]
     for o, (_, values) in zip(obstacles, rows):
         if not np.all(np.isfinite(np.delete(np.asarray(values, float), OBSTACLE_MU_S))):
-            raise ValueError(f"{o!r}: every number of an obstacle must be finite (m, and its "
+            raise ParameterError(f"{o!r}: every number of an obstacle must be finite (m, and its "
                              "restitution and friction)")
     kind = np.array([r[0] for r in rows], dtype=np.int32)
     data = np.array([r[1] for r in rows], dtype=np.float64).reshape(len(rows), 9)
@@ -171,7 +171,7 @@ def user_obstacles(obstacles, x0=None) -> tuple:
             depth = np.minimum(x - np.asarray(v[:3]), np.asarray(v[3:6]) - x).min(axis=1)
         inside = depth > tol
         if inside.any():
-            raise ValueError(f"obstacle #{k + 1} ({o!r}): {int(inside.sum())} of "
+            raise ParameterError(f"obstacle #{k + 1} ({o!r}): {int(inside.sum())} of "
                              f"{len(x)} points of the body start inside this obstacle (up to "
                              f"{float(depth.max()):.3g} m deep): its contact would throw them "
                              "out at once; move the body or the obstacle")

@@ -32,6 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import ParameterError
+
 __all__ = ["FemArrays", "fem_arrays", "lame_parameters", "scale_light_masses", "snh_parameters",
            "damping_parameters"]
 
@@ -157,18 +159,18 @@ def fem_arrays(points: np.ndarray, tets: np.ndarray, *, youngs_modulus: float,
     n = p.shape[0]
     t = np.asarray(tets, dtype=np.int64).reshape(-1, 4)
     if t.shape[0] == 0:
-        raise ValueError("the physical material needs tetrahedra; this body has none")
+        raise ParameterError("the physical material needs tetrahedra; this body has none")
     if t.min() < 0 or t.max() >= n:
-        raise ValueError(f"tet indices must lie in [0, {n - 1}]")
+        raise ParameterError(f"tet indices must lie in [0, {n - 1}]")
     E, nu = float(youngs_modulus), float(poisson_ratio)
     if not (math.isfinite(E) and E > 0):
-        raise ValueError(f"youngs_modulus must be a positive number of Pa, got {youngs_modulus}")
+        raise ParameterError(f"youngs_modulus must be a positive number of Pa, got {youngs_modulus}")
     if not (-0.5 < nu < 0.5):
-        raise ValueError(f"poisson_ratio must lie in (-0.5, 0.5), got {poisson_ratio}")
+        raise ParameterError(f"poisson_ratio must lie in (-0.5, 0.5), got {poisson_ratio}")
     if not (math.isfinite(damping_ratio) and 0.0 <= damping_ratio < 1.0):
-        raise ValueError(f"damping_ratio must lie in [0, 1), got {damping_ratio}")
+        raise ParameterError(f"damping_ratio must lie in [0, 1), got {damping_ratio}")
     if not (math.isfinite(damping_frequency) and damping_frequency > 0):
-        raise ValueError(f"damping_frequency must be a positive number of Hz, got "
+        raise ParameterError(f"damping_frequency must be a positive number of Hz, got "
                          f"{damping_frequency}")
     d = np.stack([p[t[:, c]] - p[t[:, 0]] for c in (1, 2, 3)], axis=2)  # columns: edges
     det = np.linalg.det(d)
@@ -179,7 +181,7 @@ def fem_arrays(points: np.ndarray, tets: np.ndarray, *, youngs_modulus: float,
     det = np.abs(det)
     if np.any(det <= 1e-12 * det.mean()):
         bad = int(np.argmin(det))
-        raise ValueError(f"tet {bad} is degenerate (volume {det[bad] / 6:.3g} m^3); rebuild "
+        raise ParameterError(f"tet {bad} is degenerate (volume {det[bad] / 6:.3g} m^3); rebuild "
                          "the body or drop slivers")
     inv = np.linalg.inv(d)
     vol = det / 6.0

@@ -44,6 +44,7 @@ import numpy as np
 from ..body import Body
 from ..geometry.tetra import tet_signed_volumes
 from .._numba_cache import check
+from ..errors import ParameterError
 
 __all__ = ["spring_weights", "virial_stiffness", "relaxation_stiffness", "kinematic_stiffness",
            "static_compliance",
@@ -85,7 +86,7 @@ def point_volumes(body: Body, *, density: float | None = None) -> np.ndarray:
     if body.masses is not None and density:
         return np.asarray(body.masses, dtype=np.float64) / density
     if body.volume is None:
-        raise ValueError("cannot derive point volumes: the body has no tets and no volume "
+        raise ParameterError("cannot derive point volumes: the body has no tets and no volume "
                          "(a body file: add a 'volume' line, a mass column or tets; a scene: "
                          "[mass] point_mass; Python: Body(..., volume=...))")
     return np.full(n, float(body.volume) / n)
@@ -108,7 +109,7 @@ def spring_weights(body: Body, *, point_volume=None) -> np.ndarray:
     n, k = pts.shape[0], springs.shape[0]
     length = np.linalg.norm(pts[springs[:, 1]] - pts[springs[:, 0]], axis=1)
     if np.any(length <= 0):
-        raise ValueError("a spring has zero rest length")
+        raise ParameterError("a spring has zero rest length")
     tets = spring_tets(body)
     if tets is not None:
         vol = np.abs(tet_signed_volumes(pts, tets))
@@ -121,12 +122,12 @@ def spring_weights(body: Body, *, point_volume=None) -> np.ndarray:
         pos = np.minimum(pos, k - 1)
         found = skey[order][pos] == key
         if not np.all(found):
-            raise ValueError("a tet edge has no spring: build springs from the tets' edges "
+            raise ParameterError("a tet edge has no spring: build springs from the tets' edges "
                              "(or set body.meta['connect'] = 'radius' when the tets are not "
                              "the spring network)")
         w = np.bincount(order[pos], weights=np.repeat(vol, 6), minlength=k)
         if np.any(w <= 0):
-            raise ValueError("a spring belongs to no tet: cannot weight it by tet volume")
+            raise ParameterError("a spring belongs to no tet: cannot weight it by tet volume")
         return w / length**2
     vp = point_volumes(body) if point_volume is None else np.asarray(point_volume, float)
     z = np.bincount(springs.ravel(), minlength=n).astype(np.float64)
@@ -566,11 +567,11 @@ def calibrate_springs(body: Body, youngs_modulus: float, *, relax: bool = True,
     (e.g. :func:`jellysim.geometry.lattice.grid_point_volumes`); default: the body volume
     split evenly."""
     if not (np.isfinite(youngs_modulus) and youngs_modulus > 0):
-        raise ValueError(f"Young's modulus must be a positive number of Pa, got {youngs_modulus}")
+        raise ParameterError(f"Young's modulus must be a positive number of Pa, got {youngs_modulus}")
     w = spring_weights(body, point_volume=point_volume)
     e1 = network_youngs_modulus(body, w, relax=relax, volume=None if point_volume is None
                                 else float(np.sum(point_volume)))
     if not e1 > 0:
-        raise ValueError("the spring network is not rigid (its effective modulus is 0): "
+        raise ParameterError("the spring network is not rigid (its effective modulus is 0): "
                          "connect more points (a larger radius) or use tets")
     return w * (youngs_modulus / e1)

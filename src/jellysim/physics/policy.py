@@ -21,6 +21,7 @@ import numpy as np
 from ..params import GRAVITY, Material, MaterialModel
 from ..model import finalize
 from .fem import fem_arrays, scale_light_masses
+from ..errors import ParameterError
 
 __all__ = ["physical_model", "scene_material", "scene_fem_model"]
 
@@ -60,11 +61,11 @@ def physical_model(body, material: Material = Material(), *, gravity=GRAVITY,
                       UserWarning, stacklevel=2)
     g = np.asarray(gravity, dtype=np.float64)
     if g.shape != (3,) or not np.all(np.isfinite(g)):
-        raise ValueError(f"gravity must be 3 finite numbers (x, y, z) in m/s^2, e.g. (0, -9.8, "
+        raise ParameterError(f"gravity must be 3 finite numbers (x, y, z) in m/s^2, e.g. (0, -9.8, "
                          f"0) or (0, 0, 0) for none; got {gravity!r}")
     if material.model is MaterialModel.FEM:
         if body.tets is None or len(body.tets) == 0:
-            raise ValueError(
+            raise ParameterError(
                 "the FEM material needs a body with tets (connect = 'delaunay', 'marching' or "
                 "'tetgen', or radius bodies built with tets); use "
                 "Material(model='springs') for a springs-only body")
