@@ -1174,6 +1174,19 @@ def test_api_arguments_are_refused_as_jellysim_errors_naming_them():
         js.GroundParams(friction=-1.0)
     with pytest.raises(js.JellysimError):
         js.GroundParams(friction=-1.0)
+    from jellysim.geometry.connect import radius_springs
+    from jellysim.geometry.jellyfile import write_body
+    from jellysim.geometry.sampling import box_field
+
+    # (each was a numpy, scipy or pathlib error from inside)
+    with pytest.raises(js.ParameterError, match=r"lower must be 3 finite coordinates"):
+        box_field(10, lower=(0.0, 0.0), upper=(1.0, 1.0, 1.0))
+    with pytest.raises(js.ParameterError, match=r"expected one of 'uniform', 'edge'"):
+        box_field(10, lower=(0.0, 0.0, 0.0), upper=(1.0, 1.0, 1.0), distribution="gauss")
+    with pytest.raises(js.ParameterError, match=r"with NaN or inf"):
+        radius_springs(np.full((5, 3), np.nan), 0.1)
+    with pytest.raises(js.ParameterError, match=r"swapped"):
+        write_body(body, "body.jello")
 
 
 def test_a_random_box_of_two_or_three_points_is_a_springs_body():

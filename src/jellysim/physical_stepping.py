@@ -265,13 +265,13 @@ class PhysicalStepping:
         if self.min_tet_volume_ratio <= 0.0 and not getattr(self, "_warned_inverted", False):
             self._warned_inverted = True
             self._announce(
-                f"a tet was turned inside out (smallest volume ratio J = "
-                f"{self.min_tet_volume_ratio:.3g}) by t = {s.t + done * self.dt:.4g} s: the body "
+                f"a tet was turned inside out by t = {s.t + done * self.dt:.4g} s (volume ratio "
+                f"J = {self.min_tet_volume_ratio:.3g} by then; sim.min_tet_volume_ratio follows "
+                "the run's smallest): the body "
                 "was squashed or pulled harder than its tets hold (their Stable Neo-Hookean "
                 "forces push it back; the shape is wrong meanwhile).  Better-shaped tets "
                 "(connect='marching', or 'delaunay' with its relaxed points), a stiffer "
-                "material or a gentler drag or handle help.  (Said once per run; "
-                "sim.min_tet_volume_ratio keeps the smallest J.)")
+                "material or a gentler drag or handle help.  (Said once per run.)")
         return done, status
 
     def _physical_chunk(self, nsteps, dt):

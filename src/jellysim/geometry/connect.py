@@ -53,6 +53,10 @@ def radius_springs(points: np.ndarray, r: float, *, method: str = "auto") -> np.
     if method not in ("auto", "kdtree", "grid"):
         raise ParameterError(f"method must be 'auto', 'kdtree' or 'grid', got {method!r}")
     points = np.asarray(points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3 or not np.all(np.isfinite(points)):
+        raise ParameterError(f"points must be finite positions [m] of shape (n, 3), got "
+                             f"shape {points.shape}" + ("" if points.ndim != 2 or points.shape[1]
+                                                        != 3 else " with NaN or inf"))
     if method == "grid" or (method == "auto" and len(points) >= GRID_MIN_POINTS):
         from ._grid_pairs import grid_pairs
 

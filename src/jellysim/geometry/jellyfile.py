@@ -515,6 +515,12 @@ def _kind(path) -> str:
 
 def write_body(path, body: Body) -> None:
     """Write ``body`` to ``path``: ``.jello`` text or ``.npz`` by suffix (atomically)."""
+    if not isinstance(body, Body):
+        from jellysim.errors import ParameterError
+
+        swapped = " (the arguments are (path, body): swapped?)" if isinstance(path, Body) else ""
+        raise ParameterError(f"write_body(path, body): body must be a jellysim Body, got "
+                             f"{type(body).__name__}{swapped}")
     (write_jello if _kind(path) == ".jello" else write_npz)(path, body)
 
 

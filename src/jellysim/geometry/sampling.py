@@ -52,9 +52,12 @@ def box_field(
     -------
     Points [m], shape (count, 3), float64, in Morton order.
     """
-    distribution = Distribution(distribution)
-    lower = np.asarray(lower, dtype=np.float64).reshape(3)
-    upper = np.asarray(upper, dtype=np.float64).reshape(3)
+    try:
+        distribution = Distribution(distribution)
+    except ValueError:
+        raise ParameterError(f"distribution = {distribution!r}: expected one of " + ", ".join(
+            repr(d.value) for d in Distribution)) from None
+    lower, upper = _corner(lower, "lower"), _corner(upper, "upper")
     if count < 1:
         raise ParameterError(f"point count must be >= 1, got {count}")
     if not np.all(upper > lower):
@@ -65,6 +68,17 @@ def box_field(
         u = 0.5 * (1.0 + np.cos(2.0 * np.pi * u))
     points = lower + u * (upper - lower)
     return points[morton_order(points)]
+
+
+def _corner(value, name: str) -> np.ndarray:
+    """A box corner as 3 finite coordinates [m], or a ParameterError naming it."""
+    try:
+        c = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        c = np.zeros(0)
+    if c.shape != (3,) or not np.all(np.isfinite(c)):
+        raise ParameterError(f"{name} must be 3 finite coordinates (x, y, z) [m], got {value!r}")
+    return c
 
 
 def _spread_bits(v: np.ndarray) -> np.ndarray:
