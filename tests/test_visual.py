@@ -1042,3 +1042,28 @@ def test_an_fps_other_than_the_runs_says_how_fast_it_plays(traj, tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         render_trajectory(traj, tmp_path / "same.mp4", RenderOptions(size=SIZE), fps=25.0)
+
+
+def test_a_python_recording_keeps_how_it_ran(tmp_path):
+    """Session 14's researcher trial: a Recorder file of a Python run kept only E, nu and the
+    ground, so a published run could not be re-run from it.  It now keeps the simulator's
+    options; a Simulator rebuilt from them on the same model repeats the frames bitwise."""
+    import jellysim as js
+    from jellysim.io.trajectory import Recorder, load_trajectory
+
+    model = js.physical_model(js.Body.box(points=64), js.material("gelatin", damping_ratio=0.05))
+    ground = js.GroundParams(model="contact", friction=0.45, restitution=0.1)
+    sim = js.Simulator(model, dt=1 / 90, ground=ground)
+    rec = Recorder(model)
+    for _ in range(4):
+        rec.record(sim)
+        sim.advance(2)
+    p = load_trajectory(rec.save(tmp_path / "run.npz")).params["simulator"]
+    assert p["dt"] == 1 / 90 and p["integrator"] == "symplectic"
+    assert p["fem"]["damping_ratio"] == 0.05 and p["ground"]["friction"] == 0.45
+    again = js.Simulator(model, dt=p["dt"], integrator=p["integrator"],
+                         ground=js.GroundParams(**p["ground"]))
+    assert again.substeps == p["substeps"]
+    for k in range(4):
+        np.testing.assert_array_equal(again.state.x, rec.positions[k])
+        again.advance(2)

@@ -86,6 +86,11 @@ class Recorder:
         states alone says nothing of a ground, and none is drawn)."""
         ground = getattr(state, "ground", None)
         if ground is not None and hasattr(state, "state"):
+            if "simulator" not in self.params and not self.scene_text:  # how a Python run
+                try:  # ran (session 14's trial: its recording kept only E, nu and the ground)
+                    self.params["simulator"] = _simulator_params(state)
+                except AttributeError:  # (a simulator of another kind: its scene says it)
+                    pass
             state = state.state
             if "ground" not in self.params:
                 self.params["ground"] = {"enabled": bool(ground.enabled),
@@ -139,6 +144,41 @@ class Recorder:
                     steps=np.asarray(self.steps, dtype=np.int64),
                     status=np.array(status), **meta)
         return Path(path)
+
+
+def _simulator_params(sim) -> dict:
+    """What a :class:`~jellysim.simulator.Simulator` runs with, as JSON values: dt [s],
+    integrator, substeps, backend, precision, threads, the Provot, ground and implicit
+    options, obstacles, the model's damping [kg/s] and gravity [m/s^2], and the FEM
+    material's parameters when it has one."""
+    import dataclasses
+    from enum import Enum
+
+    def plain(v):
+        if isinstance(v, Enum):
+            return v.value
+        if dataclasses.is_dataclass(v) and not isinstance(v, type):
+            return {f.name: plain(getattr(v, f.name)) for f in dataclasses.fields(v)}
+        if isinstance(v, (list, tuple, np.ndarray)):
+            return [plain(x) for x in v]
+        if isinstance(v, np.generic):
+            return v.item()
+        return v if isinstance(v, (bool, int, float, str, type(None))) else repr(v)
+
+    out = {"dt": float(sim.dt), "integrator": plain(sim.integrator),
+           "substeps": int(sim.substeps), "backend": plain(getattr(sim, "backend", None)),
+           "precision": str(getattr(sim, "precision", "float64")),
+           "threads": int(getattr(sim, "threads", 1)),
+           "provot": plain(sim.provot), "ground": plain(sim.ground),
+           "implicit": plain(sim.implicit), "obstacles": [dict(kind=type(o).__name__, **plain(o)) for o in sim.obstacles],
+           "damping": float(sim.model.damping), "gravity": plain(sim.model.gravity)}
+    fem = getattr(sim.model, "fem", None)
+    if fem is not None:
+        out["fem"] = {k: plain(getattr(fem, k)) for k in (
+            "youngs_modulus", "poisson_ratio", "damping_ratio", "damping_frequency",
+            "branch_ratio", "branch_time")
+            if hasattr(fem, k)}
+    return json.loads(json.dumps(out, default=repr))
 
 
 def trajectory_meta(model, *, scene_text: str = "", params: dict | None = None,
