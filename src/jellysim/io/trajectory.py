@@ -19,7 +19,8 @@ Arrays stored (SI units):
 ``triangles``      (f, 3) i8       surface triangles (may be empty)
 ``tets``           (t, 4) i8       tetrahedra (may be empty)
 ``scene_toml``     str             the scene file's text
-``params_json``    str             every resolved parameter, as JSON
+``params_json``    str             every resolved parameter, as JSON (a scene run: the scene's;
+                                   a Python :class:`Recorder` of a Simulator: ``simulator``)
 ``status``         str             ``"complete"``, ``"failed: <message>"`` (or, read from a
                                    stream: ``"interrupted at step N ..."``, ``"incomplete: ..."``)
 =================  ==============  =============================================
