@@ -57,13 +57,17 @@ def _frames_with_progress(renderer, frames, progress: bool, label: str):
                        TimeRemainingColumn(), TextColumn("left"))
         bar.start()
         task = bar.add_task(label, total=len(frames))
+    done = 0
     try:
         for f in frames:
-            yield renderer.render(int(f))
+            image = renderer.render(int(f))
+            done += 1  # (counted when drawn: a caller that stops after the last one
+            yield image  # never resumes the generator, which left "6/7 frames")
             if bar is not None:
-                bar.advance(task)
+                bar.update(task, completed=done)
     finally:
         if bar is not None:
+            bar.update(task, completed=done)
             bar.stop()
 
 
