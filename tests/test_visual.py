@@ -267,16 +267,26 @@ def test_usd_has_one_time_sample_per_frame_equal_to_the_skin(traj, tmp_path):
 def test_glb_morph_targets_reproduce_each_frame(traj, tmp_path):
     import trimesh
 
+    from jellysim.geometry.creases import split_creases
     from jellysim.io.gltf import export_glb, glb_frame_positions, read_glb
 
     path = export_glb(traj, tmp_path / "run.glb")
+    # the box's edges are creases: their vertices have one copy per face of the box (session
+    # 14's trial: one averaged normal rounded them), the skin's own vertices first
+    src, split = split_creases(traj.skin_positions(0), traj.skin.faces)
+    assert len(src) > len(traj.skin.rest_vertices)
+    np.testing.assert_array_equal(src[:len(traj.skin.rest_vertices)],
+                                  np.arange(len(traj.skin.rest_vertices)))
+
+    def skin(k):
+        return traj.skin_positions(k)[src]
+
     doc, _ = read_glb(path)
     assert doc["asset"]["version"] == "2.0"
     prim = doc["meshes"][0]["primitives"][0]
     assert len(prim["targets"]) == traj.frame_count
     for k in range(traj.frame_count):
-        np.testing.assert_allclose(glb_frame_positions(path, k), traj.skin_positions(k),
-                                   atol=1e-5)
+        np.testing.assert_allclose(glb_frame_positions(path, k), skin(k), atol=1e-5)
     # independent readers: pygltflib (morph targets, animation) and trimesh (base mesh)
     import pygltflib
 
@@ -300,23 +310,28 @@ def test_glb_morph_targets_reproduce_each_frame(traj, tmp_path):
     np.testing.assert_allclose(times, traj.times - traj.times[0], atol=1e-6)
     for k in (1, traj.frame_count - 1):
         pos = base + sum(w * acc(t["POSITION"]) for w, t in zip(weights[k], p.targets))
-        np.testing.assert_allclose(pos, traj.skin_positions(k), atol=1e-5)
+        np.testing.assert_allclose(pos, skin(k), atol=1e-5)
     mesh = trimesh.load(path, force="mesh", process=False)
     assert len(mesh.faces) == len(traj.skin.faces)
-    np.testing.assert_allclose(np.asarray(mesh.vertices), traj.skin_positions(0), atol=1e-5)
+    np.testing.assert_allclose(np.asarray(mesh.vertices), skin(0), atol=1e-5)
     # smooth normals (session 12's trial: none were written, so viewers shaded it flat): at
     # every frame the area-weighted mean of the faces' normals, from trimesh's face normals
     # and areas
     for k in (0, traj.frame_count - 1):
         n = acc(p.attributes.NORMAL).astype(float) + sum(
             w * acc(t["NORMAL"]) for w, t in zip(weights[k], p.targets))
-        tm = trimesh.Trimesh(traj.skin_positions(k), traj.skin.faces, process=False)
+        tm = trimesh.Trimesh(skin(k), split, process=False)
         ref = np.zeros((len(tm.vertices), 3))
         for c in range(3):
             np.add.at(ref, tm.faces[:, c], tm.face_normals * tm.area_faces[:, None])
         cos = np.einsum("ij,ij->i", n / np.linalg.norm(n, axis=1, keepdims=True),
                         ref / np.linalg.norm(ref, axis=1, keepdims=True))
         assert np.min(cos) > 0.9999
+    # at rest, every vertex of the box's top face (its edges' included) faces straight up
+    n0 = acc(p.attributes.NORMAL).astype(float)
+    top = np.unique(split[np.all(np.isclose(skin(0)[split][:, :, 1],
+                                            skin(0)[:, 1].max()), axis=1)])
+    np.testing.assert_allclose(n0[top], np.tile([0.0, 1.0, 0.0], (len(top), 1)), atol=1e-6)
 
 
 def test_pvd_series_every_frame_readable_by_meshio(run_dir, traj, tmp_path):

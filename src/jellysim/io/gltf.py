@@ -1,7 +1,10 @@
 """glTF 2.0 binary (``.glb``) export: the skin as one mesh with morph-target animation.
 
 Layout: the base mesh holds frame 0's vertex positions and unit vertex normals (area-weighted,
-so viewers shade it smooth); morph target ``k`` holds frame ``k`` (positions and normals)
+so viewers shade it smooth; a vertex on a crease of the first frame, an edge sharper than
+:data:`~jellysim.geometry.creases.CREASE_ANGLE`, has one copy per side, so a box keeps its
+edges: :func:`~jellysim.geometry.creases.split_creases`, whose vertex order keeps the skin's
+first); morph target ``k`` holds frame ``k`` (positions and normals)
 minus frame 0 (target 0 is all zeros), so weights one-hot at ``k`` give frame ``k`` exactly
 (in float32).  One animation drives the node's morph weights with ``STEP`` interpolation at the
 frames' times (shifted so the first frame is at 0 s).  Written with the standard library only.
@@ -38,7 +41,12 @@ def export_glb(traj, path, *, max_frames: int | None = None) -> Path:
     idx = np.arange(len(frames))
     if max_frames is not None and len(idx) > max_frames:
         idx = np.unique(np.linspace(0, len(frames) - 1, int(max_frames)).round().astype(int))
-    frames = np.stack([np.asarray(frames[int(i)], dtype=np.float32) for i in idx])
+    from ..geometry.creases import split_creases
+
+    # creases of the first frame (a box's edges) stay hard: a vertex there has one copy per
+    # smooth side (session 14's trial: the averaged normals shaded a box as a soft blob)
+    source, faces = split_creases(np.asarray(frames[0], dtype=np.float64), faces)
+    frames = np.stack([np.asarray(frames[int(i)], dtype=np.float32)[source] for i in idx])
     times = (times[idx] - times[idx[0]]).astype(np.float32)
     n_frames, m = frames.shape[0], frames.shape[1]
     if n_frames == 0 or m == 0:

@@ -268,7 +268,11 @@ class Renderer:
 
         self.surface = self.points = self.springs = None
         if self._surface_frames is not None:
-            self.surface = pv.PolyData(np.array(self._surface_frames(0)), _faces(faces))
+            from ..geometry.creases import split_creases
+
+            rest = np.asarray(self._surface_frames(0))  # creases (a box's edges) kept hard
+            self._crease_source, split = split_creases(rest, faces)
+            self.surface = pv.PolyData(rest[self._crease_source], _faces(split))
             p.add_mesh(self.surface, color=o.color, opacity=o.opacity, smooth_shading=True,
                        specular=0.6, specular_power=30, ambient=0.25, diffuse=0.8,
                        name="skin")
@@ -351,7 +355,7 @@ class Renderer:
         if self.shadow is not None:
             self.shadow.points = self._shadow_points(f)
         if self.surface is not None:
-            self.surface.points = np.asarray(self._surface_frames(f))
+            self.surface.points = np.asarray(self._surface_frames(f))[self._crease_source]
             self.surface.compute_normals(inplace=True, cell_normals=False, split_vertices=False)
         if self.points is not None:
             self.points.points = x
