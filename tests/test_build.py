@@ -394,7 +394,7 @@ def test_a_mesh_standing_on_the_ground_is_a_mesh_body_on_it(tmp_path):
     """Session 14: a scene naming only ``path`` (no ``type``) was read as the default box and
     refused the path; and a mesh modelled standing on y = 0 was refused as starting 1.2e-7 m
     below the ground (the marching grid's cut points lay up to edge / 2^15 outside the mesh):
-    now the path means a mesh, and the cut points are the last ones found inside."""
+    now the path means a mesh, and the cut points stay inside the mesh's bounding box."""
     from jellysim.scene import Scene
 
     _slab_with_fin(tmp_path / "fin.obj")

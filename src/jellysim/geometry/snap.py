@@ -42,12 +42,13 @@ WARP_MIN_QUALITY = 0.35
 """Warped tets below this quality are dropped (a Kuhn tet of the grid has 0.59)."""
 
 BISECTIONS = 14
-"""Bisection steps locating each cut point: inside the surface, within ``edge / 2^14`` of it."""
+"""Bisection steps locating each cut point: within ``edge / 2^15`` of the surface."""
 
 
 def warp_to_surface(nodes, inside, tets, inside_fn, *, alpha: float = WARP_ALPHA,
                     alpha_outside: float = WARP_ALPHA_OUTSIDE,
-                    min_quality: float = WARP_MIN_QUALITY) -> tuple[np.ndarray, np.ndarray]:
+                    min_quality: float = WARP_MIN_QUALITY,
+                    bounds=None) -> tuple[np.ndarray, np.ndarray]:
     """Warped node positions [m], shape (n, 3), and the kept tets, shape (t, 4) int64 (rows of
     ``tets``).
 
@@ -57,6 +58,9 @@ def warp_to_surface(nodes, inside, tets, inside_fn, *, alpha: float = WARP_ALPHA
     inside: ``inside_fn(nodes)``, shape (n,) bool.
     tets: candidate tets (indices into ``nodes``), shape (t, 4): every tet with a corner inside.
     inside_fn: point-in-mesh test, ``(m, 3) float64 -> (m,) bool``.
+    bounds: the mesh's bounding box ``(lower, upper)`` [m]: cut points are kept inside it (a
+        bisection ends up to ``edge / 2^15`` outside the surface: a mesh standing on y = 0
+        gave a body 1e-7 m below the ground, refused by the contact's start check).
     """
     from .tetra import tet_edges, tet_quality, tet_signed_volumes
 
@@ -74,10 +78,11 @@ def warp_to_surface(nodes, inside, tets, inside_fn, *, alpha: float = WARP_ALPHA
         mid = 0.5 * (lo + hi)
         ins = np.asarray(inside_fn(pa + mid[:, None] * (pb - pa)), dtype=bool)
         lo, hi = np.where(ins, mid, lo), np.where(ins, hi, mid)
-    # the cut point, as a fraction of the way from a to b: the last point found inside, so a
-    # body cut from a mesh standing on the ground does not start below it (by edge / 2^15)
-    s = lo
+    s = 0.5 * (lo + hi)  # the cut point as a fraction of the way from a to b
     point = pa + s[:, None] * (pb - pa)
+    if bounds is not None:
+        point = np.clip(point, np.asarray(bounds[0], dtype=np.float64),
+                        np.asarray(bounds[1], dtype=np.float64))
     length = np.linalg.norm(pb - pa, axis=1)
     # candidate moves: (node, distance, cut point), each node to its nearest cut point
     node = np.concatenate([a, b])

@@ -107,7 +107,8 @@ def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
     if warp:
         from jellysim.geometry.snap import warp_to_surface
 
-        nodes, tets = warp_to_surface(nodes, inside, tets, inside_fn)
+        nodes, tets = warp_to_surface(nodes, inside, tets, inside_fn,
+                                      bounds=(v.min(axis=0), v.max(axis=0)))
     else:
         tets = tets[inside[tets].all(axis=1)]
 
