@@ -1025,7 +1025,6 @@ def test_a_gif_asked_faster_than_it_can_play_is_said(tmp_path, traj):
         render_trajectory(traj, tmp_path / "s.gif", RenderOptions(size=SIZE), fps=25.0)
 
 
-
 def test_the_floor_and_shadow_lie_strictly_under_a_resting_skin(traj):
     """Skin vertices that dip below the ground are lifted exactly onto it (Skin.deform), so a
     floor drawn at the ground's height z-fought them: a saw-toothed contact patch through the
