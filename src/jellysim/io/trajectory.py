@@ -171,7 +171,8 @@ def _simulator_params(sim) -> dict:
            "precision": str(getattr(sim, "precision", "float64")),
            "threads": int(getattr(sim, "threads", 1)),
            "provot": plain(sim.provot), "ground": plain(sim.ground),
-           "implicit": plain(sim.implicit), "obstacles": [dict(kind=type(o).__name__, **plain(o)) for o in sim.obstacles],
+           "implicit": plain(sim.implicit),
+           "obstacles": [dict(kind=type(o).__name__, **plain(o)) for o in sim.obstacles],
            "damping": float(sim.model.damping), "gravity": plain(sim.model.gravity)}
     fem = getattr(sim.model, "fem", None)
     if fem is not None:

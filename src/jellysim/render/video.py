@@ -132,7 +132,7 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
 
             warnings.warn(f"{path}: each saved frame is shown once at fps = {fps:g}: the run "
                           f"(a frame every {step:.4g} s) plays at {fps * step:.3g}x real time; "
-                          f"leave out --fps for real time", UserWarning, stacklevel=2)
+                          "leave out --fps for real time", UserWarning, stacklevel=2)
     if kind == "png":
         frames = frames[-1:]
     if options.background == "transparent" and kind not in ("png", "pngdir"):
