@@ -1040,6 +1040,12 @@ def test_the_floor_and_shadow_lie_strictly_under_a_resting_skin(traj):
                  for f in range(traj.frame_count))
     assert lowest == pytest.approx(gh, abs=1e-12)  # the resting skin touches the ground
     assert floor < shadow < lowest
+    # on the demo's plate: its top under the shadow (it stood on the ground, so a resting
+    # body looked sunk 0.4 % into it, with light patches where its skin crossed the top)
+    r = Renderer(traj, RenderOptions(size=SIZE, plate=True))
+    plate_top = r.plotter.actors["plate"].mapper.dataset.bounds[3]
+    assert float(r.floor.points[:, 1].max()) < plate_top < float(
+        r.shadow.points[:, 1].max()) < lowest
 
 
 def test_an_fps_other_than_the_runs_says_how_fast_it_plays(traj, tmp_path):

@@ -218,7 +218,10 @@ class Renderer:
             # drawn a hair below the ground: a skin resting on it is lifted onto y = floor_y
             # (Skin.deform), and a floor in that plane z-fights it (a saw-toothed contact
             # patch through the translucent jello, session 14's trial)
-            self.floor = pv.Plane(center=(c[0], floor_y - FLOOR_BELOW * ext, c[2]),
+            plate_h = 0.004 * ext if o.plate else 0.0  # the plate's top at the ground, the
+            #                                            floor under it
+            self.floor = pv.Plane(center=(c[0], floor_y - (1 + bool(o.plate)) * FLOOR_BELOW
+                                          * ext - plate_h, c[2]),
                                   direction=(0, 1, 0),
                                   i_size=size, j_size=size, i_resolution=1, j_resolution=1)
             self._floor_points = np.array(self.floor.points)
@@ -235,8 +238,12 @@ class Renderer:
                 x0 = np.asarray(traj.positions[-1])  # under where the body comes to rest
                 mid = 0.5 * (x0.min(axis=0) + x0.max(axis=0))
                 radius = 0.8 * float(np.max(np.ptp(x0[:, [0, 2]], axis=0)))
-                plate = pv.Cylinder(center=(mid[0], floor_y + 0.002 * ext, mid[2]),
-                                    direction=(0, 1, 0), radius=radius, height=0.004 * ext,
+                # its top a hair below the ground, as the floor's (a plate standing on the
+                # ground showed a body resting on the ground sunk 0.4 % into it: light patches
+                # where the skin crossed its top, session 14)
+                plate = pv.Cylinder(center=(mid[0], floor_y - FLOOR_BELOW * ext - 0.5 * plate_h,
+                                            mid[2]),
+                                    direction=(0, 1, 0), radius=radius, height=plate_h,
                                     resolution=96)
                 p.add_mesh(plate, color="#fbfaf7", ambient=0.4, diffuse=0.7, specular=0.2,
                            name="plate")
@@ -244,9 +251,8 @@ class Renderer:
                 extra = np.vstack([extra, np.stack([mid[0] + radius * np.cos(rim),
                                                     np.full(16, floor_y),
                                                     mid[2] + radius * np.sin(rim)], axis=1)])
-                self._floor_y = floor_y + 0.0045 * ext
-            else:  # between the floor and the skin's lowest points
-                self._floor_y = floor_y - 0.5 * FLOOR_BELOW * ext
+            self._floor_y = floor_y - 0.5 * FLOOR_BELOW * ext  # under the skin, over the
+            #                                                    floor or the plate
         near = self._add_obstacles(traj, lo, hi)  # the solids the body meets: framed too
         if near is not None:
             extra = near if extra is None else np.vstack([extra, near])
