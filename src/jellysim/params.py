@@ -37,6 +37,12 @@ CONTACT_RESTITUTION = 0.3
 CONTACT_FRICTION = 0.6
 """Default kinetic Coulomb friction coefficient [-] of the contact ground and of obstacles."""
 
+CONTACT_SLIP_DISTANCE = 1.0e-4
+"""Default slip-weakening distance D_c [m]: a contact point's friction coefficient falls from
+the static to the kinetic one over this much slip, and is static again once the point sticks
+(docs/physics.md section 2: with D_c = 0 a soft body's static friction was lost to the slip of
+its base's edges)."""
+
 MAX_ALL_PAIRS_POINTS = 4000
 """Largest body for ``ProvotPairs.ALL``: n (n - 1) / 2 = 8.0e6 pair checks per loop, about
 10-50 ms per loop here.  Above this the O(n^2) hack is refused."""
@@ -166,6 +172,8 @@ class GroundParams:
     """Contact model: kinetic Coulomb friction coefficient [-]."""
     static_friction: float | None = None
     """Contact model: static Coulomb friction coefficient [-] (default: ``friction``)."""
+    slip_distance: float = CONTACT_SLIP_DISTANCE
+    """Contact model: slip [m] over which a point's friction falls from static to kinetic."""
     no_slip: bool = False
     """Contact model: a point in contact never moves along the plane, whatever its normal
     force (a wet plate holding a gel by adhesion: Coulomb's bound vanishes at the base's edge,
@@ -178,6 +186,8 @@ class GroundParams:
         if self.static_friction is not None:
             _check_range("ground static_friction", self.static_friction, 0.0, float("inf"),
                          "a number >= 0")
+        _check_range("ground slip_distance", self.slip_distance, 0.0, float("inf"),
+                     "a length >= 0 [m]")
         _check_range("ground height", self.height, -float("inf"), float("inf"), "a height [m]")
         try:
             object.__setattr__(self, "model", GroundModel(self.model))
@@ -187,7 +197,7 @@ class GroundParams:
         paper = {k: getattr(self, k) for k in ("mu", "nu")
                  if getattr(self, k) != _GROUND_DEFAULTS[k]}
         contact = {k: getattr(self, k) for k in ("restitution", "friction", "static_friction",
-                                                  "no_slip")
+                                                  "slip_distance", "no_slip")
                    if getattr(self, k) != _GROUND_DEFAULTS[k]}
         if self.model is GroundModel.CONTACT and paper:
             raise ParameterError(f"ground {', '.join(f'{k} = {v}' for k, v in paper.items())}: "
@@ -213,7 +223,8 @@ def _check_range(what, value, low, high, expected, *, open_low=False, open_high=
 
 
 _GROUND_DEFAULTS = {"mu": 0.1, "nu": 0.2, "restitution": CONTACT_RESTITUTION,
-                    "friction": CONTACT_FRICTION, "static_friction": None, "no_slip": False}
+                    "friction": CONTACT_FRICTION, "static_friction": None,
+                    "slip_distance": CONTACT_SLIP_DISTANCE, "no_slip": False}
 """:class:`GroundParams`' defaults of each model's own keys (a key of the other model given
 with a non-default value is refused)."""
 

@@ -200,7 +200,7 @@ class PhysicalStepping:
                    m.point_second_ptr, m.spring_second_slot, m.point_second_other, use_springs)
         model_arrays = (m.point_inv_mass, float(m.damping), m.gravity, springs)
         contact = (self._obstacle_kind, self._obstacle_data, float(self.rest_speed),
-                   self.center, float(self.runaway_distance**2))
+                   self.center, float(self.runaway_distance**2), self._slip)
         tet_force = self._tet_force
         if self.backend is Backend.NUMBA and self.threads == 1:
             tet_force = tet_force[:0]  # one thread: the tet pass sums into fsum itself
@@ -228,7 +228,7 @@ class PhysicalStepping:
             t0 = s.t + done * self.dt
             hd.targets(t0, hd.pin_from)
             hd.targets(t0 + self.dt, hd.pin_to)
-            saved = (s.x.copy(), s.v.copy(), s.a.copy(), self._q.copy())
+            saved = (s.x.copy(), s.v.copy(), s.a.copy(), self._q.copy(), self._slip.copy())
             running_min_j = float(self._min_j[0])
             squeezed = bool(self._squeezed[0])
             self.travelled = False
@@ -241,7 +241,7 @@ class PhysicalStepping:
                 if (status == STATUS_OK and (squeezed or not compressed)) or (
                         attempt == self.MAX_SUBSTEP_DOUBLINGS + 1) or self._travelled(status):
                     break
-                for dst, src in zip((s.x, s.v, s.a, self._q), saved):
+                for dst, src in zip((s.x, s.v, s.a, self._q, self._slip), saved):
                     dst[:] = src
                 if status == STATUS_OK:
                     squeezed = True

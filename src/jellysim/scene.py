@@ -483,7 +483,7 @@ class Scene:
         return GroundParams(enabled=g["enabled"], mu=g["mu"], nu=g["nu"], height=g["height"],
                             model=kind, restitution=g["restitution"],
                             friction=g["friction"], static_friction=g["static_friction"],
-                            no_slip=g["no_slip"])
+                            slip_distance=g["slip_distance"], no_slip=g["no_slip"])
 
     def with_backend(self, backend: str | None = None, device: str | None = None,
                      precision: str | None = None) -> "Scene":

@@ -26,6 +26,9 @@ OBSTACLE_SCHEMA: dict[str, Spec] = {
                      "a number >= 0"),
     "static_friction": Spec("float", None, "Static Coulomb coefficient (default: friction).",
                             lambda v: v >= 0, "a number >= 0"),
+    "slip_distance": Spec("float", _G.slip_distance, "Slip [m] over which a point's friction "
+                          "falls from static to kinetic.", lambda v: v >= 0,
+                          "a length >= 0 (m)"),
     "no_slip": Spec("bool", False, "A point touching it never moves along it (adhesion); "
                     "explicit integrators only."),
 }
@@ -65,6 +68,7 @@ def validate_obstacles(entries, name: str) -> list[dict]:
 def make_obstacle(values: dict):
     material = {k: values[k] for k in ("restitution", "friction", "static_friction")}
     material["no_slip"] = bool(values.get("no_slip", False))  # (not in older trajectories)
+    material["slip_distance"] = float(values.get("slip_distance", _G.slip_distance))
     kind = values["kind"]
     if kind == "plane":
         return Plane(point=tuple(values["point"]), normal=tuple(values["normal"]),

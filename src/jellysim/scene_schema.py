@@ -204,6 +204,10 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "friction": _nonneg("Contact: kinetic Coulomb friction coefficient.", _G.friction),
         "static_friction": Spec("float", None, "Contact: static Coulomb coefficient "
                                 "(default: friction).", lambda v: v >= 0, "a number >= 0"),
+        "slip_distance": Spec("float", _G.slip_distance, "Contact: slip [m] over which a "
+                              "point's friction falls from static to kinetic (it is static "
+                              "again once the point sticks; docs/physics.md section 2).",
+                              lambda v: v >= 0, "a length >= 0 (m)"),
         "no_slip": Spec("bool", False, "Contact: a point touching the ground never moves "
                         "along it (a wet plate holding a gel by adhesion; it can still lift "
                         "off); explicit integrators only."),

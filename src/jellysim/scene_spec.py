@@ -259,7 +259,8 @@ def refuse_unused_keys(raw: dict, kind: str, name: str, schema: dict) -> None:
 
 
 PAPER_GROUND_KEYS = ("mu", "nu")
-CONTACT_GROUND_KEYS = ("restitution", "friction", "static_friction", "no_slip")
+CONTACT_GROUND_KEYS = ("restitution", "friction", "static_friction", "slip_distance",
+                       "no_slip")
 
 
 def check_given_keys(user: dict, preset_raw: dict, out: dict, name: str, preset) -> None:

@@ -224,12 +224,9 @@ class Simulator(HandleMethods, PhysicalStepping):
                                  "integrators and is not applied by integrator = 'implicit'; "
                                  "disable it ([provot] enabled = false)")
         if ground.enabled and GroundModel(ground.model) is GroundModel.CONTACT:
-            from .physics.contact import Plane
+            from .physics.contact import ground_plane
 
-            self.obstacles = (Plane(point=(0.0, ground.height, 0.0), normal=(0.0, 1.0, 0.0),
-                                    restitution=ground.restitution, friction=ground.friction,
-                                    static_friction=ground.static_friction,
-                                    no_slip=ground.no_slip),) + self.obstacles
+            self.obstacles = (ground_plane(ground),) + self.obstacles
         from .physics.contact import pack_obstacles
 
         try:
@@ -311,8 +308,10 @@ class Simulator(HandleMethods, PhysicalStepping):
         self._ground = rec.ground_guard(g.enabled and GroundModel(g.model) is GroundModel.PAPER,
                                         g.height, g.mu, g.nu, self.center,
                                         self.runaway_distance**2)
+        self._slip = np.zeros(n)
+        """Each point's contact slip [m] since it last stuck (the friction's weakening)."""
         self._obstacles = rec.obstacles(self._obstacle_kind, self._obstacle_data,
-                                        self.rest_speed)
+                                        self.rest_speed, self._slip)
         if self.integrator is Integrator.IMPLICIT:
             im = implicit
             self._implicit_opts = rec.implicit_options(im.theta, im.cg_tolerance,
@@ -412,10 +411,16 @@ class Simulator(HandleMethods, PhysicalStepping):
         :class:`SceneError` when ``d`` does not fit this simulator (another body or
         integrator)."""
         own = self.internal_state()
+        od = d.get("_obstacle_data")
+        if od is not None and np.ndim(od) == 2 and np.shape(od)[1] == 9:
+            # files of earlier versions: obstacle rows without the slip-weakening distance
+            # (the scene's own rows are kept; every point resumes stuck: _slip absent)
+            d = {k: val for k, val in d.items() if k != "_obstacle_data"}
         # tolerated when absent (files of earlier versions): arrays added since, all of them
         # rebuilt every step (_squeezed: a frame count; _scratch fields appended at the end)
         missing = sorted(k for k in set(own) - set(d)
-                         - {"_last.0", "_last.1", "_squeezed", "_relax"}
+                         - {"_last.0", "_last.1", "_squeezed", "_relax", "_slip",
+                            "_obstacle_data"}
                          if not k.startswith("_scratch."))
         extra = sorted(set(d) - set(own) - {"_last.0", "_last.1"})
         if missing or extra:

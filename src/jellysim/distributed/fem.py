@@ -148,6 +148,7 @@ class PhysicalMethods(PhysicalStepping):
         self._tet_force = np.zeros((4 * t_local, 3))
         self._tet_j = np.ones(t_local)
         self._fsum = np.zeros((part.glob.size, 3))
+        self._slip = np.zeros(part.glob.size)  # contact slip [m] of the local points
         self._scalar = np.zeros(m.spring_count)
         self._min_j = np.ones(1)
         self._squeezed = np.zeros(1, dtype=np.int8)  # see Simulator._advance_physical
@@ -172,7 +173,7 @@ class PhysicalMethods(PhysicalStepping):
                    self._use_springs)
         model_arrays = (m.point_inv_mass, float(m.damping), m.gravity, springs)
         contact = (self._obstacle_kind, self._obstacle_data, float(self.rest_speed),
-                   self.center, float(self.runaway_distance**2))
+                   self.center, float(self.runaway_distance**2), self._slip)
         scratch = (self._tet_force, self._tet_j, self._fsum, self._scalar, self._min_j)
         return model_arrays, ft, contact, scratch
 

@@ -53,5 +53,5 @@ def local_physical_substep(dt, frac, x, v, a, model_arrays, fem, handles, contac
         if rx * rx + ry * ry + rz * rz > bound2:
             runaway += 1
     if kinds.shape[0] > 0:
-        contact(x, v, kinds, data, rest_speed, dt)
+        contact(x, v, kinds, data, rest_speed, dt, contact_arrays[5])
     return _status(nonfinite, runaway)

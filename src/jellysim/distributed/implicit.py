@@ -229,7 +229,7 @@ def implicit_steps_distributed(sim, nsteps, dt):
             matvec(dv, shift, h2)
             constraint_friction(x, v, b, ap, mass, cnrm, cobs, data, h if bdf2 else dt,
                                 contact_state, sc.friction)
-            contact(x, v, kinds, data, rest_speed, dt)
+            contact(x, v, kinds, data, rest_speed, dt, obstacles.slip)
         finish_step(x, v, a, g.paper, g.height, g.mu, g.nu, g.center, g.bound2)
         status = sim.part.owned_status(s, g.center, g.bound2)
         if bdf2:

@@ -26,7 +26,7 @@ from .fem import PhysicalMethods, _rest_thinness
 from .local import LocalPart, combine_status, halo_depth, replicated_reason
 from .partition import partition_points, point_graph
 from ..simulator import Simulator, springs_auto_substeps
-from ..physics.contact import Plane, pack_obstacles, start_checks
+from ..physics.contact import ground_plane, pack_obstacles, start_checks
 
 __all__ = ["DistributedSimulator", "on_root", "world", "launched_under_mpi"]
 
@@ -306,10 +306,7 @@ class DistributedSimulator(PhysicalMethods):
 
         obstacles = tuple(obstacles)
         if ground.enabled and GroundModel(ground.model) is GroundModel.CONTACT:
-            obstacles = (Plane(point=(0.0, ground.height, 0.0), normal=(0.0, 1.0, 0.0),
-                               restitution=ground.restitution, friction=ground.friction,
-                               static_friction=ground.static_friction,
-                               no_slip=ground.no_slip),) + obstacles
+            obstacles = (ground_plane(ground),) + obstacles
         try:
             self._obstacle_kind, self._obstacle_data = pack_obstacles(obstacles)
         except ValueError as exc:

@@ -6,7 +6,7 @@ import numpy as np
 from numba import njit, prange
 
 from ._numba_opts import OPTS as _opts
-from .records import OBSTACLE_E, OBSTACLE_MU_K, OBSTACLE_MU_S
+from .records import OBSTACLE_E, OBSTACLE_MU_K, OBSTACLE_MU_S, OBSTACLE_SLIP
 from . import STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY
 from .contact_numpy import FRICTION_REL_TOL, NO_SLIP
 
@@ -91,7 +91,7 @@ def _contact_point(kind, g, px, py, pz):
 
 
 @njit(**_opts)
-def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
+def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt, slip):
     n = x.shape[0]
     m = obstacle_kind.shape[0]
     for p in prange(n):
@@ -109,22 +109,38 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
             tz = v[p, 2] - vn * nz
             vn_new = vn
             scale = 1.0
-            if vn < 0.0:
+            if g[OBSTACLE_MU_S] > NO_SLIP:  # no slip: held along the surface while touching
+                scale = 0.0
+                slip[p] = 0.0
+                if vn < 0.0:
+                    vn_new = -g[OBSTACLE_E] * vn if -vn > rest_speed else 0.0
+            elif vn < 0.0:
                 vn_new = -g[OBSTACLE_E] * vn if -vn > rest_speed else 0.0
                 dvn = vn_new - vn
                 speed = np.sqrt(tx * tx + ty * ty + tz * tz)
-                if speed <= g[OBSTACLE_MU_S] * dvn:
+                mu = g[OBSTACLE_MU_K] + _weakening(slip[p], g[OBSTACLE_SLIP]) * (
+                    g[OBSTACLE_MU_S] - g[OBSTACLE_MU_K])
+                if speed <= mu * dvn:
                     scale = 0.0
-                elif speed > 0.0:
-                    scale = max(1.0 - g[OBSTACLE_MU_K] * dvn / speed, 0.0)
-            if g[OBSTACLE_MU_S] > NO_SLIP:  # no slip: held along the surface while touching
-                scale = 0.0
+                    slip[p] = 0.0
+                else:
+                    if speed > 0.0:
+                        scale = max(1.0 - mu * dvn / speed, 0.0)
+                    slip[p] += scale * speed * dt
             x[p, 0] += (scale - 1.0) * tx * dt
             x[p, 1] += (scale - 1.0) * ty * dt
             x[p, 2] += (scale - 1.0) * tz * dt
             v[p, 0] = scale * tx + vn_new * nx
             v[p, 1] = scale * ty + vn_new * ny
             v[p, 2] = scale * tz + vn_new * nz
+
+
+@njit(cache=True, inline="always")
+def _weakening(s, dc):
+    """The static share of the friction coefficient after a slip ``s`` (see the numpy spec)."""
+    if dc > 0.0:
+        return max(1.0 - s / dc, 0.0)
+    return 0.0 if s > 0.0 else 1.0
 
 
 _FREE = 0

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .records import OBSTACLE_E, OBSTACLE_MU_K, OBSTACLE_MU_S
+from .records import OBSTACLE_E, OBSTACLE_MU_K, OBSTACLE_MU_S, OBSTACLE_SLIP
 from . import STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY
 
 
@@ -56,18 +56,21 @@ def _contact_geometry(kind, geom, x):
     return phi, nrm
 
 
-def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
+def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt, slip):
     """Non-penetration, restitution and Coulomb friction against static obstacles, in place.
 
     For each obstacle in order (``obstacle_data`` row: 6 geometry numbers, restitution e,
-    static friction mu_s, kinetic friction mu_k), a point with signed distance ``phi < 0`` is
-    moved out along the normal; if it approaches (``v_n < 0``) its normal velocity becomes
-    ``-e v_n`` (0 when ``-v_n <= rest_speed`` [m/s]: resting contact), and the normal impulse
-    per mass ``dv_n`` buys friction: the tangential velocity ``v_t`` is removed when
-    ``|v_t| <= mu_s dv_n`` (sticking), else reduced by ``mu_k dv_n`` (sliding).  The position
-    is moved tangentially by ``(v_t' - v_t) dt`` so that it follows the corrected velocity
-    (a sticking point does not creep).  An infinite mu_s (above :data:`NO_SLIP`: a no-slip
-    surface) holds every touching point, approaching or not.
+    static friction mu_s, kinetic friction mu_k, slip-weakening distance D_c [m]), a point with
+    signed distance ``phi < 0`` is moved out along the normal; if it approaches (``v_n < 0``)
+    its normal velocity becomes ``-e v_n`` (0 when ``-v_n <= rest_speed`` [m/s]: resting
+    contact), and the normal impulse per mass ``dv_n`` buys friction with the coefficient
+    ``mu(s) = mu_s - (mu_s - mu_k) min(s / D_c, 1)`` (``D_c = 0``: mu_k once ``s > 0``), ``s``
+    = ``slip`` (n,) [m], the point's tangential slip since it last stuck: the tangential
+    velocity ``v_t`` is removed when ``|v_t| <= mu(s) dv_n`` (it sticks: ``s = 0``), else
+    reduced by ``mu(s) dv_n`` (it slides: ``s += |v_t'| dt``).  The position is moved
+    tangentially by ``(v_t' - v_t) dt`` so that it follows the corrected velocity (a sticking
+    point does not creep).  An infinite mu_s (above :data:`NO_SLIP`: a no-slip surface) holds
+    every touching point, approaching or not.
     """
     for o in range(obstacle_kind.shape[0]):
         geom = obstacle_data[o]
@@ -85,16 +88,28 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt):
         vn_new = np.where(app, np.where(-vn > rest_speed, -e * vn, 0.0), vn)
         dvn = vn_new - vn
         speed = np.sqrt(np.einsum("ij,ij->i", vt, vt))
+        s = slip[hit]
         if mu_s > NO_SLIP:
             stick = np.ones(len(vn), dtype=bool)
+            mu = np.zeros(len(vn))
         else:
-            stick = app & (speed <= mu_s * dvn)
+            mu = mu_k + weakening(s, geom[OBSTACLE_SLIP]) * (mu_s - mu_k)
+            stick = app & (speed <= mu * dvn)
         scale = np.where(stick, 0.0, np.where(
-            app & (speed > 0.0), 1.0 - mu_k * dvn / np.where(speed > 0.0, speed, 1.0), 1.0))
+            app & (speed > 0.0), 1.0 - mu * dvn / np.where(speed > 0.0, speed, 1.0), 1.0))
         scale = np.maximum(scale, 0.0)
         vt_new = scale[:, None] * vt
         x[hit] = xh + (vt_new - vt) * dt
         v[hit] = vt_new + vn_new[:, None] * nh
+        slip[hit] = np.where(stick, 0.0, np.where(app, s + scale * speed * dt, s))
+
+
+def weakening(s, dc):
+    """The static share ``1 - min(s / D_c, 1)`` of the friction coefficient after a slip ``s``
+    [m] (``D_c = 0``: 1 at ``s = 0``, else 0)."""
+    if dc > 0.0:
+        return np.maximum(1.0 - s / dc, 0.0)
+    return np.where(s > 0.0, 0.0, 1.0)
 
 
 NO_SLIP = 1.0e30

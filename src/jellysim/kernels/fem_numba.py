@@ -13,7 +13,7 @@ tuples (numba compiles tuples of arrays like plain arguments):
 * ``handles``: ``(gravity_scale, point_force, pinned, pin_from, pin_to, drag, drag_weight,
   drag_offset)``; ``drag = [point, tx, ty, tz, k]`` (point < 0: none): each point of weight
   w > 0 is pulled by ``k w (target + offset - x)``
-* ``contact_arrays``: ``(obstacle_kind, obstacle_data, rest_speed, center, bound2)``
+* ``contact_arrays``: ``(obstacle_kind, obstacle_data, rest_speed, center, bound2, slip)``
 * ``scratch``: ``(tet_force, tet_j, fsum, spring_scalar, min_j)``; a ``tet_force`` with no
   rows (what the Simulator passes when it runs one thread) selects
   :func:`.fem_lanes_numba.tet_forces_summed`: one serial pass adding each corner force to
@@ -157,7 +157,8 @@ def _substep_tail(s, nsteps, dt, x, v, a, fsum, model_arrays, handles, contact_a
     nonfinite, runaway = _integrate(x, v, a, fsum, model_arrays, handles, dt,
                                     (s + 1.0) / nsteps, contact_arrays[3], contact_arrays[4])
     if contact_arrays[0].shape[0] > 0:
-        contact(x, v, contact_arrays[0], contact_arrays[1], contact_arrays[2], dt)
+        contact(x, v, contact_arrays[0], contact_arrays[1], contact_arrays[2], dt,
+                contact_arrays[5])
     return _status(nonfinite, runaway)
 
 

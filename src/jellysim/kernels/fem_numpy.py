@@ -78,7 +78,7 @@ def physical_steps(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arra
     inv_mass, damping, gravity, springs = model_arrays
     g, decay, q = fem[8], fem[9], fem[10]
     gscale, fext, pinned, pin_from, pin_to, drag, drag_w, drag_off = handles
-    kinds, data, rest_speed, center, bound2 = contact_arrays
+    kinds, data, rest_speed, center, bound2, slip = contact_arrays
     tet_force, tet_j, fsum, spring_scalar, min_j = scratch
     ptr, slot = fem[11], fem[12]
     spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other, use_springs = springs
@@ -104,7 +104,7 @@ def physical_steps(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arra
             v[pin] = (target - (x[pin] - dt * v[pin])) / dt
             x[pin] = target
             a[pin] = 0.0
-        nb.contact(x, v, kinds, data, rest_speed, dt)
+        nb.contact(x, v, kinds, data, rest_speed, dt, slip)
         status = nb.finish_step(x, v, a, False, 0.0, 0.0, 0.0, center, bound2)
         if status != STATUS_OK:
             return s + 1, status

@@ -213,7 +213,7 @@ def implicit_steps(nsteps, dt, x, v, a, springs, points, ground, obstacles, opti
             system_matvec(dv, mass, shift, h2, springs, frame, spring_vec, ap)
             constraint_friction(x, v, b, ap, mass, cnrm, cobs, obstacle_data,
                                 h if bdf2 else dt, contact_state, sc.friction)
-            contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt)
+            contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt, obstacles.slip)
         status = finish_step(x, v, a, g.paper, g.height, g.mu, g.nu, g.center, g.bound2)
         if bdf2:
             fresh[:] = ((cobs >= 0) | np.any(x != hist[2], axis=1)

@@ -24,7 +24,8 @@ from collections import namedtuple
 
 import numpy as np
 
-__all__ = ["OBSTACLE_E", "OBSTACLE_MU_S", "OBSTACLE_MU_K", "SpringArrays", "PointArrays", "ProvotOptions", "GroundGuard", "Obstacles",
+__all__ = ["OBSTACLE_E", "OBSTACLE_MU_S", "OBSTACLE_MU_K", "OBSTACLE_SLIP", "OBSTACLE_COLUMNS",
+           "SpringArrays", "PointArrays", "ProvotOptions", "GroundGuard", "Obstacles",
            "ExplicitScratch", "ImplicitOptions", "ImplicitScratch", "spring_arrays",
            "point_arrays", "provot_options", "ground_guard", "obstacles",
            "explicit_scratch", "implicit_options", "implicit_scratch"]
@@ -53,13 +54,19 @@ GroundGuard = namedtuple("GroundGuard", "paper height mu nu center bound2")
 runaway guard: a point farther than ``sqrt(bound2)`` [m] from ``center`` [m] (3,) stops the
 run."""
 
-OBSTACLE_E, OBSTACLE_MU_S, OBSTACLE_MU_K = 6, 7, 8
+OBSTACLE_E, OBSTACLE_MU_S, OBSTACLE_MU_K, OBSTACLE_SLIP = 6, 7, 8, 9
 """Columns of an obstacle's ``data`` row after its 6 geometry numbers: restitution e, static
-and kinetic Coulomb friction coefficients [-] (:func:`jellysim.physics.contact.pack_obstacles`)."""
+and kinetic Coulomb friction coefficients [-], the slip-weakening distance D_c [m]
+(:func:`jellysim.physics.contact.pack_obstacles`)."""
 
-Obstacles = namedtuple("Obstacles", "kind data rest_speed")
+OBSTACLE_COLUMNS = 10
+"""Numbers per obstacle ``data`` row."""
+
+Obstacles = namedtuple("Obstacles", "kind data rest_speed slip")
 """Static obstacles (:func:`jellysim.physics.contact.pack_obstacles`): ``kind`` (m,) int32,
-``data`` (m, 9), ``rest_speed`` [m/s] below which a contact rests."""
+``data`` (m, :data:`OBSTACLE_COLUMNS`), ``rest_speed`` [m/s] below which a contact rests;
+``slip`` (n,) float64 [m], state carried between steps: each point's tangential slip since it
+last stuck (its friction weakens from mu_s to mu_k over D_c of slip)."""
 
 ExplicitScratch = namedtuple("ExplicitScratch", "spring_scalar provot_scalar dx count max_corr "
                                                 "x_pre v_alt force")
@@ -107,10 +114,16 @@ def ground_guard(paper=False, height=0.0, mu=0.1, nu=0.2, center=(0.0, 0.0, 0.0)
                        np.ascontiguousarray(center, dtype=np.float64), float(bound2))
 
 
-def obstacles(kind=None, data=None, rest_speed=0.0) -> Obstacles:
+def obstacles(kind=None, data=None, rest_speed=0.0, slip=None) -> Obstacles:
+    """``slip`` (n,) float64, one per point, required when there is an obstacle (the kernels
+    read it without bounds checks)."""
     kind = np.zeros(0, dtype=np.int32) if kind is None else kind
-    data = np.zeros((0, 9)) if data is None else data
-    return Obstacles(kind, data, float(rest_speed))
+    data = np.zeros((0, OBSTACLE_COLUMNS)) if data is None else data
+    if slip is None:
+        if kind.shape[0]:
+            raise ValueError("obstacles(): give slip, one float64 per point")
+        slip = np.zeros(0)
+    return Obstacles(kind, data, float(rest_speed), slip)
 
 
 def explicit_scratch(n: int, k: int, dtype=np.float64) -> ExplicitScratch:

@@ -94,7 +94,7 @@ def run_steps(nsteps, dt, integrator, x, v, a, springs, points, provot_opts, gro
         if has_obstacles:
             if save:
                 _add_velocity(v, x, x_pre, dt)
-            contact(x, v, obstacles.kind, obstacles.data, obstacles.rest_speed, dt)
+            contact(x, v, obstacles.kind, obstacles.data, obstacles.rest_speed, dt, obstacles.slip)
             status = finish_step(x, v, a, g.paper, g.height, g.mu, g.nu, g.center, g.bound2)
         else:
             status = _finish_fused(x, v, a, dx, pending, x_pre, save, dt, g)

@@ -50,7 +50,7 @@ def run_steps(nsteps, dt, integrator, x, v, a, springs, points, provot_opts, gro
             if po.velocity_update:
                 v += (x - x_pre) / dt
         if obstacles.kind.shape[0] > 0:
-            contact(x, v, obstacles.kind, obstacles.data, obstacles.rest_speed, dt)
+            contact(x, v, obstacles.kind, obstacles.data, obstacles.rest_speed, dt, obstacles.slip)
         status = finish_step(x, v, a, g.paper, g.height, g.mu, g.nu, g.center, g.bound2)
         if status != STATUS_OK:
             return step + 1, status

@@ -45,6 +45,7 @@ import warp as wp
 
 from ..errors import SceneError
 from . import STATUS_OK
+from .records import OBSTACLE_COLUMNS
 from . import warp_fem  # noqa: F401 (its module is loaded with the others, compiled once)
 from .warp_contact import Guard, k_add_velocity, k_contact, k_finish, k_step_end
 from .warp_kernels import (Accel, k_drift, k_force_first, k_force_second, k_fused_first,
@@ -181,6 +182,7 @@ class _DeviceModel:
         self.pscal = wp.zeros(max(k, 1), dtype=T, device=dev)
         self.cnt = wp.zeros(n, dtype=wp.int32, device=dev)
         self.max_corr = wp.zeros(n, dtype=T, device=dev)
+        self.slip = wp.zeros(n, dtype=T, device=dev)
         self.largest = wp.zeros(1, dtype=T, device=dev)
         self.ctl = wp.zeros(4, dtype=wp.int32, device=dev)
         self.counts = wp.zeros(2, dtype=wp.int32, device=dev)
@@ -190,7 +192,7 @@ class _DeviceModel:
         self.views = None
         if not wp.get_device(dev).is_cuda:
             self.views = {name: getattr(self, name).numpy() for name in
-                          ("x", "v", "a", "max_corr", "ctl", "counts", "largest")}
+                          ("x", "v", "a", "max_corr", "slip", "ctl", "counts", "largest")}
 
 
 class WarpBackend:
@@ -277,8 +279,8 @@ class WarpBackend:
         pb = ProvotBuf[T]()
         pb.dx, pb.cnt, pb.max_corr, pb.largest = dm.dx, dm.cnt, dm.max_corr, dm.largest
         kind = wp.array(p["obstacle_kind"].astype(np.int32), device=dev)
-        odata = wp.array(p["obstacle_data"].astype(self.np_dtype).reshape(-1, 9), dtype=T,
-                         device=dev)
+        odata = wp.array(p["obstacle_data"].astype(self.np_dtype).reshape(
+            -1, OBSTACLE_COLUMNS), dtype=T, device=dev)
         ctl = dm.ctl
 
         def forces():
@@ -344,7 +346,7 @@ class WarpBackend:
         if obstacles:
             if save:
                 L(k_add_velocity, n, [dm.v, dm.x, dm.x_pre, dt, ctl])
-            L(k_contact, n, [dm.x, dm.v, kind, odata, T(p["rest_speed"]), dt, ctl])
+            L(k_contact, n, [dm.x, dm.v, kind, odata, T(p["rest_speed"]), dt, dm.slip, ctl])
             L(k_finish, n, [dm.x, dm.v, dm.a, dm.dx, 0, dm.x_pre, 0, *finish])
         else:
             L(k_finish, n, [dm.x, dm.v, dm.a, dm.dx, pending, dm.x_pre, save, *finish])
@@ -384,7 +386,7 @@ class WarpBackend:
             sp.second_other, pv.loops, pv.tau, pv.tolerance, pv.all_pairs, pv.gauss_seidel,
             pv.velocity_update, g.paper, g.height, g.mu, g.nu, ob.kind, ob.data, ob.rest_speed,
             g.center, g.bound2, sc.spring_scalar, sc.dx, sc.count, sc.max_corr, sc.x_pre,
-            sc.provot_scalar)
+            sc.provot_scalar, ob.slip)
 
     def run_steps_flat(self, nsteps, dt, integrator, x, v, a, x0, inv_mass, mass, damping,
                        gravity,
@@ -392,10 +394,11 @@ class WarpBackend:
                        second_other, provot_loops, tau, tolerance, all_pairs, gauss_seidel,
                        velocity_update, ground, height, mu, nu, obstacle_kind, obstacle_data,
                        rest_speed, center, bound2, spring_scalar, dx, count, max_corr, x_pre,
-                       provot_scalar):
+                       provot_scalar, slip=None):
         """:func:`jellysim.kernels.numba_backend.run_steps` on the device: same arguments
         (numpy arrays), same in-place results on x, v, a (and ``max_corr``); the other scratch
-        arrays stay on the device.  Returns ``(steps_done, status)``."""
+        arrays stay on the device; ``slip`` (n,) [m], the contact's slip-weakening state (in
+        and out; required with obstacles).  Returns ``(steps_done, status)``."""
         dm = self._model((x0, inv_mass, mass, spring_ij, rest, stiff, first_ptr, second_ptr,
                           second_slot, second_other))
         ok = np.asarray(obstacle_kind)
@@ -416,12 +419,16 @@ class WarpBackend:
             hv["x"][...] = x
             hv["v"][...] = v
             hv["a"][...] = a
+            if slip is not None:
+                hv["slip"][...] = slip
             for name in ("ctl", "counts", "largest"):
                 hv[name][...] = 0
         else:
             dm.x.assign(np.ascontiguousarray(x, dtype=F))
             dm.v.assign(np.ascontiguousarray(v, dtype=F))
             dm.a.assign(np.ascontiguousarray(a, dtype=F))
+            if slip is not None:
+                dm.slip.assign(np.ascontiguousarray(slip, dtype=F))
             dm.ctl.zero_()
             dm.counts.zero_()
             dm.largest.zero_()
@@ -433,12 +440,16 @@ class WarpBackend:
             v[...] = hv["v"]
             a[...] = hv["a"]
             max_corr[...] = hv["max_corr"]
+            if slip is not None:
+                slip[...] = hv["slip"]
         else:
             ctl = dm.ctl.numpy()
             x[...] = dm.x.numpy()
             v[...] = dm.v.numpy()
             a[...] = dm.a.numpy()
             max_corr[...] = dm.max_corr.numpy()
+            if slip is not None:
+                slip[...] = dm.slip.numpy()
         status = int(ctl[0])
         done = int(ctl[1]) if status != STATUS_OK else int(nsteps)
         return done, status

@@ -9,7 +9,7 @@ from typing import Any
 
 import warp as wp
 
-from .warp_common import A2 as _A2, I32 as _I32
+from .warp_common import A2 as _A2, AT as _AT, I32 as _I32
 from .warp_common import FLOAT, precision_structs, register_overloads
 
 wp.set_module_options({"enable_backward": False})
@@ -104,7 +104,9 @@ def k_add_velocity(v: _A2, x: _A2, x_pre: _A2, dt: Any, ctl: _I32):
 
 
 @wp.kernel
-def k_contact(x: _A2, v: _A2, kind: _I32, g: _A2, rest_speed: Any, dt: Any, ctl: _I32):
+def k_contact(x: _A2, v: _A2, kind: _I32, g: _A2, rest_speed: Any, dt: Any, slip: _AT,
+              ctl: _I32):
+    """:func:`jellysim.kernels.contact_numpy.contact` (its slip-weakening included)."""
     p = wp.tid()
     if ctl[0] != 0:
         return
@@ -127,14 +129,25 @@ def k_contact(x: _A2, v: _A2, kind: _I32, g: _A2, rest_speed: Any, dt: Any, ctl:
             vn_new = zero
             if -vn > rest_speed:
                 vn_new = -g[o, 6] * vn
-            dvn = vn_new - vn
-            speed = wp.sqrt(tx * tx + ty * ty + tz * tz)
-            if speed <= g[o, 7] * dvn:
-                scale = zero
-            elif speed > zero:
-                scale = wp.max(one - g[o, 8] * dvn / speed, zero)
         if g[o, 7] > 1.0e30:  # no slip (contact_numpy.NO_SLIP): held along the surface
             scale = zero
+            slip[p] = zero
+        elif vn < zero:
+            dvn = vn_new - vn
+            speed = wp.sqrt(tx * tx + ty * ty + tz * tz)
+            w = zero  # the static share 1 - min(s / D_c, 1) (D_c = 0: 1 at s = 0)
+            if g[o, 9] > zero:
+                w = wp.max(one - slip[p] / g[o, 9], zero)
+            elif not (slip[p] > zero):
+                w = one
+            mu = g[o, 8] + w * (g[o, 7] - g[o, 8])
+            if speed <= mu * dvn:
+                scale = zero
+                slip[p] = zero
+            else:
+                if speed > zero:
+                    scale = wp.max(one - mu * dvn / speed, zero)
+                slip[p] = slip[p] + scale * speed * dt
         x[p, 0] = x[p, 0] + (scale - one) * tx * dt
         x[p, 1] = x[p, 1] + (scale - one) * ty * dt
         x[p, 2] = x[p, 2] + (scale - one) * tz * dt

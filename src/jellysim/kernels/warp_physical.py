@@ -21,6 +21,7 @@ import numpy as np
 import warp as wp
 
 from . import STATUS_OK
+from .records import OBSTACLE_COLUMNS
 from .warp_contact import k_contact, k_step_end
 from .warp_fem import Gather, Points, Tets, k_fem_gather, k_fem_integrate, k_tet_forces
 from .warp_kernels import k_force_first
@@ -73,7 +74,7 @@ class _DeviceFem:
         self.fsum = zeros((n, 3))
         # per-call state and handles
         self.x, self.v, self.a = zeros((n, 3)), zeros((n, 3)), zeros((n, 3))
-        self.q, self.min_j = zeros((t, 6)), zeros(1)
+        self.q, self.min_j, self.slip = zeros((t, 6)), zeros(1), zeros(n)
         self.gscale, self.fext = zeros(n), zeros((n, 3))
         self.pinned = zeros(n, np.int32)
         self.pin_from, self.pin_to = zeros((n, 3)), zeros((n, 3))
@@ -88,7 +89,7 @@ class _DeviceFem:
             self.views = {name: getattr(self, name).numpy() for name in _IO}
 
 
-_IO = ("x", "v", "a", "q", "min_j", "gscale", "fext", "pinned", "pin_from", "pin_to", "drag",
+_IO = ("x", "v", "a", "q", "min_j", "slip", "gscale", "fext", "pinned", "pin_from", "pin_to", "drag",
        "drag_w", "drag_off", "ctl", "counts")
 
 
@@ -138,7 +139,8 @@ def _program(wb, dm: _DeviceFem, key, p):
     pt.cx, pt.cy, pt.cz = p["center"]
     pt.bound2 = p["bound2"]
     kind = wp.array(p["obstacle_kind"].astype(np.int32), device=dev)
-    odata = wp.array(p["obstacle_data"].astype(wb.np_dtype).reshape(-1, 9), dtype=T, device=dev)
+    odata = wp.array(p["obstacle_data"].astype(wb.np_dtype).reshape(-1, OBSTACLE_COLUMNS),
+                     dtype=T, device=dev)
     cmds = []
 
     def L(kernel, dim, inputs):
@@ -151,7 +153,8 @@ def _program(wb, dm: _DeviceFem, key, p):
     L(k_fem_gather, n, [dm.x, ga, dm.ctl])
     L(k_fem_integrate, n, [dm.x, dm.v, dm.a, dm.fsum, pt, dm.counts, dm.ctl])
     if p["obstacle_kind"].shape[0] > 0:
-        L(k_contact, n, [dm.x, dm.v, kind, odata, T(p["rest_speed"]), T(p["dt"]), dm.ctl])
+        L(k_contact, n, [dm.x, dm.v, kind, odata, T(p["rest_speed"]), T(p["dt"]), dm.slip,
+                         dm.ctl])
     L(k_step_end, 1, [dm.counts, dm.ctl])
     graphs = None
     if wb.is_cuda:
@@ -190,7 +193,7 @@ def physical_steps(wb, nsteps, dt, x, v, a, model_arrays, fem, handles, contact_
     inv_mass, damping, gravity, springs = model_arrays
     g, decay, q = fem[8], fem[9], fem[10]
     gscale, fext, pinned, pin_from, pin_to, drag, drag_w, drag_off = handles
-    kinds, data, rest_speed, center, bound2 = contact_arrays
+    kinds, data, rest_speed, center, bound2, slip = contact_arrays
     min_j = scratch[4]
     dm = _device_model(wb, fem, inv_mass, springs)
     ok = np.asarray(kinds)
@@ -202,7 +205,7 @@ def physical_steps(wb, nsteps, dt, x, v, a, model_arrays, fem, handles, contact_
     key = (tuple(p.items()), ok.tobytes(), od.tobytes())
     p["obstacle_kind"], p["obstacle_data"] = ok, od
     prog = _program(wb, dm, key, p)
-    host = {"x": x, "v": v, "a": a, "q": q, "min_j": min_j, "gscale": gscale, "fext": fext,
+    host = {"x": x, "v": v, "a": a, "q": q, "min_j": min_j, "slip": slip, "gscale": gscale, "fext": fext,
             "pinned": pinned, "pin_from": pin_from, "pin_to": pin_to, "drag": drag,
             "drag_w": drag_w, "drag_off": drag_off}
     ctl0 = np.array([0, 0, 0, int(nsteps)], dtype=np.int32)
@@ -220,7 +223,7 @@ def physical_steps(wb, nsteps, dt, x, v, a, model_arrays, fem, handles, contact_
         dm.ctl.assign(ctl0)
         dm.counts.zero_()
     _replay(prog, int(nsteps))
-    for name in ("x", "v", "a", "q", "min_j"):
+    for name in ("x", "v", "a", "q", "min_j", "slip"):
         host[name][...] = views[name] if views is not None else getattr(dm, name).numpy()
     ctl = views["ctl"].copy() if views is not None else dm.ctl.numpy()
     status = int(ctl[0])

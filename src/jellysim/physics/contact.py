@@ -27,10 +27,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SceneError, ParameterError
-from ..kernels.records import OBSTACLE_MU_S  # the static coefficient's column (inf: no slip)
-from ..params import CONTACT_FRICTION, CONTACT_RESTITUTION, _user_stacklevel
+from ..kernels.records import OBSTACLE_COLUMNS, OBSTACLE_MU_S  # (mu_s inf: no slip)
+from ..params import (CONTACT_FRICTION, CONTACT_RESTITUTION, CONTACT_SLIP_DISTANCE,
+                      _user_stacklevel)
 
-__all__ = ["Plane", "Sphere", "Box", "pack_obstacles", "OBSTACLE_KINDS"]
+__all__ = ["Plane", "Sphere", "Box", "pack_obstacles", "ground_plane", "OBSTACLE_KINDS"]
 
 OBSTACLE_KINDS = {"plane": 0, "sphere": 1, "box": 2}
 
@@ -43,6 +44,9 @@ class _Surface:
     """Kinetic Coulomb coefficient mu_k >= 0."""
     static_friction: float | None = None
     """Static Coulomb coefficient mu_s >= mu_k (default: ``friction``)."""
+    slip_distance: float = CONTACT_SLIP_DISTANCE
+    """Slip-weakening distance D_c [m] >= 0: a point's coefficient falls from mu_s to mu_k over
+    this much slip (linearly) and is mu_s again once it sticks."""
     no_slip: bool = False
     """A point in contact never moves along the surface (adhesion: a wet plate); it can still
     lift off.  Stored as an infinite static coefficient; explicit integrators only."""
@@ -58,7 +62,12 @@ class _Surface:
         if not mu_s >= self.friction:
             raise ParameterError(f"static friction ({mu_s}) must be >= kinetic friction "
                              f"({self.friction})")
-        return [float(self.restitution), float(mu_s), float(self.friction)]
+        if not (isinstance(self.slip_distance, (int, float, np.number))
+                and 0.0 <= self.slip_distance < np.inf):
+            raise ParameterError(f"slip_distance must be a length >= 0 [m], got "
+                                 f"{self.slip_distance!r}")
+        return [float(self.restitution), float(mu_s), float(self.friction),
+                float(self.slip_distance)]
 
 
 def _v3(value, what) -> np.ndarray:
@@ -118,7 +127,9 @@ _MATERIAL_DOC = """
     Contact material (keywords, shared by ``Plane``, ``Sphere``, ``Box``): ``restitution`` e in
     [0, 1] (default 0.3, :data:`~jellysim.params.CONTACT_RESTITUTION`); ``friction`` the
     kinetic Coulomb coefficient mu_k >= 0 (default 0.6, ``CONTACT_FRICTION``);
-    ``static_friction`` mu_s >= mu_k (``None``, the default: mu_k); ``no_slip`` (default
+    ``static_friction`` mu_s >= mu_k (``None``, the default: mu_k); ``slip_distance`` D_c [m]
+    (default 1e-4, ``CONTACT_SLIP_DISTANCE``): a point's coefficient falls from mu_s to mu_k
+    over this much slip and is mu_s again once it sticks; ``no_slip`` (default
     ``False``): a touching point never moves along the surface but can lift off (mu_s = inf;
     explicit integrators only, the implicit one refuses it).  A value out of range is a
     ``ValueError`` once the obstacle is used (from a Simulator: a ``SceneError``)."""
@@ -128,16 +139,25 @@ for _cls in (Plane, Sphere, Box):
 
 def pack_obstacles(obstacles) -> tuple[np.ndarray, np.ndarray]:
     """Kernel arrays for ``obstacles``: kinds, shape (m,), int32 (0 plane, 1 sphere, 2 box), and
-    data, shape (m, 9), float64: 6 geometry numbers [m] then restitution, mu_s, mu_k [-] (columns
-    :data:`~jellysim.kernels.records.OBSTACLE_E`, ``OBSTACLE_MU_S``, ``OBSTACLE_MU_K``)."""
+    data, shape (m, 10), float64: 6 geometry numbers [m] then restitution, mu_s, mu_k [-] and
+    the slip-weakening distance [m] (columns :data:`~jellysim.kernels.records.OBSTACLE_E`,
+    ``OBSTACLE_MU_S``, ``OBSTACLE_MU_K``, ``OBSTACLE_SLIP``)."""
     rows = [o.row() for o in obstacles]
     for o, (_, values) in zip(obstacles, rows):
         if not np.all(np.isfinite(np.delete(np.asarray(values, float), OBSTACLE_MU_S))):
             raise ParameterError(f"{o!r}: every number of an obstacle must be finite (m, and its "
                              "restitution and friction)")
     kind = np.array([r[0] for r in rows], dtype=np.int32)
-    data = np.array([r[1] for r in rows], dtype=np.float64).reshape(len(rows), 9)
+    data = np.array([r[1] for r in rows], dtype=np.float64).reshape(len(rows), OBSTACLE_COLUMNS)
     return kind, np.ascontiguousarray(data)
+
+
+def ground_plane(ground) -> Plane:
+    """The contact ground of :class:`~jellysim.params.GroundParams` ``ground`` as a plane."""
+    return Plane(point=(0.0, ground.height, 0.0), normal=(0.0, 1.0, 0.0),
+                 restitution=ground.restitution, friction=ground.friction,
+                 static_friction=ground.static_friction, slip_distance=ground.slip_distance,
+                 no_slip=ground.no_slip)
 
 
 def user_obstacles(obstacles, x0=None) -> tuple:
