@@ -369,3 +369,39 @@ def test_a_block_tilted_slowly_holds_to_its_friction_angle_and_slips_past_it(mu_
                 # gain 0.57 m/s^2 along x, at mu_k = 0.3 2.04 m/s^2 (measured: 2.35)
                 rate = (speed - before) / 0.1  # along x: the slope's direction times cos t
                 assert rate > 0.75 * G * (np.sin(t) - mu_k * np.cos(t)) * np.cos(t), rate
+
+
+def test_the_slip_state_is_checkpointed_and_resumes_bitwise():
+    """The slip-weakening state is part of a run's internal state: a sliding gelatin block
+    (mu_s 0.8, mu_k 0.3, D_c 1 cm) resumed from another's state and internal_state ends
+    bitwise equal to it; resumed with every point's slip reset (a file of an earlier
+    version: 9-column obstacle rows, no slip) it is accepted and the runs part."""
+    import jellysim as js
+
+    body = js.Body.box(lower=(0, 0, 0), upper=(0.03, 0.015, 0.025), points=200)
+    model = js.physical_model(body, js.material("gelatin", youngs_modulus=3e4))
+    ground = GroundParams(model=GroundModel.CONTACT, friction=0.3, static_friction=0.8,
+                          slip_distance=0.01, restitution=0.0)
+
+    def sim():
+        return Simulator(model, dt=1 / 120, ground=ground)
+
+    a = sim()
+    a.state.v[:, 0] = 0.5
+    a.advance(6)
+    state, inner = a.state.copy(), a.internal_state()
+    s = inner["_slip"]
+    assert np.any((s > 0.0) & (s < 0.01))  # some points still weakening
+    a.advance(6)
+    b = sim()
+    b.state.assign(state)
+    b.restore_internal_state(inner)
+    b.advance(6)
+    assert np.array_equal(a.state.x, b.state.x) and np.array_equal(a.state.v, b.state.v)
+    old = {k: v for k, v in inner.items() if k != "_slip"}
+    old["_obstacle_data"] = inner["_obstacle_data"][:, :9]
+    c = sim()
+    c.state.assign(state)
+    c.restore_internal_state(old)
+    c.advance(6)
+    assert not np.array_equal(a.state.x, c.state.x)

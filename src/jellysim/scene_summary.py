@@ -77,6 +77,9 @@ def scene_summary(scene, said: list | None = None) -> list[tuple[str, str]]:
     kind = scene.ground_params(model).model.value  # an unset model: the body's path's
     ground = "off" if not g["enabled"] else (
         kind + (f", restitution {g['restitution']:g}, friction {g['friction']:g}"
+                + (f" (static {g['static_friction']:g}, falling to it over "
+                   f"{g['slip_distance']:g} m of slip)"
+                   if (g["static_friction"] or 0.0) > g["friction"] else "")
                 + (", no slip" if g["no_slip"] else "")
                 if kind == "contact" else f", mu {g['mu']:g}, nu {g['nu']:g}"))
     rows.append(("ground", ground))
