@@ -8,7 +8,7 @@ rigid block breaks away at atan(mu_s) whatever mu_k is.  An elastic one's edges 
 (slip_distance D_c = 0) the slip would spread across the base at a lower angle, near
 atan(mu_k) (precursor slip: Iwashita, Matsukawa & Otsuki, Sci. Rep. 13, 2023,
 doi:10.1038/s41598-023-29764-w; Tromborg et al., arXiv:1105.3325, 2011).  With slip-weakening
-(the coefficient falls from mu_s to mu_k over D_c of slip, the default D_c = 0.1 mm) the
+(the coefficient falls from mu_s to mu_k over D_c of slip, the default D_c = 1 mm) the
 edges' creep stays below D_c and the block holds to near atan(mu_s).  docs/physics.md
 section 2 quotes the output.
 
@@ -22,7 +22,7 @@ import numpy as np
 import jellysim as js
 
 
-def breakaway(mu_s, mu_k, *, points=300, slip_distance=1e-4, step_deg=1.0, max_deg=30.0):
+def breakaway(mu_s, mu_k, *, points=300, slip_distance=1e-3, step_deg=1.0, max_deg=30.0):
     """The breakaway angle [deg] (None if it holds to ``max_deg``)."""
     body = js.Body.box(lower=(0, 0, 0), upper=(0.03, 0.015, 0.025), points=points)
     mat = js.material("gelatin", youngs_modulus=3e4, poisson_ratio=0.45, damping_ratio=0.05,
@@ -54,6 +54,6 @@ if __name__ == "__main__":
         print(f"{mu_s:4.2f}  {mu_k:4.2f}  {np.degrees(np.arctan(mu_s)):9.2f}  "
               f"{np.degrees(np.arctan(mu_k)):9.2f}   " + "  ".join(f"{g}".rjust(6) for g in got),
               flush=True)
-    print("the default D_c (1e-4 m) at 2,400 points")
+    print("the default D_c (1e-3 m) at 2,400 points")
     for mu_s, mu_k in pairs:
         print(f"{mu_s:4.2f}  {mu_k:4.2f}  {breakaway(mu_s, mu_k, points=2400)}", flush=True)

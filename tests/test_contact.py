@@ -1,5 +1,8 @@
 """Physical contact: restitution and Coulomb friction on point masses, obstacles, backends."""
+import warnings
+
 import numba
+
 import numpy as np
 import pytest
 
@@ -405,3 +408,34 @@ def test_the_slip_state_is_checkpointed_and_resumes_bitwise():
     c.restore_internal_state(old)
     c.advance(6)
     assert not np.array_equal(a.state.x, c.state.x)
+
+
+@pytest.mark.parametrize("slip_distance", [1e-4, 1e-3])
+def test_a_block_set_down_on_a_slope_between_its_friction_angles_stays_put(slip_distance):
+    """A gelatin block (3 x 1.5 x 2.5 cm, 30 kPa) settled directly on a 24 deg slope with
+    mu_s 0.5 and mu_k 0.3 (atan 26.6 and 16.7 deg) is held by static friction: settling
+    sets it down gently (the slip of its base spreading under its own weight is healed as
+    it goes: measured ~0.16 mm, more than a D_c of 0.1 mm, with which it slid at 22 deg when
+    settling did not heal it), and over the next second its centre of mass moves
+    < 0.1 mm; a rigid block sliding on mu_k would cover g (sin t - mu_k cos t) / 2 = 0.65 m."""
+    import dataclasses
+
+    import jellysim as js
+
+    body = js.Body.box(lower=(0, 0, 0), upper=(0.03, 0.015, 0.025), points=300)
+    mat = js.material("gelatin", youngs_modulus=3e4, poisson_ratio=0.45, damping_ratio=0.05,
+                      damping_frequency=20.0)
+    model = js.physical_model(body, mat)
+    sim = js.Simulator(model, dt=1 / 240, ground=GroundParams(
+        model=GroundModel.CONTACT, friction=0.3, static_friction=0.5, restitution=0.0,
+        slip_distance=slip_distance))
+    t = np.radians(24.0)
+    sim.model = dataclasses.replace(sim.model, gravity=np.array(
+        [G * np.sin(t), -G * np.cos(t), 0.0]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # it comes to rest
+        sim.settle()
+    m = model.point_mass / model.point_mass.sum()
+    x0 = float(m @ sim.state.x[:, 0])
+    sim.advance(240)
+    assert abs(float(m @ sim.state.x[:, 0]) - x0) < 1e-4

@@ -236,6 +236,55 @@ def test_hanging_bar_stretches_rho_g_l2_over_2e():
     expected = RHO * G * L**2 / (2 * E)
     print(f"stretch {stretch * 1e3:.3f} mm, expected {expected * 1e3:.3f} mm")
     assert stretch == pytest.approx(expected, rel=0.05)
+    # the pins hold its weight: pin_force = -M g (the bar at rest, to 0.5 %)
+    weight = model.total_mass * np.asarray(model.gravity)
+    assert np.allclose(sim.pin_force(), -weight, rtol=0, atol=5e-3 * np.linalg.norm(weight))
+
+
+def test_the_drag_spring_and_pins_forces_balance_the_momentum():
+    """Newton's second law for the whole body: a symplectic Euler step of dt changes its
+    momentum by dt times the external force at the step's start, here the drag spring's pull
+    (:meth:`drag_force`), the pins' (:meth:`pin_force`) and gravity (the tets' and springs'
+    forces cancel), for a wobbling body held by a pin and pulled sideways by the drag spring
+    (springs of 20 N/m beside its tets), one substep per step, to 1e-6 of the weight."""
+    body = _box((3, 6, 3), (0.02, 0.04, 0.02))
+    model = physical_model(body, gelatin())
+    model = dataclasses.replace(model, spring_stiffness=np.full(model.spring_count, 20.0))
+    sim = Simulator(model, dt=2e-6)
+    assert sim.substeps == 1
+    y0 = model.point_x0[:, 1]
+    sim.pin(np.flatnonzero(y0 > 0.04 - 1e-9)[:1])
+    low = int(np.argmin(y0 + model.point_x0[:, 0]))
+    sim.drag(low, target=model.point_x0[low] + [0.01, 0.0, 0.0], stiffness=5.0)
+    m = model.point_mass[:, None]
+    weight = model.total_mass * np.asarray(model.gravity)
+    sim.advance(200)
+    first = sim.drag_force() + sim.pin_force()
+    for _ in range(5):
+        sim.advance(100)
+        p0, f0 = (m * sim.state.v).sum(axis=0), sim.drag_force() + sim.pin_force()
+        sim.advance(1)
+        rate = ((m * sim.state.v).sum(axis=0) - p0) / sim.dt
+        assert np.allclose(rate, f0 + weight, rtol=0, atol=1e-6 * np.linalg.norm(weight)), (
+            rate, f0 + weight)
+    assert np.linalg.norm(f0 - first) > 1e-3 * np.linalg.norm(weight)  # it wobbled
+
+
+def test_the_numpy_spec_and_numba_agree_with_springs_beside_the_tets():
+    """The physical path's step with springs of 20 N/m beside the tets (and a pin, a point
+    force, the contact ground): the numpy spec and the numba kernels agree to 1e-12 m."""
+    body = _box((3, 3, 3), (0.03, 0.03, 0.03), lower=(0.0, 0.005, 0.0))
+    model = physical_model(body, gelatin(damping_ratio=0.1))
+    model = dataclasses.replace(model, spring_stiffness=np.full(model.spring_count, 20.0))
+    out = []
+    for backend in ("numpy", "numba"):
+        sim = Simulator(model, dt=1 / 120, backend=backend, ground=_ground())
+        sim.pin([0])
+        sim.apply_force([5], [0.01, 0.0, 0.0])
+        sim.advance(12)
+        out.append(sim.state.x.copy())
+    assert np.allclose(out[0], out[1], rtol=0, atol=1e-12)
+    assert not np.allclose(out[0], model.point_x0, atol=1e-4)
 
 
 def test_pinned_points_moved_along_a_path_drag_the_body():

@@ -37,7 +37,7 @@ CONTACT_RESTITUTION = 0.3
 CONTACT_FRICTION = 0.6
 """Default kinetic Coulomb friction coefficient [-] of the contact ground and of obstacles."""
 
-CONTACT_SLIP_DISTANCE = 1.0e-4
+CONTACT_SLIP_DISTANCE = 1.0e-3
 """Default slip-weakening distance D_c [m]: a contact point's friction coefficient falls from
 the static to the kinetic one over this much slip, and is static again once the point sticks
 (docs/physics.md section 2: with D_c = 0 a soft body's static friction was lost to the slip of

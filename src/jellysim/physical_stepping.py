@@ -53,6 +53,59 @@ class PhysicalStepping:
         return {"kinetic": kinetic, "gravity": gravity, "elastic": elastic,
                 "total": kinetic + gravity + elastic}
 
+    def pin_force(self) -> np.ndarray:
+        """The force [N], shape (3,), the pins exert on the body now (at the end of the last
+        step): minus every other force on the pinned points, summed (their tets and springs,
+        point forces, the drag spring, gravity, viscous damping).  A body hanging at rest from
+        its pins gets its weight back (``-M g``); one dragged along the ground by a pin reads
+        the friction.  It is instantaneous: a wobbling body's reading swings with the
+        wobble, so average it over frames for a gauge's reading; a pin moving along a path
+        is taken as moving steadily (the impulse at a keyframe's turn is not included).
+        Zero without pins.  Physical path only."""
+        from .errors import SceneError
+
+        if not self.physical:
+            raise SceneError("pin_force is for the physical path (a body with a FEM material)")
+        pinned = self.handles.pinned != 0
+        if not pinned.any():
+            return np.zeros(3)
+        return -self._forces_now()[pinned].sum(axis=0)
+
+    def drag_force(self) -> np.ndarray:
+        """The pull [N], shape (3,), of :meth:`drag`'s spring on the body now (zero when
+        nothing is dragged): ``k sum_p w_p (target + offset_p - x_p)``.  Physical path only."""
+        d, h = self.handles.drag, self.handles
+        if d[0] < 0.0:
+            return np.zeros(3)
+        x = self.state.x
+        return d[4] * (h.drag_weight[:, None] * (d[1:4] + h.drag_offset - x)).sum(axis=0)
+
+    def _forces_now(self) -> np.ndarray:
+        """Every force [N] on each point at the current state, shape (n, 3): the tets (the
+        damping branch as it stands), springs, point forces, drag spring, gravity and the
+        model's viscous damping (the numpy spec's terms, :mod:`.kernels.fem_numpy`)."""
+        from .kernels import fem_numpy
+
+        m, s, h = self.model, self.state, self.handles
+        fem = m.fem.kernel_tuple(self._q.copy(), 0.0)  # (decay 1: the branch as it is)
+        t = m.fem.tet_count
+        corner = np.zeros((4 * t, 3))
+        f = np.zeros_like(s.x)
+        fem_numpy.tet_forces(s.x, fem, fem[8], fem[9], fem[10], corner, np.zeros(t))
+        fem_numpy.gather_tet_forces(corner, fem[11], fem[12], f)
+        if m.spring_count and np.any(m.spring_stiffness != 0):
+            springs = (m.spring_ij, m.spring_rest_length, m.spring_stiffness,
+                       m.point_first_ptr, m.point_second_ptr, m.spring_second_slot,
+                       m.point_second_other)
+            f += fem_numpy.spring_forces(s.x, springs, np.zeros(m.spring_count))
+        d = h.drag
+        if d[0] >= 0.0:
+            f += d[4] * h.drag_weight[:, None] * (d[1:4] + h.drag_offset - s.x)
+        mass = np.asarray(m.point_mass, dtype=np.float64)
+        f += h.point_force - float(m.damping) * s.v
+        f += (mass * h.gravity_scale)[:, None] * np.asarray(m.gravity, dtype=np.float64)
+        return f
+
     def volume_ratios(self) -> np.ndarray:
         """Each tet's volume ratio ``J = det F`` now (its volume over its rest volume), shape
         (t,) [-]: below 0 the tet is inside out.  (:attr:`min_tet_volume_ratio` keeps the
@@ -75,7 +128,11 @@ class PhysicalStepping:
         clock back to t = 0, step 0 (the material's own damping is untouched).  A point force
         with no release acts while settling (the body settles under that load); one given
         ``until`` a release time is an event of the run and is off while settling (it acts
-        from t = 0 to its release).  Physical path only.  Returns the steps taken."""
+        from t = 0 to its release).  The body is set down gently: its contacts stay static
+        while it settles (every point's slip is healed after each step, so the slip of the
+        base spreading under its own weight does not weaken the friction to kinetic; a slope
+        steeper than the static friction angle still lets it slide).  Physical path only.
+        Returns the steps taken."""
         import dataclasses
         import math
 
@@ -106,25 +163,33 @@ class PhysicalStepping:
         self.model = dataclasses.replace(model, damping=float(model.damping)
                                          + float(mass.mean()) / SETTLE_TIME)
         calm, taken = 0, 0
+        weights = mass / mass.sum()
+        start = weights @ s.x
         try:
             for taken in range(1, max(1, math.ceil(max_seconds / self.dt)) + 1):
                 before = s.x.copy()
                 self.advance(1)
+                self._slip[:] = 0.0  # set down gently: static contacts
                 d = s.x - before  # (what moved: a resting contact's velocity is not zero)
                 fastest = float(np.sqrt(np.einsum("ij,ij->i", d, d).max())) / self.dt
                 calm = calm + 1 if fastest < speed else 0
                 if calm >= 3:
                     break
             else:
-                warnings.warn(f"settle: the body still moved faster than {speed:g} m/s after "
-                              f"{max_seconds:g} s; it starts from where settling left it "
-                              "(at t = 0)", StabilityWarning, stacklevel=2)
+                moved = float(np.linalg.norm(weights @ s.x - start))
+                warnings.warn(f"settle: the body did not come to rest in {max_seconds:g} s (a "
+                              f"point still moved faster than {speed:g} m/s; its centre of "
+                              f"mass travelled {moved * 1e3:.3g} mm while settling: sliding "
+                              "down a slope steeper than its friction holds?); it starts from "
+                              "where settling left it (at t = 0)", StabilityWarning,
+                              stacklevel=2)
         finally:
             self.model = model
             self.handles.point_force[timed] = held
             if releases is not None:
                 self._releases = releases
         s.v[:] = 0.0
+        self._slip[:] = 0.0
         s.t, s.step = 0.0, 0
         return taken
 

@@ -299,7 +299,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             start = time.perf_counter()
             sim = scene.simulator(model, settle=not resume)  # (a resume restores the state)
             if settling:
-                print(f"settled in {time.perf_counter() - start:.3g} s", file=sys.stderr,
+                print(f"settling took {time.perf_counter() - start:.3g} s", file=sys.stderr,
                       flush=True)
         except JellysimError as exc:  # what the build said may explain it (mesh units)
             exc.run_warnings = [str(w.message) for w in caught]

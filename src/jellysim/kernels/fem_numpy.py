@@ -71,6 +71,19 @@ def gather_tet_forces(tet_force, ptr, slot, out):
         out[:, c] = np.bincount(owner, weights=tet_force[slot, c], minlength=n)
 
 
+def spring_forces(x, springs, spring_scalar):
+    """The springs' forces [N], shape (n, 3), from the physical path's ``springs`` tuple
+    (:mod:`.fem_numba`'s ``model_arrays[3]``): report eq. 1 without damping or gravity."""
+    from .records import PointArrays, SpringArrays
+
+    n = x.shape[0]
+    points = PointArrays(None, None, np.ones(n), 0.0, np.zeros(3))
+    acc = np.zeros_like(x)
+    nb.accelerations(x, np.zeros_like(x), points, SpringArrays(*springs[:7], None),
+                     spring_scalar, acc)
+    return acc
+
+
 def physical_steps(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arrays, scratch):
     """``nsteps`` symplectic Euler steps of ``dt`` with tet (and spring) forces, handles and
     contact.  Same arguments and results as the numba driver; see :mod:`.fem_numba`."""
@@ -81,18 +94,14 @@ def physical_steps(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arra
     kinds, data, rest_speed, center, bound2, slip = contact_arrays
     tet_force, tet_j, fsum, spring_scalar, min_j = scratch
     ptr, slot = fem[11], fem[12]
-    spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other, use_springs = springs
+    use_springs = springs[7]
     pin = pinned != 0
     for s in range(nsteps):
         tet_forces(x, fem, g, decay, q, tet_force, tet_j)
         min_j[0] = min(min_j[0], float(tet_j.min()))
         gather_tet_forces(tet_force, ptr, slot, fsum)
         if use_springs:
-            acc = np.zeros_like(x)
-            nb.accelerations(x, v, np.ones_like(inv_mass), 0.0, np.zeros(3), spring_ij, rest,
-                             stiff, first_ptr, second_ptr, second_slot, second_other,
-                             spring_scalar, acc)
-            fsum += acc
+            fsum += spring_forces(x, springs, spring_scalar)
         if drag[0] >= 0:  # the grabbed patch: k w (target + offset - x) on each point
             fsum += drag[4] * drag_w[:, None] * (drag[1:4] + drag_off - x)
         a[:] = (fsum + fext - damping * v) * inv_mass[:, None] + gscale[:, None] * gravity

@@ -128,7 +128,7 @@ _MATERIAL_DOC = """
     [0, 1] (default 0.3, :data:`~jellysim.params.CONTACT_RESTITUTION`); ``friction`` the
     kinetic Coulomb coefficient mu_k >= 0 (default 0.6, ``CONTACT_FRICTION``);
     ``static_friction`` mu_s >= mu_k (``None``, the default: mu_k); ``slip_distance`` D_c [m]
-    (default 1e-4, ``CONTACT_SLIP_DISTANCE``): a point's coefficient falls from mu_s to mu_k
+    (default 1e-3, ``CONTACT_SLIP_DISTANCE``): a point's coefficient falls from mu_s to mu_k
     over this much slip and is mu_s again once it sticks; ``no_slip`` (default
     ``False``): a touching point never moves along the surface but can lift off (mu_s = inf;
     explicit integrators only, the implicit one refuses it).  A value out of range is a
