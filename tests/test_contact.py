@@ -224,13 +224,22 @@ def test_implicit_one_and_two_threads_bitwise_equal(scheme):
 
 
 def test_bad_obstacles_are_refused():
-    from jellysim.errors import SceneError
+    """When made (a ParameterError naming the value), and a contact ground's by the Simulator
+    (a SceneError naming the ground)."""
+    from jellysim.errors import ParameterError, SceneError
 
+    with pytest.raises(ParameterError, match="restitution"):
+        Plane(restitution=1.5)
+    with pytest.raises(ParameterError, match="static friction"):
+        Plane(friction=0.5, static_friction=0.2)
+    with pytest.raises(ParameterError, match="normal must be a non-zero vector"):
+        Plane(normal=(0.0, 0.0, 0.0))
+    with pytest.raises(ParameterError, match="slip_distance"):
+        Sphere(radius=0.1, slip_distance=-1e-3)
     model = particles([0.0, 1.0, 0.0])
-    with pytest.raises(SceneError, match="restitution"):
-        Simulator(model, dt=1e-3, obstacles=[Plane(restitution=1.5)])
-    with pytest.raises(SceneError, match="static friction"):
-        Simulator(model, dt=1e-3, obstacles=[Plane(friction=0.5, static_friction=0.2)])
+    with pytest.raises(SceneError, match=r"ground: static friction \(0.2\) must be >= kinetic"):
+        Simulator(model, dt=1e-3, ground=GroundParams(model=GroundModel.CONTACT, friction=0.5,
+                                                      static_friction=0.2))
 
 
 def _sliding_gelatin_block(integrator, backend="numba", mu=0.3, v0=1.0, frames=36):

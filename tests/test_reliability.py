@@ -144,6 +144,21 @@ def test_a_resume_finishes_the_steps_the_interrupted_run_asked(tmp_path):
     traj = load_trajectory(res.trajectory)
     assert traj.steps[-1] == asked and traj.status == "complete"
     _same(traj, ref)
+    # the recorded parameters are the run's: the steps asked, not the scene file's
+    assert ref.params["integrator"]["steps"] == asked != scene.steps
+    assert traj.params["integrator"]["steps"] == asked
+
+
+def test_run_scene_takes_a_scene_files_path_and_refuses_anything_else(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(EXPLICIT)
+    res = run_scene(str(path), tmp_path / "out", progress=False, steps=4)
+    assert load_trajectory(res.trajectory).steps[-1] == 4
+    from jellysim.errors import ParameterError
+
+    with pytest.raises(ParameterError, match=r"Scene\.from_file\(path\)"):
+        run_scene(42, tmp_path / "out2", progress=False)
+    assert not (tmp_path / "out2").exists()
 
 
 @pytest.mark.parametrize("text", [EXPLICIT, IMPLICIT], ids=["explicit", "implicit-bdf2"])
@@ -231,6 +246,49 @@ def test_growing_npy_ignores_an_unflushed_tail(tmp_path):
     g.close()
     got = np.load(tmp_path / "a.npy", mmap_mode="r")
     assert got.shape == (3, 4, 3) and np.array_equal(got[2], rows[1] + 1)
+
+
+def test_a_full_disk_neither_publishes_a_short_frame_nor_hides_the_written_ones(tmp_path,
+                                                                              monkeypatch):
+    """A full disk makes ``pwrite`` write fewer bytes than asked and then none: the frame is
+    refused (OSError ENOSPC, its header never counts it) and the frames written before stay
+    readable; a stream whose header promises a frame its data lack (cut short) is read up to
+    its last whole frame."""
+    import errno
+    import os
+
+    from jellysim.io import stream as st
+    from jellysim.state import State
+
+    n = 5
+    ts = st.TrajectoryStream(tmp_path / "s", n, {"rest_positions": np.zeros((n, 3))})
+    for k in range(3):
+        ts.record(State(np.full((n, 3), k + 0.5), np.full((n, 3), -k - 0.5), np.zeros((n, 3)),
+                        0.1 * k, k))
+    real = os.pwrite
+    calls = []
+
+    def full(fd, data, offset):  # 8 bytes, then nothing: the disk is full
+        calls.append(len(data))
+        return real(fd, bytes(data[:8]), offset) if len(calls) == 1 else 0
+
+    monkeypatch.setattr(st.os, "pwrite", full)
+    with pytest.raises(OSError) as err:
+        ts.record(State(np.ones((n, 3)), np.ones((n, 3)), np.zeros((n, 3)), 0.3, 3))
+    assert err.value.errno == errno.ENOSPC and "positions.npy" in str(err.value)
+    monkeypatch.setattr(st.os, "pwrite", real)
+    assert ts.frames == 3 and ts.files["positions"].rows == 3
+    ts.close()
+    d = st.read_stream(tmp_path / "s")
+    assert d["positions"].shape == (3, n, 3) and np.array_equal(d["steps"], [0, 1, 2])
+    assert np.array_equal(d["velocities"][2], np.full((n, 3), -2.5))
+    # a header that promises a 4th frame the data lack (a short write taken for whole)
+    g = st.GrowingNpy(tmp_path / "s" / "positions.npy", "<f8", (n, 3), keep=3)
+    g.rows = 4
+    g.commit()
+    g.close()
+    assert st.stream_frames(tmp_path / "s") == 3
+    assert st.read_stream(tmp_path / "s")["positions"].shape == (3, n, 3)
 
 
 def _peak(scene, out, steps):

@@ -94,6 +94,16 @@ def test_bad_scene_values_give_one_clear_line(tmp_path, section, line, words):
         assert w in msg, (w, msg)
 
 
+def test_an_inverted_box_is_named_before_the_keys_it_lacks():
+    """A box with upper below lower under the gelatin preset (which leaves radius and points
+    to defaults) is blamed on its corners, not on a missing [springs] radius."""
+    text = ('[body]\ntype = "box"\nlower = [0.1, 0.1, 0.1]\nupper = [0.0, 0.0, 0.1]\n'
+            '[material]\npreset = "gelatin"\n[integrator]\ndt = 0.01\nsteps = 10\n')
+    with pytest.raises(SceneError, match=r"\[body\] upper = \[0.0, 0.0, 0.1\] must exceed "
+                                         r"lower = \[0.1, 0.1, 0.1\] in every coordinate"):
+        Scene.from_text(text, name="inverted.toml")
+
+
 @pytest.mark.parametrize("section,key", [("integrator", "dt"), ("integrator", "steps"),
                                          ("body", "points"), ("springs", "radius")])
 def test_missing_value(tmp_path, section, key):

@@ -16,6 +16,7 @@ last checkpoint bit-identically.
 from __future__ import annotations
 
 import fnmatch
+import os
 import shlex
 import signal
 import sys
@@ -27,7 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .errors import (BuildError, CheckpointError, JellysimError, NothingToResume, OutputError,
-                     ResourceError, RunInterrupted, SimulationError)
+                     ParameterError, ResourceError, RunInterrupted, SimulationError)
 from .io.checkpoint import CHECKPOINT, FINAL_CHECKPOINT, read_checkpoint, write_checkpoint
 from .io.lock import claim, refuse_if_held
 from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream, reopen_stream
@@ -249,6 +250,13 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
     deleted first so none of its frames survives; other files there are kept.
     A live run already writing ``out_dir`` (its lock file, :mod:`jellysim.io.lock`) makes this
     an :class:`~jellysim.errors.OutputError`."""
+    if isinstance(scene, (str, os.PathLike)):  # a scene file's path
+        from .scene import Scene
+
+        scene = Scene.from_file(scene)
+    elif not hasattr(scene, "params"):
+        raise ParameterError(f"run_scene: scene must be a jellysim Scene (Scene.from_file(path)"
+                             f") or a scene file's path, got {type(scene).__name__}")
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise OutputError(f"{out_dir}: exists and is not a folder; choose another output folder")
@@ -270,6 +278,14 @@ def run_scene(scene, out_dir, *, progress: bool = True, vtu: bool | None = None,
         lock.unlink(missing_ok=True)
         if created and not any(out_dir.iterdir()):  # refused before anything was written
             out_dir.rmdir()
+
+
+def _asked(params: dict, total: int) -> dict:
+    """The scene's parameters as the run records them: ``[integrator] steps`` the steps the
+    run was asked for (``--steps`` / ``steps=`` overrides the scene's)."""
+    if params.get("integrator", {}).get("steps") == total:
+        return params
+    return {**params, "integrator": {**params["integrator"], "steps": int(total)}}
 
 
 def finished_run(out_dir) -> bool:
@@ -364,7 +380,8 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                                       "again with --overwrite")
             try:
                 reopen_stream(npz_path, stream_dir, meta=trajectory_meta(
-                    model, scene_text=scene.text, params=scene.params, skin=skin))
+                    model, scene_text=scene.text, params=_asked(scene.params, total),
+                    skin=skin))
             except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
                 _clean(out_dir)  # (the half-reopened stream)
                 raise CheckpointError(f"{npz_path}: damaged ({exc}: cut short?): the run cannot "
@@ -388,7 +405,8 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
         for stale in (npz_path, ckpt_path, final_path):
             if stale.exists():
                 stale.unlink()
-        meta = trajectory_meta(model, scene_text=scene.text, params=scene.params, skin=skin)
+        meta = trajectory_meta(model, scene_text=scene.text,
+                               params=_asked(scene.params, total), skin=skin)
         stream = TrajectoryStream(stream_dir, model.point_count, meta)
         keep = None
     series = PVDSeries(out_dir, keep=keep) if write_vtu else None

@@ -204,6 +204,9 @@ class Scene:
                       physical=_wants_fem(out))
         b, sp = out["body"], out["springs"]
         kind = b["type"]
+        if not all(u > lo for u, lo in zip(b["upper"], b["lower"])):
+            raise SceneError(f"{name}: [body] upper = {b['upper']} must exceed lower = "
+                             f"{b['lower']} in every coordinate")
         given = raw.get("body", {}).get("surface_samples")
         if given is not None and (kind != "mesh" or sp["connect"] not in ("delaunay", "radius")):
             raise SceneError(f"{name}: [body] surface_samples is used only by type = 'mesh' "
@@ -236,9 +239,6 @@ class Scene:
             if kind == "mesh" and b["points"] is None:
                 b["points"] = 2000
         refuse_unused_keys(raw, kind, name, SCHEMA)  # e.g. [body] size for type = 'file'
-        if not all(u > lo for u, lo in zip(b["upper"], b["lower"])):
-            raise SceneError(f"{name}: [body] upper = {b['upper']} must exceed lower = "
-                             f"{b['lower']} in every coordinate")
         out["obstacle"] = obstacles
         out["handle"] = handles
         return out

@@ -226,7 +226,10 @@ class Simulator(HandleMethods, PhysicalStepping):
         if ground.enabled and GroundModel(ground.model) is GroundModel.CONTACT:
             from .physics.contact import ground_plane
 
-            self.obstacles = (ground_plane(ground),) + self.obstacles
+            try:
+                self.obstacles = (ground_plane(ground),) + self.obstacles
+            except ValueError as exc:
+                raise SceneError(f"ground: {exc}") from None
         from .physics.contact import pack_obstacles
 
         try:

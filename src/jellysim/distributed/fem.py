@@ -348,3 +348,13 @@ def _rest_thinness(x0):
     spread = np.sqrt(np.maximum(np.linalg.eigvalsh(np.cov(x0, rowvar=False)), 0.0)) if (
         n >= COLLAPSE_MIN_POINTS) else np.zeros(3)
     return float(spread[0]), bool(n >= COLLAPSE_MIN_POINTS and spread[0] > 0.1 * spread[2])
+
+    def pin_force(self) -> np.ndarray:
+        """Not on the distributed simulator (each rank holds a part of the pinned points):
+        :meth:`gather` the state and read it from a serial Simulator."""
+        from ..errors import SceneError
+
+        raise SceneError("pin_force is not available under MPI (each rank holds part of the "
+                         "body): gather() the state and read it from a serial Simulator")
+
+    drag_force = pin_force

@@ -305,9 +305,9 @@ class DistributedSimulator(PhysicalMethods):
         """Obstacles and the contact ground as the serial Simulator packs them."""
 
         obstacles = tuple(obstacles)
-        if ground.enabled and GroundModel(ground.model) is GroundModel.CONTACT:
-            obstacles = (ground_plane(ground),) + obstacles
         try:
+            if ground.enabled and GroundModel(ground.model) is GroundModel.CONTACT:
+                obstacles = (ground_plane(ground),) + obstacles
             self._obstacle_kind, self._obstacle_data = pack_obstacles(obstacles)
         except ValueError as exc:
             raise SceneError(str(exc)) from None

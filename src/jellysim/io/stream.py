@@ -74,6 +74,20 @@ def _read_header(fd) -> tuple[np.dtype, tuple]:
     return np.dtype(d["descr"]), tuple(d["shape"])
 
 
+def _pwrite_all(fd, data: memoryview, offset: int, path) -> None:
+    """``os.pwrite`` until every byte of ``data`` is written at ``offset``; a write that
+    makes no progress (a full disk) is an ``OSError`` (ENOSPC) naming ``path``."""
+    import errno
+
+    done = 0
+    while done < len(data):
+        n = os.pwrite(fd, data[done:], offset + done)
+        if n <= 0:
+            raise OSError(errno.ENOSPC, f"No space left on device: wrote {done} of "
+                          f"{len(data)} bytes", str(path))
+        done += n
+
+
 class GrowingNpy:
     """An ``.npy`` file of shape ``(F,) + row_shape`` whose first axis grows.
 
@@ -109,12 +123,16 @@ class GrowingNpy:
         self.committed = self.rows
 
     def append(self, rows: np.ndarray) -> None:
+        """Write ``rows`` after the data (every byte, or an ``OSError``: a full disk's short
+        write is not taken for a whole frame; the rows count only once written)."""
         a = np.ascontiguousarray(rows, dtype=self.dtype).reshape((-1,) + self.row_shape)
-        os.pwrite(self.fd, memoryview(a).cast("B"), HEADER_BYTES + self.rows * self.row_bytes)
+        _pwrite_all(self.fd, memoryview(a).cast("B"), HEADER_BYTES + self.rows * self.row_bytes,
+                    self.path)
         self.rows += a.shape[0]
 
     def commit(self) -> None:
-        os.pwrite(self.fd, _header(self.dtype, (self.rows,) + self.row_shape), 0)
+        _pwrite_all(self.fd, memoryview(_header(self.dtype, (self.rows,) + self.row_shape)), 0,
+                    self.path)
         self.committed = self.rows
 
     def close(self) -> None:
@@ -128,9 +146,13 @@ def write_replace(path, data: bytes) -> None:
     leaves at most the ``.partial`` file, which the next run removes)."""
     path = Path(path)
     part = path.with_name(path.name + ".partial")
-    with open(part, "wb") as fh:
-        fh.write(data)
-    os.replace(part, path)
+    try:
+        with open(part, "wb") as fh:
+            fh.write(data)
+        os.replace(part, path)
+    except OSError:  # (a full disk: leave no empty .partial behind)
+        part.unlink(missing_ok=True)
+        raise
 
 
 _FRAME_ARRAYS = (("positions", "<f8", 3), ("velocities", "<f8", 3), ("times", "<f8", None),
@@ -192,12 +214,17 @@ class TrajectoryStream:
 
 
 def stream_frames(directory) -> int:
-    """Number of flushed frames in a stream directory (smallest header count)."""
+    """Number of flushed frames in a stream directory: the smallest header count, and no more
+    than each file's data hold (a file cut short, by a full disk or a copy, is read up to its
+    last whole frame)."""
     counts = []
     for name, _, _ in _FRAME_ARRAYS:
         fd = os.open(Path(directory) / f"{name}.npy", os.O_RDONLY)
         try:
-            counts.append(int(_read_header(fd)[1][0]))
+            dtype, shape = _read_header(fd)
+            row = int(np.prod(shape[1:], dtype=np.int64)) * dtype.itemsize
+            held = (os.fstat(fd).st_size - HEADER_BYTES) // max(1, row)
+            counts.append(max(0, min(int(shape[0]), int(held))))
         finally:
             os.close(fd)
     return min(counts)
@@ -211,7 +238,17 @@ def read_stream(directory, *, mmap: bool = False) -> dict:
         d = {k: z[k] for k in z.files}
     frames = stream_frames(directory)
     for name, _, _ in _FRAME_ARRAYS:
-        a = np.load(directory / f"{name}.npy", mmap_mode="r", allow_pickle=False)[:frames]
+        path = directory / f"{name}.npy"
+        fd = os.open(path, os.O_RDONLY)
+        try:
+            dtype, shape = _read_header(fd)
+        finally:
+            os.close(fd)
+        shape = (frames,) + tuple(shape[1:])
+        if frames == 0:
+            a = np.empty(shape, dtype=dtype)
+        else:  # (mapped at the flushed count: the header may promise a row a full disk cut)
+            a = np.memmap(path, dtype=dtype, mode="r", offset=HEADER_BYTES, shape=shape)
         d[name] = a if mmap else np.array(a)
     try:
         status = (directory / "status.txt").read_text(encoding="utf-8")

@@ -51,6 +51,9 @@ class _Surface:
     """A point in contact never moves along the surface (adhesion: a wet plate); it can still
     lift off.  Stored as an infinite static coefficient; explicit integrators only."""
 
+    def __post_init__(self):
+        self.row()  # (checked when made: a bad value is refused here, not by the Simulator)
+
     def _material(self):
         mu_s = self.friction if self.static_friction is None else self.static_friction
         if self.no_slip:
@@ -132,7 +135,7 @@ _MATERIAL_DOC = """
     over this much slip and is mu_s again once it sticks; ``no_slip`` (default
     ``False``): a touching point never moves along the surface but can lift off (mu_s = inf;
     explicit integrators only, the implicit one refuses it).  A value out of range is a
-    ``ValueError`` once the obstacle is used (from a Simulator: a ``SceneError``)."""
+    :class:`~jellysim.errors.ParameterError` (a ``ValueError``) when the obstacle is made."""
 for _cls in (Plane, Sphere, Box):
     _cls.__doc__ += _MATERIAL_DOC
 
