@@ -318,6 +318,24 @@ def test_a_failing_rank_ends_the_job_with_a_clear_error_not_a_hang(tmp_path, mod
 
 
 @needs_mpi
+def test_an_interrupted_mpi_run_ends_every_rank_and_keeps_its_frames(tmp_path):
+    """Session 15's trial: Ctrl-C under mpiexec left one rank spinning in Allreduce for ever
+    and no trajectory.  Now rank 0 saves the frames so far (status 'interrupted') and the job
+    ends, every rank, with a line that says what is left."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text((DATA / "paper_springs.toml").read_text().replace(
+        "[provot]", "[provot]\nenabled = false"))
+    out = tmp_path / "out"
+    proc, seconds = _mpirun(2, str(DATA / "fail_rank.py"), "interrupt", str(scene), str(out),
+                            timeout=60)
+    assert proc.returncode != 0 and seconds < 30
+    assert "interrupted: the run stopped; its frames so far are in" in proc.stderr
+    got = load_trajectory(out / "trajectory.npz")
+    assert got.status.startswith("interrupted at step")
+    assert len(got.times) == 3  # the start and the two frames before the interrupt
+
+
+@needs_mpi
 def test_a_bad_scene_under_mpiexec_is_one_clear_error(tmp_path):
     scene = tmp_path / "bad.toml"
     scene.write_text((DATA / "paper_springs.toml").read_text().replace("loops = 3",

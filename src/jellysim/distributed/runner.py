@@ -17,7 +17,7 @@ import warnings
 from pathlib import Path
 
 from ..errors import BuildError, JellysimError, SceneError, SimulationError
-from ..runner import RunResult, prepare_out_dir, refuse_earlier_run
+from ..runner import RunResult, _asked, prepare_out_dir, refuse_earlier_run
 from ..io.lock import claim
 from ..io.trajectory import Recorder, skin_bounds
 from ..io.vtk import PVDSeries
@@ -114,7 +114,8 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
             except BuildError as exc:
                 messages.append(f"no skin: {exc}")
                 skin = None
-        recorder = Recorder(model, scene_text=scene.text, params=scene.params, skin=skin)
+        recorder = Recorder(model, scene_text=scene.text, params=_asked(scene.params, total),
+                            skin=skin)
         write_vtu = scene.params["output"]["vtu"] if vtu is None else vtu
         series = PVDSeries(out_dir) if write_vtu else None
         skin_series = PVDSeries(out_dir, "skin") if write_vtu and skin is not None else None
@@ -167,6 +168,12 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
         if rank == 0:
             recorder.save(out_dir / "trajectory.npz", status=f"failed: {exc}", overwrite=True,
                           held=True)
+        raise
+    except KeyboardInterrupt:  # Ctrl-C / SIGTERM: rank 0 keeps the frames so far
+        if rank == 0:
+            recorder.save(out_dir / "trajectory.npz", status=(
+                f"interrupted at step {done} of {total} (under mpiexec: no checkpoint, run it "
+                "again to finish)"), overwrite=True, held=True)
         raise
     finally:
         during.__exit__(None, None, None)
@@ -248,6 +255,17 @@ def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
         for w in getattr(exc, "run_warnings", ()) if rank == 0 and say is not None else ():
             say(w)
         fail(str(exc))
+    except KeyboardInterrupt:  # Ctrl-C (every rank) or SIGTERM: end every rank, not a hang
+        if rank == 0:
+            where = locals().get("out")
+            click.secho("interrupted: the run stopped" + (
+                f"; its frames so far are in {where / 'trajectory.npz'} (status "
+                "'interrupted')" if where is not None and (where / "trajectory.npz").exists()
+                else "") + "; under mpiexec no checkpoint is kept: run it again to finish",
+                fg="yellow", err=True)
+        else:
+            time.sleep(5.0)  # rank 0 saves the frames so far, then ends the job
+        comm.Abort(130)
     except Exception as exc:  # one rank only: say which, and do not leave the others waiting
         sys.stderr.write(f"error: rank {rank} of {comm.Get_size()}: {type(exc).__name__}: "
                          f"{exc}\n{traceback.format_exc()}")

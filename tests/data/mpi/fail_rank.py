@@ -1,5 +1,6 @@
 """Test helper, run under ``mpiexec -n 2``: rank 1 fails at its third frame, by an exception
-(``raise``) or by being killed (``kill``); the job must end with a clear message, not hang."""
+(``raise``) or by being killed (``kill``), or rank 0 is interrupted there (``interrupt``: a
+Ctrl-C); the job must end with a clear message, not hang."""
 import os
 import signal
 import sys
@@ -14,7 +15,9 @@ calls = {"n": 0}
 
 def advance(self, steps=1):
     calls["n"] += 1
-    if self.rank == 1 and calls["n"] == 3:
+    if mode == "interrupt" and self.rank == 0 and calls["n"] == 3:
+        raise KeyboardInterrupt
+    if mode != "interrupt" and self.rank == 1 and calls["n"] == 3:
         if mode == "kill":
             os.kill(os.getpid(), signal.SIGKILL)
         raise MemoryError("injected failure")
