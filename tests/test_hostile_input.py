@@ -702,6 +702,18 @@ def test_a_misspelt_handle_key_gets_a_did_you_mean(tmp_path):
         Scene.load(p).simulator()
 
 
+def test_a_pin_path_row_of_three_numbers_is_named(tmp_path):
+    """Session 15's trial: a path row [1, 0.01, 0] said "give rows [t, dx, dy, dz]" without
+    saying which row."""
+    p = tmp_path / "h.toml"
+    p.write_text('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 27\n'
+                 '[integrator]\nsteps = 2\n[[handle]]\nkind = "pin"\nindices = [0]\n'
+                 'path = [[0, 0, 0, 0], [1, 0.01, 0]]\n')
+    with pytest.raises(SceneError, match=r"\[\[handle\]\] #1 path: row 2 is \[1, 0.01, 0\]: "
+                                         r"give rows \[t, dx, dy, dz\]"):
+        Scene.load(p).simulator()
+
+
 def test_rendering_a_body_file_or_scene_says_to_run_it_first(tmp_path):
     """Session 9's trial: `jellysim render teapot.jello` said "not a jellysim trajectory (File
     is not a zip file)"; a body file, a scene or a mesh is now named as such, with the fix."""

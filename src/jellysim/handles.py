@@ -98,6 +98,11 @@ class PinPath:
 
     @classmethod
     def of(cls, path, what: str = "pin path") -> "PinPath":
+        if isinstance(path, (list, tuple)):  # name the row at fault (rows of a scene table)
+            for k, row in enumerate(path):
+                if not (isinstance(row, (list, tuple, np.ndarray)) and len(row) == 4):
+                    raise SceneError(f"{what}: row {k + 1} is {row!r}: give rows [t, dx, dy, "
+                                     "dz] (s, m), four numbers each")
         try:
             arr = np.asarray(path, dtype=np.float64)
         except (TypeError, ValueError):

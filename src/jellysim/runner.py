@@ -166,7 +166,7 @@ def _check_disk(out_dir: Path, total: int, every: int, n: int, messages: list, *
     one ParaView frame (uncompressed; they compress to about a third): warned, not refused."""
     import shutil
 
-    frames = total // every + 2
+    frames = total // every + 1 + (1 if total % every else 0)  # the start, each every, the end
     need = frames * n * 48 * 2  # positions + velocities, then the final .npz copy
     free = shutil.disk_usage(out_dir).free + freed
     gib = need / (1 << 30)
