@@ -26,8 +26,9 @@ _PACKAGES = ("kernels", "geometry", "physics", "distributed")
 
 _done = False
 
-NOTICE = ("jellysim: numba is compiling the kernels (first run after an install or an update: "
-          "about a minute; later runs load them from its cache)\n")
+NOTICE = ("jellysim: numba is compiling the kernels (a first run after an install or an update, "
+          "or a kind of run not made before: about a minute; later runs load them from its "
+          "cache)\n")
 """Said on stderr, once per process, when numba starts compiling a function of jellysim."""
 
 _said = False

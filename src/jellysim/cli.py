@@ -216,8 +216,8 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     startup = result.startup_seconds()
     if startup > 1.0 and startup > 0.3 * result.seconds:  # numba compiling on a first run
         pace = result.seconds - startup
-        click.echo(f"  of which {startup:.3g} s were the first steps' start-up (numba compiling "
-                   f"its kernels on a first run; cached for the next): "
+        click.echo(f"  of which {startup:.3g} s were the first steps' start-up (loading the "
+                   f"compiled kernels, or compiling them on a first run): "
                    f"{_rate(taken / pace)} steps/s, {result.simulated / pace:.2g}x real time "
                    "without it")
     from .cli_visual import echo_run_outputs
