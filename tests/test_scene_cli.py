@@ -661,3 +661,30 @@ def test_steps_on_the_command_line_stands_for_a_missing_integrator_steps(tmp_pat
     assert load_trajectory(tmp_path / "a").steps[-1] == 20
     r = CliRunner().invoke(cli, ["run", str(path), "--out", str(tmp_path / "b"), "--quiet"])
     assert r.exit_code != 0 and "missing value 'steps'" in r.output and "--steps N" in r.output
+
+
+def test_inspect_a_run_gives_its_free_fall_figures(tmp_path):
+    """`jellysim inspect OUT` of a free-falling body (BASE: weak springs, no ground, 20 steps
+    of 0.01 s): its centre falls by the symplectic steps' sum g dt^2 (1 + ... + 20), its
+    kinetic energy is M (g t)^2 / 2 and its gravity energy -M g^2 dt^2 210 (J), to 1e-6; it
+    keeps its shape (its tets' volume ratio 1)."""
+    p = tmp_path / "s.toml"
+    p.write_text(BASE)
+    out = tmp_path / "o"
+    assert CliRunner().invoke(cli, ["run", str(p), "--out", str(out), "--quiet",
+                                    "--no-vtu"]).exit_code == 0
+    res = CliRunner().invoke(cli, ["inspect", str(out)])
+    assert res.exit_code == 0, res.output
+    rows = {line[2:15].strip(): line[16:] for line in res.output.splitlines()[1:]}
+    from jellysim.io.trajectory import load_trajectory
+
+    g = -float(load_trajectory(out).gravity[1])  # (the scene's default: 9.8 m/s^2)
+    dt, n, mass = 0.01, 20, 40 * 0.01
+    assert rows["frames"].startswith("5 (t = 0 to 0.2 s, steps 0 to 20)")
+    assert rows["status"] == "complete"
+    kinetic = float(rows["kinetic [J]"].split()[0])
+    assert kinetic == pytest.approx(0.5 * mass * (g * n * dt) ** 2, rel=1e-6)
+    gravity = float(rows["gravity [J]"].split()[0])
+    assert gravity == pytest.approx(-mass * g * g * dt * dt * n * (n + 1) / 2, rel=1e-6)
+    assert float(rows["springs [J]"].split()[0]) < 1e-12  # (weak springs, a rigid fall)
+    assert float(rows["tet volume"].split()[2]) == pytest.approx(1.0, abs=1e-4)

@@ -345,16 +345,26 @@ def _skin_row(body) -> str:
 
 
 @cli.command()
-@click.argument("path", type=click.Path(dir_okay=False))
+@click.argument("path", type=click.Path())
 @click.option("--set", "settings", multiple=True, metavar="SECTION.KEY=VALUE",
               help="A scene: override one value as `jellysim run --set` does.  Repeatable.")
 def inspect(path, settings=()) -> None:
-    """Describe a surface mesh (defects), a body file (.jello/.npz: counts and stats) or a
-    scene (.toml: the body it builds, its path, substeps, ground; nothing is run)."""
+    """Describe a surface mesh (defects), a body file (.jello/.npz: counts and stats), a
+    scene (.toml: the body it builds, its path, substeps, ground; nothing is run) or a run
+    (its output folder or trajectory.npz: frames, status, centre of mass, energies, the
+    smallest tet volume ratio)."""
     from pathlib import Path
 
     suffix = Path(path).suffix.lower()
     try:
+        if _is_run(path):
+            from .io.trajectory import load_trajectory
+            from .trajectory_summary import trajectory_rows
+
+            click.echo(f"{path}: run")
+            for k, v in trajectory_rows(load_trajectory(path)):
+                click.echo(f"  {k:<13} {v}")
+            return
         if settings and suffix != ".toml":
             raise JellysimError(f"--set overrides a scene's values; {path} is not a scene "
                                 "(.toml)")
@@ -424,6 +434,24 @@ def inspect(path, settings=()) -> None:
                            + ("; bodies take the inside rule's volume)" if over else ")"))
     except JellysimError as exc:
         _fail(str(exc))
+
+
+def _is_run(path) -> bool:
+    """A run's output folder, its trajectory stream, or a trajectory ``.npz``."""
+    import zipfile
+    from pathlib import Path
+
+    p = Path(path)
+    if p.is_dir():
+        return True
+    if p.suffix.lower() != ".npz" or not p.is_file():
+        return False
+    try:
+        with zipfile.ZipFile(p) as z:
+            names = set(z.namelist())
+    except (OSError, zipfile.BadZipFile):
+        return False
+    return {"positions.npy", "times.npy"} <= names
 
 
 @cli.command("scene-help")
