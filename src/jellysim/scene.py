@@ -204,7 +204,7 @@ class Scene:
                       physical=_wants_fem(out))
         b, sp = out["body"], out["springs"]
         kind = b["type"]
-        if not all(u > lo for u, lo in zip(b["upper"], b["lower"])):
+        if kind == "box" and not all(u > lo for u, lo in zip(b["upper"], b["lower"])):
             raise SceneError(f"{name}: [body] upper = {b['upper']} must exceed lower = "
                              f"{b['lower']} in every coordinate")
         given = raw.get("body", {}).get("surface_samples")
