@@ -315,8 +315,8 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             start = time.perf_counter()
             sim = scene.simulator(model, settle=not resume)  # (a resume restores the state)
             if settling:
-                print(f"settling took {time.perf_counter() - start:.3g} s", file=sys.stderr,
-                      flush=True)
+                print(f"settling took {time.perf_counter() - start:.3g} s of wall time",
+                      file=sys.stderr, flush=True)
         except JellysimError as exc:  # what the build said may explain it (mesh units)
             exc.run_warnings = [str(w.message) for w in caught]
             raise

@@ -222,6 +222,18 @@ def prepare(scene, sim) -> None:
         getattr(sim, name)(*args, **kw)
 
 
+def _leave_signals_to_root() -> None:
+    """On a rank other than 0: ignore SIGINT and SIGTERM.  A terminal's Ctrl-C reaches every
+    rank; rank 0, blocked in a collective until the others reach it, takes its interrupt once
+    they do, saves the frames so far and aborts the job (which ends this rank too)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+
+
 def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
             partition="morton", video=None, usd=None, glb=None, overwrite=False,
             say=None, load=None) -> None:
@@ -239,6 +251,8 @@ def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
         click.secho(f"error: {exc}", fg="red", err=True)
         sys.exit(2)
     rank = comm.Get_rank()
+    if rank != 0:  # Ctrl-C (sent to every rank) and SIGTERM are rank 0's to act on: it saves
+        _leave_signals_to_root()  # the frames and ends the job; a rank aborting first lost them
 
     def fail(message, code=2):
         if rank == 0:
@@ -263,14 +277,14 @@ def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
                 "'interrupted')" if where is not None and (where / "trajectory.npz").exists()
                 else "") + "; under mpiexec no checkpoint is kept: run it again to finish",
                 fg="yellow", err=True)
-        else:
-            time.sleep(5.0)  # rank 0 saves the frames so far, then ends the job
         comm.Abort(130)
+        sys.exit(130)  # (should Abort return)
     except Exception as exc:  # one rank only: say which, and do not leave the others waiting
         sys.stderr.write(f"error: rank {rank} of {comm.Get_size()}: {type(exc).__name__}: "
                          f"{exc}\n{traceback.format_exc()}")
         sys.stderr.flush()
         comm.Abort(3)
+        sys.exit(3)
     if rank != 0:
         return
     for w in result.warnings:

@@ -255,8 +255,8 @@ def read_stream(directory, *, mmap: bool = False) -> dict:
     except FileNotFoundError:
         status = "running"
     if status == "running":
-        status = (f"incomplete: the run stopped without finishing (killed?) after {frames} "
-                  "frames")
+        status = (f"incomplete: the run stopped without finishing (killed, or its disk full?) "
+                  f"after {frames} frames")
     d["status"] = np.array(status)
     return d
 

@@ -90,6 +90,9 @@ class Plane(_Surface):
     def row(self):
         nrm = _v3(self.normal, "a plane's normal")
         length = float(np.linalg.norm(nrm))
+        if not np.all(np.isfinite(nrm)):
+            raise ParameterError(f"a plane's normal must be 3 finite numbers, got "
+                                 f"{nrm.tolist()}")
         if not length > 0:
             raise ParameterError("a plane's normal must be a non-zero vector")
         return 0, [*_v3(self.point, "a plane's point [m]"), *(nrm / length),
