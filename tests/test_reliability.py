@@ -147,6 +147,7 @@ def test_a_resume_finishes_the_steps_the_interrupted_run_asked(tmp_path):
     # the recorded parameters are the run's: the steps asked, not the scene file's
     assert ref.params["integrator"]["steps"] == asked != scene.steps
     assert traj.params["integrator"]["steps"] == asked
+    assert ref.scene_toml.endswith(f"# run for {asked} steps (--steps)\n")
 
 
 def test_run_scene_takes_a_scene_files_path_and_refuses_anything_else(tmp_path):

@@ -688,3 +688,29 @@ def test_inspect_a_run_gives_its_free_fall_figures(tmp_path):
     assert gravity == pytest.approx(-mass * g * g * dt * dt * n * (n + 1) / 2, rel=1e-6)
     assert float(rows["springs [J]"].split()[0]) < 1e-12  # (weak springs, a rigid fall)
     assert float(rows["tet volume"].split()[2]) == pytest.approx(1.0, abs=1e-4)
+
+
+def test_set_addresses_an_obstacle_table_by_its_number():
+    """Session 15's lecturer trial: a friction sweep over an [[obstacle]] needed one file per
+    value.  `--set obstacle.N.key=value` sets the N-th table's key (checked as the file's
+    are); a wrong number or a missing table is one clear line."""
+    text = BASE.replace("[ground]\nenabled = false", "[ground]\nenabled = false\n\n"
+                        "[[obstacle]]\nkind = \"plane\"\npoint = [0, 0, 0]\nnormal = [0, 1, 0]\n"
+                        "\n[[obstacle]]\nkind = \"sphere\"\ncenter = [0, 0.5, 0]\nradius = 0.1\n")
+    scene = Scene.from_text(text, name="s.toml", overrides=("obstacle.2.friction=0.9",
+                                                            "obstacle.1.slip_distance=0.002"))
+    first, second = scene.params["obstacle"]
+    assert second["friction"] == 0.9 and first["friction"] == 0.6
+    assert first["slip_distance"] == 0.002
+    sim = scene.simulator()
+    assert sim.obstacles[1].friction == 0.9 and sim.obstacles[0].slip_distance == 0.002
+    with pytest.raises(SceneError, match=r"has 2 \[\[obstacle\]\] table\(s\); N runs from 1 "
+                                         r"to 2"):
+        Scene.from_text(text, name="s.toml", overrides=("obstacle.3.friction=0.9",))
+    with pytest.raises(SceneError, match=r"address one by its number, obstacle\.N\.key=value"):
+        Scene.from_text(text, name="s.toml", overrides=("obstacle.friction=0.9",))
+    with pytest.raises(SceneError,
+                       match=r"\[\[obstacle\]\] #2 unknown key 'frction' \(did you mean"):
+        Scene.from_text(text, name="s.toml", overrides=("obstacle.2.frction=0.9",))
+    with pytest.raises(SceneError, match=r"no \[\[handle\]\] table to set"):
+        Scene.from_text(text, name="s.toml", overrides=("handle.1.force=[0, 1, 0]",))

@@ -103,7 +103,8 @@ def _terminate(signum, frame):
                    "(trajectory.npz, *.pvd, *.vtu) are deleted first.")
 @click.option("--set", "settings", multiple=True, metavar="SECTION.KEY=VALUE",
               help="Override one scene value (TOML syntax), e.g. --set body.points=500 "
-                   "--set 'material.preset=\"gelatin\"'.  Repeatable.")
+                   "--set 'material.preset=\"gelatin\"'; --set obstacle.2.friction=0.9 sets "
+                   "the second [[obstacle]] table's.  Repeatable.")
 @click.option("--resume", "resume_dir", type=click.Path(file_okay=False), default=None,
               help="Continue the interrupted run in this output directory from its last "
                    "checkpoint (same scene file; bit-identical to an uninterrupted run), or "

@@ -288,6 +288,14 @@ def _asked(params: dict, total: int) -> dict:
     return {**params, "integrator": {**params["integrator"], "steps": int(total)}}
 
 
+def _asked_text(scene, total: int) -> str:
+    """The scene's text as the run records it: with a closing comment when the run was asked
+    for another number of steps than the scene's (``--steps``)."""
+    if scene.params.get("integrator", {}).get("steps") == total:
+        return scene.text
+    return scene.text.rstrip("\n") + f"\n# run for {int(total)} steps (--steps)\n"
+
+
 def finished_run(out_dir) -> bool:
     """Whether ``out_dir`` holds a completed (or failed) run: its ``trajectory.npz`` and
     neither a stream nor a checkpoint of a run still to finish."""
@@ -380,8 +388,8 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                                       "again with --overwrite")
             try:
                 reopen_stream(npz_path, stream_dir, meta=trajectory_meta(
-                    model, scene_text=scene.text, params=_asked(scene.params, total),
-                    skin=skin))
+                    model, scene_text=_asked_text(scene, total),
+                    params=_asked(scene.params, total), skin=skin))
             except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
                 _clean(out_dir)  # (the half-reopened stream)
                 raise CheckpointError(f"{npz_path}: damaged ({exc}: cut short?): the run cannot "
@@ -405,7 +413,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
         for stale in (npz_path, ckpt_path, final_path):
             if stale.exists():
                 stale.unlink()
-        meta = trajectory_meta(model, scene_text=scene.text,
+        meta = trajectory_meta(model, scene_text=_asked_text(scene, total),
                                params=_asked(scene.params, total), skin=skin)
         stream = TrajectoryStream(stream_dir, model.point_count, meta)
         keep = None

@@ -130,7 +130,9 @@ def check_table(name: str, label: str, given: dict, keys: dict[str, Spec]) -> di
 
 
 def apply_override(raw: dict, item: str, name: str) -> None:
-    """Apply one ``section.key=value`` (TOML value) to a parsed scene, in place."""
+    """Apply one ``section.key=value`` (TOML value) to a parsed scene, in place; a list of
+    tables (``[[obstacle]]``, ``[[handle]]``) is addressed as ``section.N.key=value``, N
+    counting its tables from 1 as they stand in the file."""
     where, sep, value = item.partition("=")
     section, dot, key = where.strip().partition(".")
     if not (sep and dot and section and key):
@@ -140,10 +142,21 @@ def apply_override(raw: dict, item: str, name: str) -> None:
         parsed = tomllib.loads(f"v = {value.strip()}")["v"]
     except tomllib.TOMLDecodeError:
         parsed = value.strip()      # a bare word: a string (e.g. integrator.name=implicit)
+    number, dot2, inner = key.partition(".")
+    if section in ("obstacle", "handle") and not isinstance(raw.get(section), list):
+        raise SceneError(f"{name}: --set {item!r}: the scene has no [[{section}]] table to "
+                         f"set a key of (add one to the file)")
     table = raw.setdefault(section, {})
-    if not isinstance(table, dict):
-        raise SceneError(f"{name}: --set {item!r}: [[{section}]] is a list of tables, which "
-                         "--set cannot address; edit them in the scene file")
+    if isinstance(table, list):
+        if not (dot2 and inner and number.isdigit()):
+            raise SceneError(f"{name}: --set {item!r}: [[{section}]] is a list of tables: "
+                             f"address one by its number, {section}.N.key=value (N from 1, "
+                             f"as they stand in the file), e.g. {section}.1.{key}={value}")
+        if not 1 <= int(number) <= len(table):
+            raise SceneError(f"{name}: --set {item!r}: the scene has {len(table)} "
+                             f"[[{section}]] table(s); N runs from 1 to {len(table)}")
+        table[int(number) - 1][inner] = parsed
+        return
     table[key] = parsed
 
 

@@ -17,7 +17,7 @@ import warnings
 from pathlib import Path
 
 from ..errors import BuildError, JellysimError, SceneError, SimulationError
-from ..runner import RunResult, _asked, prepare_out_dir, refuse_earlier_run
+from ..runner import RunResult, _asked, _asked_text, prepare_out_dir, refuse_earlier_run
 from ..io.lock import claim
 from ..io.trajectory import Recorder, skin_bounds
 from ..io.vtk import PVDSeries
@@ -114,8 +114,8 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
             except BuildError as exc:
                 messages.append(f"no skin: {exc}")
                 skin = None
-        recorder = Recorder(model, scene_text=scene.text, params=_asked(scene.params, total),
-                            skin=skin)
+        recorder = Recorder(model, scene_text=_asked_text(scene, total),
+                            params=_asked(scene.params, total), skin=skin)
         write_vtu = scene.params["output"]["vtu"] if vtu is None else vtu
         series = PVDSeries(out_dir) if write_vtu else None
         skin_series = PVDSeries(out_dir, "skin") if write_vtu and skin is not None else None
