@@ -284,7 +284,7 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
                f"total {s['total']:.1f} s")
     if s.get("startup", 0.0) > 1.0:
         click.echo(f"  ({s['startup']:.1f} s of the simulating were the first steps' start-up: "
-                   "compiling the kernels on a first run, cached for the next)")
+                   "loading the compiled kernels, or compiling them on a first run)")
     for key in ("video", "usd", "trajectory"):
         if key in r:
             click.echo(f"wrote {r[key]}")
