@@ -277,6 +277,8 @@ def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
                 "'interrupted')" if where is not None and (where / "trajectory.npz").exists()
                 else "") + "; under mpiexec no checkpoint is kept: run it again to finish",
                 fg="yellow", err=True)
+            sys.stderr.flush()
+            time.sleep(0.5)  # (the launcher forwards the line before Abort ends the job)
         comm.Abort(130)
         sys.exit(130)  # (should Abort return)
     except Exception as exc:  # one rank only: say which, and do not leave the others waiting
