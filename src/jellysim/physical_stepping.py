@@ -20,6 +20,13 @@ SETTLE_TIME = 0.02
 """[s] Time constant of the extra damping :meth:`PhysicalStepping.settle` adds (every point's
 velocity relaxes as exp(-t / SETTLE_TIME) under it)."""
 
+SETTLE_RAMP = 0.25
+"""[s] :meth:`PhysicalStepping.settle` turns gravity and the standing point loads on over this
+time (linearly, frame by frame), so the body is loaded quasi-statically.  Switched on at once,
+a load's dynamic overshoot asks the base for up to twice the static friction: a block set down
+on a slope at 0.9 atan(mu) broke away and, once sliding, did not stop (docs/physics.md
+section 2: friction-induced hopping)."""
+
 
 class PhysicalStepping:
     """Mixin: needs ``model``, ``state``, ``handles``, ``dt``, ``substeps``, ``backend``,
@@ -122,7 +129,8 @@ class PhysicalStepping:
     def settle(self, *, max_seconds: float = 10.0, speed: float = 1e-4) -> int:
         """Let the body come to rest where it is (under gravity, on its ground and obstacles,
         its handles on) before the run: it is stepped with a strong extra viscous damping
-        (every point's velocity relaxing with a time constant of :data:`SETTLE_TIME` s) until
+        (every point's velocity relaxing with a time constant of :data:`SETTLE_TIME` s), gravity
+        and the standing point loads turned on over the first :data:`SETTLE_RAMP` s, until
         no point moves more than ``speed`` x dt in a step, for three steps, or ``max_seconds`` of
         simulated time (then a warning).  The settled shape is the start: velocities zero, the
         clock back to t = 0, step 0 (the material's own damping is untouched).  A point force
@@ -159,20 +167,25 @@ class PhysicalStepping:
                  if releases else np.zeros(0, dtype=np.int64))
         held = self.handles.point_force[timed].copy()
         self.handles.point_force[timed] = 0.0
+        loads = self.handles.point_force.copy()
         mass = np.asarray(model.point_mass, dtype=np.float64)
-        self.model = dataclasses.replace(model, damping=float(model.damping)
-                                         + float(mass.mean()) / SETTLE_TIME)
+        damped = float(model.damping) + float(mass.mean()) / SETTLE_TIME
+        ramp = max(1, math.ceil(SETTLE_RAMP / self.dt - 1e-9))
         calm, taken = 0, 0
         weights = mass / mass.sum()
         start = weights @ s.x
         try:
-            for taken in range(1, max(1, math.ceil(max_seconds / self.dt)) + 1):
+            for taken in range(1, max(ramp, math.ceil(max_seconds / self.dt)) + 1):
+                share = min(1.0, taken / ramp)  # loads turned on gently (SETTLE_RAMP)
+                self.model = dataclasses.replace(model, damping=damped,
+                                                 gravity=share * gravity)
+                self.handles.point_force[:] = share * loads
                 before = s.x.copy()
                 self.advance(1)
                 self._slip[:] = 0.0  # set down gently: static contacts
                 d = s.x - before  # (what moved: a resting contact's velocity is not zero)
                 fastest = float(np.sqrt(np.einsum("ij,ij->i", d, d).max())) / self.dt
-                calm = calm + 1 if fastest < speed else 0
+                calm = calm + 1 if fastest < speed and share == 1.0 else 0
                 if calm >= 3:
                     break
             else:
@@ -185,6 +198,7 @@ class PhysicalStepping:
                               stacklevel=2)
         finally:
             self.model = model
+            self.handles.point_force[:] = loads
             self.handles.point_force[timed] = held
             if releases is not None:
                 self._releases = releases
