@@ -767,11 +767,13 @@ _GEL = '[material]\npreset = "gelatin"\n[body]\npoints = 27\n'
                                     r"'gelatin'"),
     ('[ground]\nmodel = "paper"\n', r"model = 'paper'.*springs path only.*fall through"),
     ('[ground]\nmu = 0.3\nfriction = 0.5\n', r"mu \(the paper ground's rule\) and friction"),
+    ('[mass]\npoint_mass = 0.01\n', r"\[mass\] point_mass = 0.01 kg is not used.*density = "
+                                     r"1141 kg/m\^3.*set \[material\] density"),
 ])
 def test_keys_a_gelatin_scene_would_ignore_are_refused_with_the_fix(extra, match):
     """Session 10's trial: each of these ran and changed nothing (or, for the paper ground,
     let the tet body fall 5 m through the floor); each is now an error naming the key and
-    the fix."""
+    the fix.  (point_mass: session 16's researcher trial; the tets' lumped masses won.)"""
     with pytest.raises(SceneError, match=match):
         scene = Scene.from_text(_GEL + extra, name="s.toml")
         scene.simulator(scene.build_model())

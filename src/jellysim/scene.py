@@ -386,6 +386,13 @@ class Scene:
             given = self._check_body_file(body, given, m)
         try:
             model = self._material_model(body)
+            if model is not None and "point_mass" in self.given.get("mass", ()):
+                raise SceneError(
+                    f"{self.name}: [mass] point_mass = {m['point_mass']:g} kg is not used: the "
+                    f"physical (FEM) path gives each point density x a quarter of its tets' "
+                    f"volume ([material] density = {density:g} kg/m^3, {model.point_mass.sum():.4g}"
+                    f" kg in all); remove [mass] point_mass and set [material] density to "
+                    f"change the mass (or [material] model = 'springs' for equal point masses)")
             if model is not None:
                 if self.params["body"]["type"] == "file" and body.masses is not None:
                     own, new = body.masses.sum(), model.point_mass.sum()
