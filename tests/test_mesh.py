@@ -340,3 +340,23 @@ def test_two_shells_far_apart_each_keep_their_volume(tmp_path):
     assert mesh.defects.shells == 2
     assert mesh.defects.volume == pytest.approx(1e-3 + trimesh.creation.icosphere(
         3, 0.05).volume, rel=1e-7)
+
+
+@pytest.mark.parametrize("missing, said", [("trimesh", "needs the optional package 'trimesh'"),
+                                           ("PIL", "needs the optional package")])
+def test_a_mesh_reader_that_is_not_installed_is_named_with_the_install(tmp_path, monkeypatch,
+                                                                        missing, said):
+    """Without trimesh (or without pillow, which trimesh wants for an OBJ's texture
+    coordinates) reading an OBJ is one MeshError naming the file and pip install
+    'jellysim[mesh]' (session 16's researcher trial: a ModuleNotFoundError traceback, and
+    "could not parse the file (No module named 'PIL')")."""
+    from jellysim.errors import MeshError
+    from jellysim.geometry.mesh import load_mesh
+
+    path = tmp_path / "tex.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 0 1\n"
+                    "f 1/1 3/3 2/2\nf 1/1 2/2 4/1\nf 1/1 4/1 3/3\nf 2/2 3/3 4/1\n")
+    assert load_mesh(path).faces.shape == (4, 3)  # (all installed: it reads)
+    monkeypatch.setitem(sys.modules, missing, None)
+    with pytest.raises(MeshError, match=rf"tex.obj: .*{said}.*pip install 'jellysim\[mesh\]'"):
+        load_mesh(path)

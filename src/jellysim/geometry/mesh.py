@@ -236,8 +236,12 @@ def load_mesh(path, *, weld_tol: float = WELD_REL) -> Mesh:
 
 
 def _read_trimesh(p: Path, name: str):
-    import trimesh  # optional dependency, imported where used
-
+    try:
+        import trimesh  # optional dependency, imported where used
+    except ImportError:
+        raise MeshError(f"{name}: reading {p.suffix.lower()} files needs the optional package "
+                        "'trimesh': pip install 'jellysim[mesh]' (or convert the mesh to .vtk "
+                        "or .vtu, which meshio reads)") from None
     try:
         # maintain_order keeps the OBJ's vertex list as written, so that vertices no face uses
         # are counted (and then dropped) here rather than silently by the loader
@@ -247,6 +251,10 @@ def _read_trimesh(p: Path, name: str):
         where = _obj_problem(p) if p.suffix.lower() == ".obj" else None
         if where is not None:
             raise MeshError(f"{name}:{where}") from None
+        if isinstance(exc, ImportError):  # e.g. PIL for an OBJ's texture coordinates
+            what = repr(exc.name) if exc.name else f"that is missing ({exc})"
+            raise MeshError(f"{name}: reading this file needs the optional package {what}: "
+                            "pip install 'jellysim[mesh]'") from None
         raise MeshError(f"{name}: could not parse the file ({type(exc).__name__}: {exc})") from exc
     where = _obj_problem(p) if p.suffix.lower() == ".obj" else None
     if where is not None:  # e.g. 0-based face indices, which the loader wraps around silently
