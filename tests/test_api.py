@@ -362,3 +362,26 @@ def test_the_python_api_refuses_what_a_scene_refuses():
                                          r"dt = 0.0166667 s would carry it past the runaway"):
         sim.advance(1)
     assert sim.state.step == 0
+
+
+def test_from_mesh_says_when_its_default_size_rescales_the_mesh():
+    """Body.from_mesh scales the mesh to 10 cm unless told (build_body, the CLI and scenes keep
+    metres): a 2-unit sphere scaled by the default is said (its extent and both fixes); an
+    explicit size, size=None, or a mesh already near 10 cm is not.  The body is the size
+    asked either way."""
+    import warnings
+
+    from jellysim.geometry.mesh import load_mesh
+
+    sphere = mesh_path("sphere.obj")
+    with pytest.warns(UserWarning, match=r"largest extent, 2 in its own units, is scaled to "
+                                         r"0\.1 m .*size=None"):
+        body = jellysim.Body.from_mesh(sphere, points=300)
+    mesh = load_mesh(sphere)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        small = jellysim.Body.from_mesh(sphere, size=0.05, points=300)
+        metres = jellysim.Body.from_mesh(sphere, size=None, points=300)
+        near = jellysim.Body.from_mesh((0.04 * mesh.vertices, mesh.faces), points=300)
+    for b, extent in ((body, 0.1), (small, 0.05), (metres, 2.0), (near, 0.1)):
+        assert np.ptp(b.points, axis=0).max() == pytest.approx(extent, rel=0.05)

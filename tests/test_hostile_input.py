@@ -1219,3 +1219,25 @@ def test_a_random_box_of_two_or_three_points_is_a_springs_body():
             -0.5 * 9.8 * 0.1**2, rel=2e-2)
         with pytest.raises(js.JellysimError, match="needs a body with tets"):
             js.physical_model(body, js.material("gelatin"))
+
+
+def test_gravity_that_does_not_meet_the_ground_is_said():
+    """A z-up habit, gravity (0, 0, -9.81) over the y = 0 ground, would slide the body along
+    the ground for ever: said, with the y-up fix (session 16's researcher trial); gravity
+    tilted 40 deg for a slope, or no ground, is not."""
+    import warnings
+
+    import jellysim as js
+
+    body = js.Body.box(upper=(0.02, 0.02, 0.02), points=27)
+    ground = js.GroundParams(model="contact", friction=0.3)
+    sideways = js.physical_model(body, js.material("gelatin"), gravity=(0.0, 0.0, -9.81))
+    with pytest.warns(UserWarning, match=r"does not point down onto the ground.*y is up.*up='z'"):
+        js.Simulator(sideways, dt=1 / 60, ground=ground)
+    t = np.radians(40.0)
+    slope = js.physical_model(body, js.material("gelatin"),
+                              gravity=(9.81 * np.sin(t), -9.81 * np.cos(t), 0.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        js.Simulator(slope, dt=1 / 60, ground=ground)
+        js.Simulator(sideways, dt=1 / 60, ground=js.GroundParams(enabled=False))

@@ -13,6 +13,14 @@ import numpy as np
 from .params import REPORT_DENSITY, _user_stacklevel
 from .errors import ParameterError
 
+
+class _Default(float):
+    """A default value that can be told apart from the same number passed on purpose."""
+
+
+_DEFAULT_SIZE = _Default(0.1)
+"""[m] :meth:`Body.from_mesh`'s default ``size``."""
+
 __all__ = ["Body"]
 
 
@@ -94,7 +102,7 @@ class Body:
                                      if np.ndim(value) == 0 else ""))
 
     @classmethod
-    def from_mesh(cls, mesh, *, size: float | None = 0.1, points: int = 5000,
+    def from_mesh(cls, mesh, *, size: float | None = _DEFAULT_SIZE, points: int = 5000,
                   connect: str = "marching", seed: int = 0, density: float | None = None,
                   base=None, up: str = "y", **options) -> "Body":
         """A jello body filling a surface mesh (a path, in any format
@@ -102,7 +110,9 @@ class Body:
         faces)`` pair such as :func:`~jellysim.geometry.shapes.jelly_mould`'s).
 
         ``size``: the largest bounding-box extent [m] the mesh is scaled to (about the
-        origin); ``None`` keeps the mesh's coordinates, which are then read as metres.
+        origin; default 0.1 m, said in a warning when the mesh's own extent is not within a
+        factor 2 of it); ``None`` keeps the mesh's coordinates, which are then read as metres
+        (as ``build_body``, the CLI and scenes do).
         ``points``: about this many points (``marching``: the grid warped onto the surface;
         ``radius``/``delaunay``: sampled inside, ``delaunay`` adding points on the surface).
         ``connect``: ``"marching"`` (default), ``"radius"``, ``"delaunay"`` or ``"tetgen"``.
@@ -125,7 +135,18 @@ class Body:
 
         if size is not None and np.isfinite(size):
             _warn_size(float(size), "Body.from_mesh: size")
-        m = _mesh_of(mesh, size)
+        m = _mesh_of(mesh, None)
+        if size is _DEFAULT_SIZE:
+            own = float(np.ptp(m.vertices, axis=0).max())
+            if not 0.5 * size <= own <= 2.0 * size:
+                import warnings
+
+                warnings.warn(f"Body.from_mesh: the mesh's largest extent, {own:.4g} in its own "
+                              f"units, is scaled to {float(size):g} m (size's default); pass "
+                              "size=... [m] for the body's size, or size=None to keep the "
+                              "mesh's coordinates as metres", UserWarning,
+                              stacklevel=_user_stacklevel())
+        m = _mesh_of(m, None if size is None else float(size))
         if up != "y":
             m = replace(m, vertices=rotate_up(m.vertices, up))
         if base is not None:

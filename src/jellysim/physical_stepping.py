@@ -37,7 +37,10 @@ class PhysicalStepping:
         """The body's energies now [J]: ``kinetic`` (sum 1/2 m |v|^2), ``gravity`` (sum
         -m g . x: zero at x = 0; handles' gravity scales not counted), ``elastic`` (the
         springs' sum 1/2 k (|x_j - x_i| - L0)^2, plus the tets' stored Stable Neo-Hookean
-        energy on the physical path) and ``total`` (their sum).  Damping, contact friction and
+        energy on the physical path) and ``total`` (their sum).  The damping branch's own
+        stored energy (the strain held by its internal state ``Q``, ``damping_ratio > 0``) is
+        not counted, so in a damped wobble ``kinetic + elastic`` can rise for an instant while
+        the branch gives back what it held.  Damping, contact friction and
         handles do work on the body, so only a free, undamped body keeps ``total``, and then
         as symplectic Euler does: it swings by about omega h (a mode's angular frequency times
         the substep) around a conserved value, without drift, when gravity is off.  Under

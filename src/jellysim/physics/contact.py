@@ -240,7 +240,28 @@ def start_checks(model, state, ground, obstacles) -> tuple:
     x = None if not fresh else (model.point_x0 if state is None else state.x)
     if x is not None and ground is not None and ground.enabled:
         check_ground_placement(x, float(ground.height))
+    if fresh and ground is not None and ground.enabled:
+        check_gravity_meets_ground(model.gravity)
     try:
         return user_obstacles(obstacles, x)
     except ValueError as exc:
         raise SceneError(str(exc)) from None
+
+
+def check_gravity_meets_ground(gravity) -> None:
+    """Warn when gravity [m/s^2] (3,) is nonzero but has less than a tenth of its length
+    pointing down, -y, onto the ground plane ``y = height`` (tilted gravity on a slope up to
+    84 deg is silent): a z-up setup (gravity (0, 0, -9.81)) would slide the body along the
+    ground, or off it, for ever (session 16's researcher trial: nothing said)."""
+    import warnings
+
+    from ..params import _user_stacklevel
+
+    g = np.asarray(gravity, dtype=np.float64).reshape(3)
+    size = float(np.linalg.norm(g))
+    if size > 0.0 and -g[1] < 0.1 * size:
+        warnings.warn(f"gravity ({g[0]:g}, {g[1]:g}, {g[2]:g}) m/s^2 does not point down onto the "
+                      "ground: the ground is the plane y = height, and y is up (a z-up mesh or "
+                      "scene: gravity (0, -9.81, 0) with Body.from_mesh(..., up='z') or "
+                      "[body] up = 'z'); or disable the ground", UserWarning,
+                      stacklevel=_user_stacklevel())
