@@ -25,7 +25,7 @@ from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-
 from .scene_schema import SCHEMA
 from .scene_spec import (Spec, as_toml, check_backend, check_given_keys, check_value,
                          given_keys, plain, grid_radius, infer_body_type, missing_path,
-                         refuse_unused_keys, said_springs_ignore)
+                         refuse_point_mass, refuse_unused_keys, said_springs_ignore)
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
 from .scene_doc import schema_markdown as make
@@ -49,7 +49,6 @@ def _wants_fem(params: dict) -> bool:
 
 def schema_markdown() -> str:
     """The scene format as Markdown (docs/scene.md; :mod:`jellysim.scene_doc`)."""
-
     return make()
 
 
@@ -386,14 +385,8 @@ class Scene:
             given = self._check_body_file(body, given, m)
         try:
             model = self._material_model(body)
-            if model is not None and "point_mass" in self.given.get("mass", ()):
-                raise SceneError(
-                    f"{self.name}: [mass] point_mass = {m['point_mass']:g} kg is not used: the "
-                    f"physical (FEM) path gives each point density x a quarter of its tets' "
-                    f"volume ([material] density = {density:g} kg/m^3, {model.point_mass.sum():.4g}"
-                    f" kg in all); remove [mass] point_mass and set [material] density to "
-                    f"change the mass (or [material] model = 'springs' for equal point masses)")
             if model is not None:
+                refuse_point_mass(self.name, self.given, m["point_mass"], density, model)
                 if self.params["body"]["type"] == "file" and body.masses is not None:
                     own, new = body.masses.sum(), model.point_mass.sum()
                     warnings.warn(f"{self.name}: the body file's own masses ({own:.4g} kg) "

@@ -376,3 +376,15 @@ def given_keys(raw: dict, schema: dict, presets: dict, by_value: bool = True) ->
                         if k not in base and k not in specs
                         or v != (base[k] if k in base else specs[k].default)}
     return out
+
+
+def refuse_point_mass(name: str, given: dict, point_mass, density: float, model) -> None:
+    """A scene's ``[mass] point_mass`` on the physical (FEM) path, where the tets' lumped
+    masses would silently win (session 16's researcher trial): refused, with the fix."""
+    if "point_mass" in given.get("mass", ()):
+        raise SceneError(
+            f"{name}: [mass] point_mass = {point_mass:g} kg is not used: the physical (FEM) "
+            f"path gives each point density x a quarter of its tets' volume ([material] "
+            f"density = {density:g} kg/m^3, {model.point_mass.sum():.4g} kg in all); remove "
+            "[mass] point_mass and set [material] density to change the mass (or [material] "
+            "model = 'springs' for equal point masses)")
