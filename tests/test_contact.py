@@ -11,6 +11,7 @@ from jellysim.body import Body
 from jellysim.kernels import numba_backend as nbk
 from jellysim.kernels import numpy_backend as npk
 from jellysim.model import finalize
+from jellysim.errors import StabilityWarning
 from jellysim.params import GroundModel, GroundParams, ImplicitParams
 from jellysim.physics.contact import Box, Plane, Sphere, pack_obstacles
 from jellysim.simulator import Simulator
@@ -478,3 +479,47 @@ def test_a_block_set_down_on_a_slope_holds_below_its_friction_angle(mu, ratio):
         assert abs(moved) < 1e-4 and abs(speed) < 1e-3, (moved, speed)
     else:
         assert moved > 0.02 and speed > 0.05, (moved, speed)
+
+
+def test_settle_under_a_standing_force_that_drags_the_block_says_so():
+    """A force with no release is a load the body settles under; one that beats friction
+    (2 mu M g) drags the block while it settles, and the warning names the standing force
+    (it named only a slope: session 16's teacher trial).  The ramped load still reaches it in
+    full: the block has moved about the free answer (F/M - mu g) t^2 / 2 damped by settle's
+    drag, i.e. a lot, and its speed is set back to zero."""
+    import jellysim as js
+
+    body = js.Body.box(lower=(0, 0, 0), upper=(0.03, 0.015, 0.025), points=120)
+    model = js.physical_model(body, js.material("gelatin", youngs_modulus=3e4))
+    sim = Simulator(model, dt=1 / 60, ground=GroundParams(
+        model=GroundModel.CONTACT, friction=0.3, restitution=0.0))
+    weight = float(model.point_mass.sum()) * G
+    sim.apply_force(np.arange(model.point_count), (2 * 0.3 * weight, 0.0, 0.0))
+    with pytest.warns(StabilityWarning, match=r"did not come to rest.*standing point force"):
+        sim.settle(max_seconds=0.5)
+    m = model.point_mass / model.point_mass.sum()
+    assert float(m @ sim.state.x[:, 0] - m @ model.point_x0[:, 0]) > 0.01
+    assert not sim.state.v.any()
+
+
+@pytest.mark.parametrize("backend", ["numpy", "numba"])
+def test_a_resting_body_is_at_rest_whatever_its_restitution(backend):
+    """The preset's 10 cm gelatin cube (216 points) settled on the contact ground with the
+    default restitution 0.3 and then left for 1 s is at rest: kinetic energy < 1e-9 J and its
+    base points' normal speed < 1e-6 m/s (the body's load drove each base point into the plate
+    faster than the rest speed 2|g|dt, so each bounced at e every substep: 4.0e-5 J and
+    +0.065 m/s while the positions stayed put, session 16's teacher trial).  A point that
+    touched at a step's start is in resting contact (contact_numpy.touching); a point mass
+    dropped still bounces at e (test_point_mass_rebounds_to_e_squared_h, validate_bounce)."""
+    import jellysim as js
+
+    body = js.Body.box(points=216)
+    model = js.physical_model(body, js.material("gelatin"))
+    sim = Simulator(model, dt=1 / 60, backend=backend, ground=GroundParams(
+        model=GroundModel.CONTACT, friction=0.5))
+    assert sim._obstacle_data[0, 6] == pytest.approx(0.3)  # (the default restitution)
+    sim.settle()
+    sim.advance(60)
+    base = model.point_x0[:, 1] < 1e-9
+    assert sim.energy()["kinetic"] < 1e-9
+    assert np.abs(sim.state.v[base, 1]).max() < 1e-6

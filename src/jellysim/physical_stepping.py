@@ -193,12 +193,15 @@ class PhysicalStepping:
                     break
             else:
                 moved = float(np.linalg.norm(weights @ s.x - start))
+                why = ("pushed by a standing point force (a force with no until, on while "
+                       "settling) or sliding down a slope steeper than its friction holds?"
+                       if np.any(loads) else
+                       "sliding down a slope steeper than its friction holds?")
                 warnings.warn(f"settle: the body did not come to rest in {max_seconds:g} s (a "
                               f"point still moved faster than {speed:g} m/s; its centre of "
-                              f"mass travelled {moved * 1e3:.3g} mm while settling: sliding "
-                              "down a slope steeper than its friction holds?); it starts from "
-                              "where settling left it (at t = 0)", StabilityWarning,
-                              stacklevel=2)
+                              f"mass travelled {moved * 1e3:.3g} mm while settling: {why}); "
+                              "it starts from where settling left it (at t = 0)",
+                              StabilityWarning, stacklevel=2)
         finally:
             self.model = model
             self.handles.point_force[:] = loads

@@ -8,7 +8,7 @@ from numba import njit, prange
 from ._numba_opts import OPTS as _opts
 from .records import OBSTACLE_E, OBSTACLE_MU_K, OBSTACLE_MU_S, OBSTACLE_SLIP
 from . import STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY
-from .contact_numpy import FRICTION_REL_TOL, NO_SLIP
+from .contact_numpy import FRICTION_REL_TOL, NO_SLIP, RESTING_GAP, RESTING_SHARE
 
 
 @njit(cache=True, inline="always")
@@ -109,13 +109,15 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt, slip):
             tz = v[p, 2] - vn * nz
             vn_new = vn
             scale = 1.0
+            step = np.sqrt(v[p, 0] * v[p, 0] + v[p, 1] * v[p, 1] + v[p, 2] * v[p, 2]) * dt
+            bounce = -vn > rest_speed and phi - vn * dt > RESTING_SHARE * step + RESTING_GAP
             if g[OBSTACLE_MU_S] > NO_SLIP:  # no slip: held along the surface while touching
                 scale = 0.0
                 slip[p] = 0.0
                 if vn < 0.0:
-                    vn_new = -g[OBSTACLE_E] * vn if -vn > rest_speed else 0.0
+                    vn_new = -g[OBSTACLE_E] * vn if bounce else 0.0
             elif vn < 0.0:
-                vn_new = -g[OBSTACLE_E] * vn if -vn > rest_speed else 0.0
+                vn_new = -g[OBSTACLE_E] * vn if bounce else 0.0
                 dvn = vn_new - vn
                 speed = np.sqrt(tx * tx + ty * ty + tz * tz)
                 mu = g[OBSTACLE_MU_K] + _weakening(slip[p], g[OBSTACLE_SLIP]) * (

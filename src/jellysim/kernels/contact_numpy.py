@@ -62,9 +62,9 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt, slip):
     For each obstacle in order (``obstacle_data`` row: 6 geometry numbers, restitution e,
     static friction mu_s, kinetic friction mu_k, slip-weakening distance D_c [m]), a point with
     signed distance ``phi < 0`` is moved out along the normal; if it approaches (``v_n < 0``)
-    its normal velocity becomes ``-e v_n`` (0 when ``-v_n <= rest_speed`` [m/s]: resting
-    contact), and the normal impulse per mass ``dv_n`` buys friction with the coefficient
-    ``mu(s) = mu_s - (mu_s - mu_k) min(s / D_c, 1)`` (``D_c = 0``: mu_k once ``s > 0``), ``s``
+    its normal velocity becomes ``-e v_n`` (0 when ``-v_n <= rest_speed`` [m/s] or when it
+    touched at the step's start, :func:`touching`: resting contact), and the normal impulse
+    per mass ``dv_n`` buys friction with the coefficient ``mu(s) = mu_s - (mu_s - mu_k) min(s / D_c, 1)`` (``D_c = 0``: mu_k once ``s > 0``), ``s``
     = ``slip`` (n,) [m], the point's tangential slip since it last stuck: the tangential
     velocity ``v_t`` is removed when ``|v_t| <= mu(s) dv_n`` (it sticks: ``s = 0``), else
     reduced by ``mu(s) dv_n`` (it slides: ``s += |v_t'| dt``).  The position is moved
@@ -85,7 +85,8 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt, slip):
         vt = vh - vn[:, None] * nh
         app = vn < 0.0
         e, mu_s, mu_k = geom[OBSTACLE_E], geom[OBSTACLE_MU_S], geom[OBSTACLE_MU_K]
-        vn_new = np.where(app, np.where(-vn > rest_speed, -e * vn, 0.0), vn)
+        bounce = (-vn > rest_speed) & ~touching(phi[hit], vh, vn, dt)
+        vn_new = np.where(app, np.where(bounce, -e * vn, 0.0), vn)
         dvn = vn_new - vn
         speed = np.sqrt(np.einsum("ij,ij->i", vt, vt))
         s = slip[hit]
@@ -102,6 +103,28 @@ def contact(x, v, obstacle_kind, obstacle_data, rest_speed, dt, slip):
         x[hit] = xh + (vt_new - vt) * dt
         v[hit] = vt_new + vn_new[:, None] * nh
         slip[hit] = np.where(stick, 0.0, np.where(app, s + scale * speed * dt, s))
+
+
+def touching(phi, v, vn, dt):
+    """Whether a point that is ``phi`` [m] inside an obstacle after a step of ``dt`` at
+    velocity ``v`` [m/s] (``vn``: its normal part) touched it at the step's start: its distance
+    then, ``phi - vn dt``, within ``RESTING_SHARE`` of its step ``|v| dt`` (a point left on the
+    surface by the last step's contact is there to round-off, or to the surface's curvature),
+    or within ``RESTING_GAP``.
+    Its contact is resting, not an impact: no restitution."""
+    step = np.sqrt(np.einsum("ij,ij->i", v, v)) * dt
+    return phi - vn * dt <= RESTING_SHARE * step + RESTING_GAP
+
+
+RESTING_GAP = 1.0e-7
+"""[m] See :func:`touching`: a start this close above the surface is touching whatever the step
+(float32 positions of a 10 cm body round to ~1e-8 m)."""
+
+RESTING_SHARE = 0.01
+"""See :func:`touching`: how far above the surface, as a share of its step, a point may start
+a step and still be in resting contact (a plane's round-off is ~1e-17 m; a sphere's curvature
+puts a point sliding along it ``(|v_t| dt)^2 / 2R`` off, 2e-3 of the step at 1 m/s, dt = 1e-4
+s, R = 3 cm)."""
 
 
 def weakening(s, dc):

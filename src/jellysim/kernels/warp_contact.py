@@ -11,6 +11,10 @@ import warp as wp
 
 from .warp_common import A2 as _A2, AT as _AT, I32 as _I32
 from .warp_common import FLOAT, precision_structs, register_overloads
+from .contact_numpy import RESTING_GAP, RESTING_SHARE
+
+_RESTING_SHARE = wp.constant(RESTING_SHARE)
+_RESTING_GAP = wp.constant(RESTING_GAP)
 
 wp.set_module_options({"enable_backward": False})
 
@@ -125,9 +129,11 @@ def k_contact(x: _A2, v: _A2, kind: _I32, g: _A2, rest_speed: Any, dt: Any, slip
         tz = v[p, 2] - vn * nz
         vn_new = vn
         scale = one
+        step = wp.sqrt(v[p, 0] * v[p, 0] + v[p, 1] * v[p, 1] + v[p, 2] * v[p, 2]) * dt
         if vn < zero:
-            vn_new = zero
-            if -vn > rest_speed:
+            vn_new = zero  # (resting: slow, or touching at the step's start: contact_numpy)
+            far = type(dt)(_RESTING_SHARE) * step + type(dt)(_RESTING_GAP)
+            if -vn > rest_speed and phi - vn * dt > far:
                 vn_new = -g[o, 6] * vn
         if g[o, 7] > 1.0e30:  # no slip (contact_numpy.NO_SLIP): held along the surface
             scale = zero
