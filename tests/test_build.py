@@ -476,3 +476,22 @@ def test_inspect_a_body_file_gives_the_skin_a_run_carries(tmp_path):
     assert (f"{len(body.skin_vertices)} vertices, {len(body.skin_faces)} faces" in res.output
             and f"{len(skin.rest_vertices)} vertices, {len(skin.faces)} faces, the first "
             f"{len(body.skin_vertices)} those of the mesh" in res.output), res.output
+
+
+def test_a_delaunay_body_with_far_more_points_than_asked_says_why():
+    """A new user asked Spot for 500 points with ``connect = "delaunay"`` and got 3,206,
+    unsaid: the builder keeps all 2,930 of the mesh's vertices.  The count and the reason
+    are said; a marching body, whose points follow ``points``, is not warned about."""
+    mesh = load_mesh(mesh_path("spot.obj"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        body = build_body(mesh, points=500, connect="delaunay", size=0.1)
+    said = [str(w.message) for w in caught if "asked" in str(w.message)]
+    assert body.point_count > len(mesh.vertices) > 1000
+    assert len(said) == 1 and f"{body.point_count:,} points for the 500 asked" in said[0]
+    assert f"{len(mesh.vertices):,} vertices are all kept" in said[0]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        coarse = build_body(mesh, points=500, connect="marching", size=0.1)
+    assert coarse.point_count < 1000
+    assert not [w for w in caught if "asked" in str(w.message)]

@@ -246,7 +246,8 @@ def test_the_drag_spring_and_pins_forces_balance_the_momentum():
     momentum by dt times the external force at the step's start, here the drag spring's pull
     (:meth:`drag_force`), the pins' (:meth:`pin_force`) and gravity (the tets' and springs'
     forces cancel), for a wobbling body held by a pin and pulled sideways by the drag spring
-    (springs of 20 N/m beside its tets), one substep per step, to 1e-6 of the weight."""
+    (springs of 20 N/m beside its tets), one substep per step, to 1e-6 of the weight.  (The
+    drag's damper is implicit, so its part of the force is the one at the step's end.)"""
     body = _box((3, 6, 3), (0.02, 0.04, 0.02))
     model = physical_model(body, gelatin())
     model = dataclasses.replace(model, spring_stiffness=np.full(model.spring_count, 20.0))
@@ -263,8 +264,12 @@ def test_the_drag_spring_and_pins_forces_balance_the_momentum():
     for _ in range(5):
         sim.advance(100)
         p0, f0 = (m * sim.state.v).sum(axis=0), sim.drag_force() + sim.pin_force()
+        held = sim.handles.drag_weight[:, None] * sim.state.v
         sim.advance(1)
         rate = ((m * sim.state.v).sum(axis=0) - p0) / sim.dt
+        # the drag's damper is implicit: it acts on the step's end velocities
+        f0 += sim.handles.drag[5] * (held - sim.handles.drag_weight[:, None]
+                                     * sim.state.v).sum(axis=0)
         assert np.allclose(rate, f0 + weight, rtol=0, atol=1e-6 * np.linalg.norm(weight)), (
             rate, f0 + weight)
     assert np.linalg.norm(f0 - first) > 1e-3 * np.linalg.norm(weight)  # it wobbled
@@ -631,10 +636,11 @@ def test_a_dragged_patch_holds_the_body_up_without_turning_a_tet_inside_out():
     point load).  `sim.drag` now grabs the point's tet neighbours too and shares the spring
     among them.  Lifting the cube 15 cm by the middle of its top: once it hangs still the
     springs carry its weight, so their mean stretch is M g / k (force balance), and no tet
-    goes below J = 0.3; pulling the single point (radius = 0) the same way inverts one."""
+    goes below J = 0.3, damped (the default) or not; pulling the single point (radius = 0) the
+    same way, undamped, inverts one."""
     import jellysim as js
 
-    def lift(radius):
+    def lift(radius, zeta=0.7):
         model = js.physical_model(js.Body.box(points=216),
                                   js.material("gelatin", damping_ratio=0.3))
         sim = js.Simulator(model, dt=1 / 60, ground=js.GroundParams(model="contact"))
@@ -643,7 +649,7 @@ def test_a_dragged_patch_holds_the_body_up_without_turning_a_tet_inside_out():
         c = top[np.argmin(np.linalg.norm(x[top][:, [0, 2]] - x[:, [0, 2]].mean(0), axis=1))]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the single point's inverted tet is said
-            sim.drag(c, x[c] + [0.0, 0.15, 0.0], radius=radius)
+            sim.drag(c, x[c] + [0.0, 0.15, 0.0], radius=radius, damping_ratio=zeta)
             sim.advance(150)
         h = sim.handles
         held = h.drag_weight > 0
@@ -654,7 +660,9 @@ def test_a_dragged_patch_holds_the_body_up_without_turning_a_tet_inside_out():
     assert patch > 4 and sim.state.x[:, 1].min() > 0.05          # lifted off the plate
     assert stretch[1] == pytest.approx(expect, rel=0.03) and abs(stretch[0]) < 1e-6
     assert sim.min_tet_volume_ratio > 0.3
-    single, n, _, _ = lift(0.0)
+    undamped, _, _, _ = lift(None, zeta=0.0)   # the patch alone keeps the tets right side out
+    assert undamped.min_tet_volume_ratio > 0.3
+    single, n, _, _ = lift(0.0, zeta=0.0)      # (the default damper alone kept J 0.80 here)
     assert n == 1 and single.min_tet_volume_ratio < 0.0
 
 
@@ -813,3 +821,37 @@ def test_a_timed_push_acts_from_t0_not_while_settling():
     loaded.apply_force(side, push)                        # no release: a load
     loaded.settle()
     assert loaded.state.x[top, 0].mean() - plain.state.x[top, 0].mean() < -1e-4
+
+
+@pytest.mark.parametrize("backend, zeta", [("numba", 0.0), ("numba", 0.3), ("numpy", 0.3),
+                                           ("numba", None)])
+def test_a_body_hanging_on_the_drag_spring_overshoots_as_a_damped_oscillator(backend, zeta):
+    """Helper 13's trial: the mouse spring was undamped, the jello bounced on the cursor.  A
+    stiff block (E = 1 MPa, so it moves as one mass M) hung from the drag at rest, the spring
+    unstretched, falls and swings about its static stretch M g / k: a damped oscillator's
+    first overshoot is ``exp(-pi zeta / sqrt(1 - zeta^2))`` of that stretch (1 undamped, 0.372
+    at 0.3, 0.046 at the default 0.7), to 0.015."""
+    import jellysim as js
+
+    model = js.physical_model(js.Body.box(points=64), js.material("gelatin",
+                                                                   youngs_modulus=1e6))
+    sim = js.Simulator(model, dt=1 / 600, backend=backend)
+    x = sim.state.x
+    x[:, 1] += 0.5                       # in the air, far above the ground
+    top = np.flatnonzero(np.isclose(x[:, 1], x[:, 1].max()))
+    c = top[np.argmin(np.linalg.norm(x[top][:, [0, 2]] - x[:, [0, 2]].mean(0), axis=1))]
+    if zeta is None:
+        sim.drag(c, x[c].copy())
+    else:
+        sim.drag(c, x[c].copy(), damping_ratio=zeta)
+    m = model.point_mass
+    M = m.sum()
+    y0 = m @ x[:, 1] / M
+    low = 0.0
+    for _ in range(120):                 # 0.2 s: the first swing down ends at ~0.1 s
+        sim.advance(1)
+        low = min(low, float(m @ sim.state.x[:, 1] / M - y0))
+    static = M * np.linalg.norm(model.gravity) / sim.handles.drag[4]
+    z = 0.7 if zeta is None else zeta
+    expect = np.exp(-np.pi * z / np.sqrt(1.0 - z * z))
+    assert (-low - static) / static == pytest.approx(expect, abs=0.015)

@@ -155,8 +155,9 @@ class Handles:
     pin_to: np.ndarray
     """Pin targets at its end [m], shape (n, 3)."""
     drag: np.ndarray
-    """``[point, tx, ty, tz, k]``: point (-1: none) and the patch around it pulled to the
-    target [m] by a spring of total stiffness k [N/m]."""
+    """``[point, tx, ty, tz, k, c]``: point (-1: none) and the patch around it pulled to the
+    target [m] by a spring of total stiffness k [N/m] with a damper of total coefficient
+    c [N s/m] on the patch's velocity."""
     drag_weight: np.ndarray
     """Share [-] of the drag spring on each point, shape (n,): 1/m on the m points of the
     grabbed patch (they sum to 1), 0 elsewhere."""
@@ -169,7 +170,7 @@ class Handles:
     @classmethod
     def empty(cls, n: int) -> "Handles":
         return cls(np.ones(n), np.zeros((n, 3)), np.zeros(n, dtype=np.int8), np.zeros((n, 3)),
-                   np.zeros((n, 3)), np.zeros((n, 3)), np.array([-1.0, 0, 0, 0, 0]),
+                   np.zeros((n, 3)), np.zeros((n, 3)), np.array([-1.0, 0, 0, 0, 0, 0]),
                    np.zeros(n), np.zeros((n, 3)))
 
     @property
@@ -193,6 +194,8 @@ HANDLE_KINDS = {"pin": "fix points, or move them along 'path'",
                 "force": "a constant total 'force' [N] split over the points (released at "
                          "time 'until' [s] if given)",
                 "gravity": "multiply gravity on the points by 'scale'"}
+DRAG_DAMPING_RATIO = 0.7
+"""The drag spring's default damping ratio [-] (Box2D's mouse joint: 5 Hz, 0.7)."""
 MAX_DRAG_POINTS = 64
 """The most points a drag grabs (the nearest to the grabbed point)."""
 
@@ -443,15 +446,20 @@ class HandleMethods:
             scale)
 
     def drag(self, point: int | None, target=None, stiffness: float | None = None, *,
-             radius: float | None = None) -> None:
+             radius: float | None = None, damping_ratio: float = DRAG_DAMPING_RATIO) -> None:
         """Pull ``point`` and the patch around it towards ``target`` [m] with a spring of total
-        ``stiffness`` [N/m] (default: strong enough to move the whole body's weight by 1 cm)
-        shared evenly by the patch's points, each pulled to the target plus its offset from
-        ``point`` when grabbed (the patch keeps its shape: a pinch spread over its tets, not
-        a point load that turns them inside out).  The patch: ``point`` and its tet
-        neighbours, or with ``radius`` [m] every point that close to it (at most
-        :data:`MAX_DRAG_POINTS`, the nearest).  Calling again with the same ``point`` moves
-        the target (the mouse); ``drag(None)`` (or a ``target`` of ``None``) releases."""
+        ``stiffness`` [N/m] (default: strong enough to move the whole body's weight by 1 cm,
+        so the body hangs on it at ~5 Hz) shared evenly by the patch's points, each pulled to
+        the target plus its offset from ``point`` when grabbed (the patch keeps its shape: a
+        pinch spread over its tets, not a point load that turns them inside out).  The patch:
+        ``point`` and its tet neighbours, or with ``radius`` [m] every point that close to it
+        (at most :data:`MAX_DRAG_POINTS`, the nearest).  The spring is damped like a mouse
+        joint: a damper ``c = 2 damping_ratio sqrt(stiffness M)`` [N s/m] (M: the body's
+        mass) on the patch's velocity, so the body hanging on it settles with that fraction
+        of critical damping (0.7 by default, Box2D's mouse joint's; 0: undamped, it bounces
+        on the cursor); the damper is implicit per point, so any ratio is stable.  Calling
+        again with the same ``point`` moves the target (the mouse); ``drag(None)`` (or a
+        ``target`` of ``None``) releases."""
         self._require_physical("dragging")
         h, d = self.handles, self.handles.drag
         if point is None or target is None:
@@ -464,6 +472,11 @@ class HandleMethods:
                                                and np.isfinite(stiffness) and stiffness > 0):
             raise SceneError(f"drag: stiffness must be a spring constant > 0 [N/m], got "
                              f"{stiffness!r}")
+        if isinstance(damping_ratio, bool) or not (
+                isinstance(damping_ratio, (int, float, np.number)) and np.isfinite(damping_ratio)
+                and damping_ratio >= 0):
+            raise SceneError(f"drag: damping_ratio must be a number >= 0 (a fraction of "
+                             f"critical damping; 0.7 by default), got {damping_ratio!r}")
         if np.size(point) != 1 or isinstance(point, bool):
             raise SceneError(f"drag: point must be one point index (its patch comes with it; "
                              f"radius= widens it), got {point!r}")
@@ -490,6 +503,13 @@ class HandleMethods:
         d[0] = float(p)
         d[1:4] = goal
         d[4] = float(stiffness)
+        d[5] = drag_damping(float(stiffness), self.model.total_mass, float(damping_ratio))
+
+
+def drag_damping(stiffness: float, mass: float, damping_ratio: float) -> float:
+    """The drag's damper [N s/m]: ``damping_ratio`` of critical for ``mass`` [kg] on a
+    spring of ``stiffness`` [N/m], ``2 zeta sqrt(k M)``."""
+    return 2.0 * damping_ratio * float(np.sqrt(stiffness * mass))
 
 
 def release_step(until, dt: float, step: int) -> int:

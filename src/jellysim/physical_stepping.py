@@ -83,12 +83,14 @@ class PhysicalStepping:
 
     def drag_force(self) -> np.ndarray:
         """The pull [N], shape (3,), of :meth:`drag`'s spring on the body now (zero when
-        nothing is dragged): ``k sum_p w_p (target + offset_p - x_p)``.  Physical path only."""
+        nothing is dragged): ``sum_p w_p (k (target + offset_p - x_p) - c v_p)``, the
+        spring and its damper at the current velocities.  Physical path only."""
         d, h = self.handles.drag, self.handles
         if d[0] < 0.0:
             return np.zeros(3)
-        x = self.state.x
-        return d[4] * (h.drag_weight[:, None] * (d[1:4] + h.drag_offset - x)).sum(axis=0)
+        x, v = self.state.x, self.state.v
+        w = h.drag_weight[:, None]
+        return (w * (d[4] * (d[1:4] + h.drag_offset - x) - d[5] * v)).sum(axis=0)
 
     def _forces_now(self) -> np.ndarray:
         """Every force [N] on each point at the current state, shape (n, 3): the tets (the
@@ -110,7 +112,7 @@ class PhysicalStepping:
             f += fem_numpy.spring_forces(s.x, springs, np.zeros(m.spring_count))
         d = h.drag
         if d[0] >= 0.0:
-            f += d[4] * h.drag_weight[:, None] * (d[1:4] + h.drag_offset - s.x)
+            f += h.drag_weight[:, None] * (d[4] * (d[1:4] + h.drag_offset - s.x) - d[5] * s.v)
         mass = np.asarray(m.point_mass, dtype=np.float64)
         f += h.point_force - float(m.damping) * s.v
         f += (mass * h.gravity_scale)[:, None] * np.asarray(m.gravity, dtype=np.float64)

@@ -32,7 +32,8 @@ from ..params import Integrator
 from ..physical_stepping import PhysicalStepping
 from ..simulator import (COLLAPSE_MIN_POINTS, PHYSICAL_PARALLEL_MIN_TETS, Simulator,
                          StabilityWarning)
-from ..handles import Handles, PinPath, advance_releasing, drop_releases, release_step
+from ..handles import (DRAG_DAMPING_RATIO, Handles, PinPath, advance_releasing, drag_damping,
+                       drop_releases, release_step)
 from .partition import partition_points, point_graph
 
 __all__ = ["coupling_pairs", "local_fem", "PhysicalMethods"]
@@ -322,8 +323,9 @@ class PhysicalMethods(PhysicalStepping):
         self._require_physical("a gravity scale")
         self.handles.gravity_scale[self._local_rows(indices)[0]] = float(scale)
 
-    def drag(self, point, target=None, stiffness: float | None = None) -> None:
-        """:meth:`Simulator.drag` with a global point index."""
+    def drag(self, point, target=None, stiffness: float | None = None, *,
+             damping_ratio: float = DRAG_DAMPING_RATIO) -> None:
+        """:meth:`Simulator.drag` with a global point index (the one point, not a patch)."""
         self._require_physical("dragging")
         d = self.handles.drag
         if point is None:
@@ -336,6 +338,7 @@ class PhysicalMethods(PhysicalStepping):
         d[0] = float(rows[0]) if rows.size else -1.0
         d[1:4] = np.asarray(target, dtype=np.float64).reshape(3)
         d[4] = float(stiffness)
+        d[5] = drag_damping(float(stiffness), self._total_mass, float(damping_ratio))
         self.handles.drag_weight[:] = 0.0   # (under MPI the one point, not a patch)
         self.handles.drag_weight[rows] = 1.0
         self.handles.drag_offset[:] = 0.0

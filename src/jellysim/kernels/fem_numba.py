@@ -11,8 +11,8 @@ tuples (numba compiles tuples of arrays like plain arguments):
 * ``model_arrays``: ``(inv_mass, damping, gravity, springs)`` with ``springs`` =
   ``(spring_ij, rest, stiff, first_ptr, second_ptr, second_slot, second_other, use_springs)``
 * ``handles``: ``(gravity_scale, point_force, pinned, pin_from, pin_to, drag, drag_weight,
-  drag_offset)``; ``drag = [point, tx, ty, tz, k]`` (point < 0: none): each point of weight
-  w > 0 is pulled by ``k w (target + offset - x)``
+  drag_offset)``; ``drag = [point, tx, ty, tz, k, c]`` (point < 0: none): each point of weight
+  w > 0 is pulled by ``k w (target + offset - x) - c w v`` (the damper implicit per point)
 * ``contact_arrays``: ``(obstacle_kind, obstacle_data, rest_speed, center, bound2, slip)``
 * ``scratch``: ``(tet_force, tet_j, fsum, spring_scalar, min_j)``; a ``tet_force`` with no
   rows (what the Simulator passes when it runs one thread) selects
@@ -116,6 +116,10 @@ def _integrate(x, v, a, fsum, model_arrays, handles, dt, frac, center, bound2):
         a[p, 0] = (fx - damping * v[p, 0]) * w + gs * gravity[0]
         a[p, 1] = (fy - damping * v[p, 1]) * w + gs * gravity[1]
         a[p, 2] = (fz - damping * v[p, 2]) * w + gs * gravity[2]
+        if dragging and dw[p] > 0.0 and drag[5] > 0.0:  # the drag's damper, implicit
+            r = 1.0 + dt * drag[5] * dw[p] * w
+            for c in range(3):
+                a[p, c] = ((v[p, c] + dt * a[p, c]) / r - v[p, c]) / dt
         if pinned[p] != 0:
             for c in range(3):
                 target = pin_from[p, c] + frac * (pin_to[p, c] - pin_from[p, c])

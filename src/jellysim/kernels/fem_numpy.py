@@ -105,6 +105,11 @@ def physical_steps(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arra
         if drag[0] >= 0:  # the grabbed patch: k w (target + offset - x) on each point
             fsum += drag[4] * drag_w[:, None] * (drag[1:4] + drag_off - x)
         a[:] = (fsum + fext - damping * v) * inv_mass[:, None] + gscale[:, None] * gravity
+        if drag[0] >= 0 and drag[5] > 0:  # its damper c w v, implicit per point (any c)
+            held = drag_w > 0
+            rate = dt * drag[5] * drag_w[held] * inv_mass[held]
+            v_new = (v[held] + dt * a[held]) / (1.0 + rate)[:, None]
+            a[held] = (v_new - v[held]) / dt
         v += dt * a
         x += dt * v
         if pin.any():

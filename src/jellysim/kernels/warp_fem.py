@@ -229,6 +229,10 @@ def k_fem_integrate(x: A2, v: A2, a: A2, fsum: A2, pt: Any, counts: I32, ctl: I3
     a[p, 0] = (fx - damping * v[p, 0]) * w + gs * pt.gx
     a[p, 1] = (fy - damping * v[p, 1]) * w + gs * pt.gy
     a[p, 2] = (fz - damping * v[p, 2]) * w + gs * pt.gz
+    if drag[0] >= 0.0 and pt.drag_w[p] > 0.0 and drag[5] > 0.0:  # its damper, implicit
+        r = type(dt)(1.0) + dt * drag[5] * pt.drag_w[p] * w
+        for c in range(3):
+            a[p, c] = ((v[p, c] + dt * a[p, c]) / r - v[p, c]) / dt
     if pt.pinned[p] != 0:
         frac = type(dt)(ctl[1] + 1) / type(dt)(ctl[3])
         for c in range(3):

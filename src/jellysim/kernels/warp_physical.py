@@ -78,7 +78,7 @@ class _DeviceFem:
         self.gscale, self.fext = zeros(n), zeros((n, 3))
         self.pinned = zeros(n, np.int32)
         self.pin_from, self.pin_to = zeros((n, 3)), zeros((n, 3))
-        self.drag = zeros(5)
+        self.drag = zeros(6)
         self.drag_w, self.drag_off = zeros(n), zeros((n, 3))
         self.ctl = zeros(4, np.int32)
         self.counts = zeros(2, np.int32)
