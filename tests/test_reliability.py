@@ -17,6 +17,8 @@ from jellysim.io.trajectory import load_trajectory
 from jellysim.runner import run_scene
 from jellysim.scene import Scene
 
+DATA = Path(__file__).parent / "data"
+
 EXPLICIT = """
 [body]
 points = 60
@@ -786,3 +788,39 @@ def test_a_run_resumes_on_another_thread_count_and_its_command_keeps_the_flags(t
         with pytest.raises(CheckpointError, match=r"integrator\.backend: 'numpy' then, 'numba' "
                                                   r"now.* --backend / --device / --precision"):
             run_scene(Scene.load(path), tmp_path / "np", progress=False, resume=True)
+
+
+def test_ctrl_c_while_trimesh_is_imported_stops_the_mesh_load_and_leaves_trimesh_whole(
+        tmp_path):
+    """trimesh wraps the exceptions of its own imports, KeyboardInterrupt included, in place of
+    the module: a new user's Ctrl-C during a mesh scene's start was swallowed (the run went on
+    to the end) or broke trimesh (``ExceptionWrapper`` TypeError deep in it).  Here SIGINT is
+    sent when ``trimesh.grouping`` (one of those imports) starts: ``load_mesh`` must raise
+    KeyboardInterrupt once the import is done, and the next load must read the mesh whole."""
+    probe = tmp_path / "probe.py"
+    probe.write_text(
+        "import os, signal, sys\n"
+        "def hook(event, args):\n"
+        "    if event == 'import' and args[0] == 'trimesh.grouping':\n"
+        "        os.kill(os.getpid(), signal.SIGINT)\n"
+        "sys.addaudithook(hook)\n"
+        "from jellysim.geometry.mesh import load_mesh\n"
+        f"path = {str(DATA / 'sphere.obj')!r}\n"
+        "try:\n"
+        "    load_mesh(path)\n"
+        "    print('not interrupted')\n"
+        "except KeyboardInterrupt:\n"
+        "    print('interrupted')\n"
+        "m = load_mesh(path)\n"
+        "print(len(m.vertices), len(m.faces))\n"
+        "import trimesh.grouping\n"
+        "print(type(trimesh.grouping).__name__)\n")
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).parents[1] / "src"))
+    out = subprocess.run([sys.executable, str(probe)], capture_output=True, text=True,
+                         timeout=120, env=env)
+    lines = out.stdout.split()
+    assert out.returncode == 0, out.stderr
+    assert lines[0] == "interrupted", out.stdout + out.stderr
+    faces = sum(1 for ln in (DATA / "sphere.obj").read_text().splitlines()
+                if ln.startswith("f "))
+    assert int(lines[2]) == faces and lines[3] == "module"

@@ -98,8 +98,9 @@ def demo_mesh(name: str = "jelly", mesh=None, up: str = "y"):
 
         v, f = jelly_mould()
     else:
-        import trimesh
+        from ._interrupts import import_trimesh
 
+        trimesh = import_trimesh()
         with resources.as_file(resources.files("jellysim") / "data" / "spot.obj") as p:
             mesh = trimesh.load(p, process=False, force="mesh")
         mesh.merge_vertices(merge_tex=True, merge_norm=True)

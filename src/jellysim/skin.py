@@ -308,7 +308,9 @@ def _fine_enough(vertices, faces, points, tets):
     if not (spacing > 0 and longest > 2.0 * spacing):
         return vertices, faces
     try:
-        import trimesh
+        from ._interrupts import import_trimesh
+
+        trimesh = import_trimesh()
     except ImportError:  # (the mesh extra): the skin stays as it is
         return vertices, faces
     tri = vertices[faces]

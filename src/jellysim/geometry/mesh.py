@@ -236,8 +236,10 @@ def load_mesh(path, *, weld_tol: float = WELD_REL) -> Mesh:
 
 
 def _read_trimesh(p: Path, name: str):
+    from .._interrupts import import_trimesh
+
     try:
-        import trimesh  # optional dependency, imported where used
+        trimesh = import_trimesh()  # optional dependency, imported where used
     except ImportError:
         raise MeshError(f"{name}: reading {p.suffix.lower()} files needs the optional package "
                         "'trimesh': pip install 'jellysim[mesh]' (or convert the mesh to .vtk "

@@ -197,8 +197,11 @@ def sample_surface(vertices, faces, spacing: float, *, seed: int = 0,
     built from interior points plus these has its surface on the mesh, with tets of about the
     interior size there (not slivers fanning out from a few vertices).  Deterministic per seed.
     """
-    import trimesh
     from scipy.spatial import cKDTree
+
+    from .._interrupts import import_trimesh
+
+    trimesh = import_trimesh()
 
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
@@ -251,8 +254,11 @@ def surface_distance_fn(vertices, faces, spacing: float, *, seed: int = 0):
     """The distance of :func:`surface_distance` as a function ``(points, upper=inf) -> d``
     [m], shape (n,), with the dense surface samples and their kd-tree built once (for callers
     that ask many times, such as :func:`relax_interior`)."""
-    import trimesh
     from scipy.spatial import cKDTree
+
+    from .._interrupts import import_trimesh
+
+    trimesh = import_trimesh()
 
     v = np.asarray(vertices, dtype=np.float64)
     tm = trimesh.Trimesh(v, np.asarray(faces, dtype=np.int64), process=False, validate=False)

@@ -1,0 +1,62 @@
+"""Ctrl-C held off while a third-party package that swallows it is imported.
+
+trimesh imports its optional parts inside ``try: ... except BaseException`` and keeps the
+exception in an ``ExceptionWrapper`` in place of the module: a Ctrl-C (SIGINT) that lands
+during ``import trimesh`` is swallowed, the run goes on with part of trimesh replaced, and
+either does not stop or fails later deep inside it (``TypeError: unsupported operand type(s)
+for |: 'ExceptionWrapper' and 'NoneType'``).  :func:`held` replaces the SIGINT and SIGTERM
+handlers for the duration (a second or so) by one that only notes the signal, and hands a
+noted signal to the handler that was there as soon as the block ends, so the command stops
+right after, cleanly.  (Handlers, not the thread's signal mask: the signal may be delivered
+to any thread, and Python runs its handlers in the main thread whichever received it.)
+"""
+from __future__ import annotations
+
+import os
+import signal
+import threading
+from contextlib import contextmanager
+
+__all__ = ["held", "import_trimesh"]
+
+_SIGNALS = tuple(s for s in (getattr(signal, "SIGINT", None), getattr(signal, "SIGTERM", None))
+                 if s is not None)
+
+
+@contextmanager
+def held():
+    """Note SIGINT and SIGTERM instead of acting on them until the block ends, then act on
+    the first one noted (main thread only; elsewhere, or nested, a no-op)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    noted: list[int] = []
+    old = {}
+    try:
+        for s in _SIGNALS:
+            old[s] = signal.signal(s, lambda signum, frame: noted.append(signum))
+    except (ValueError, OSError):  # (an embedding that forbids handlers)
+        for s, h in old.items():
+            signal.signal(s, h)
+        yield
+        return
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+        if noted:
+            s = noted[0]
+            h = old[s]
+            if callable(h):
+                h(s, None)   # Python's default_int_handler raises KeyboardInterrupt
+            elif h == signal.SIG_DFL:
+                os.kill(os.getpid(), s)
+            # SIG_IGN: ignored, as it would have been
+
+
+def import_trimesh():
+    """``import trimesh`` with Ctrl-C held (see the module); raises ImportError if absent."""
+    with held():
+        import trimesh  # (its load, sample and remesh need nothing imported later)
+    return trimesh
