@@ -91,6 +91,45 @@ def test_demo_refuses_an_earlier_demo_without_overwrite(tmp_path):
     assert (tmp_path / "demo.mp4").read_bytes() == b"old"
 
 
+def test_an_interrupted_demo_resumes_by_the_command_it_prints_to_the_uninterrupted_run(
+        tmp_path, monkeypatch):
+    """A new user's Ctrl-C'd demo said "continue with: jellysim run demo --resume out/demo",
+    which fails (there is no scene file "demo"), and left the older demo's video and USD
+    beside the new partial run.  Now: the printed command is the demo's own, the stale
+    video and USD go once the new run has started, and the resumed demo's frames are bitwise
+    those of an uninterrupted one."""
+    import shlex
+
+    import numpy as np
+
+    import jellysim.demo as demo
+    from jellysim.errors import JellysimError, RunInterrupted
+
+    opts = dict(frames=12, size=(160, 90), points=300, progress=False)
+    first = demo.run_demo(tmp_path / "a", **opts)
+    whole = load_trajectory(first["trajectory"])
+    out = tmp_path / "b"
+    demo.run_demo(out, **opts)                                   # an earlier, finished demo
+    real = demo.run_scene
+    monkeypatch.setattr(demo, "run_scene", lambda *a, **k: real(
+        *a, **k, **({} if k.get("resume") else {"stop_after": 5})))
+    with pytest.raises(RunInterrupted) as stopped:
+        demo.run_demo(out, overwrite=True, **opts)
+    said = str(stopped.value).split("continue with: ")[-1]
+    assert shlex.split(said) == ["jellysim", "demo", "--out", str(out), "--points", "300",
+                                 "--frames", "12", "--resume"]
+    assert not (out / "demo.mp4").exists() and not (out / "demo.usdc").exists()
+    with pytest.raises(JellysimError, match="interrupted demo.*--resume"):
+        demo.run_demo(out, **opts)                               # not started afresh unasked
+    done = demo.run_demo(out, resume=True, **opts)
+    again = load_trajectory(done["trajectory"])
+    assert again.frame_count == whole.frame_count == 12
+    assert np.array_equal(again.positions, whole.positions)
+    assert (out / "demo.mp4").stat().st_size > 0 and (out / "demo.usdc").is_file()
+    with pytest.raises(JellysimError, match="no interrupted demo"):
+        demo.run_demo(out, resume=True, **opts)
+
+
 @pytest.fixture(scope="module")
 def traj_path(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("edge")
@@ -184,3 +223,76 @@ def test_run_set_overrides_a_scene_value_and_records_it(tmp_path):
     assert res.exit_code == 2 and "SECTION.KEY=VALUE" in res.output
     res = _run(tmp_path, tmp_path / "q", 10, "--set", "body.pionts=3")
     assert res.exit_code == 2 and "did you mean 'points'" in res.output
+
+
+def test_a_staged_output_replaces_old_frames_only_once_all_new_are_written(tmp_path):
+    """A render to a folder of frames with --overwrite stopped half-way (Ctrl-C) left a new
+    user 7 of the 61 old frames: the old ones were deleted first.  Staged, an interrupted
+    write leaves every old frame as it was and no staging folder; a finished one leaves
+    exactly the new frames (none of a longer earlier run) and files that are not frames."""
+    from jellysim.io.atomic import staged_output
+
+    out = tmp_path / "frames"
+    out.mkdir()
+    for k in range(10):
+        (out / f"frame_{k:05d}.png").write_text(f"old {k}")
+    (out / "notes.txt").write_text("mine")
+    with pytest.raises(KeyboardInterrupt):
+        with staged_output(out, ["frame_[0-9]*.png"]) as stage:
+            for k in range(3):
+                (stage / f"frame_{k:05d}.png").write_text(f"new {k}")
+            raise KeyboardInterrupt
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        [f"frame_{k:05d}.png" for k in range(10)] + ["notes.txt"])
+    assert all((out / f"frame_{k:05d}.png").read_text() == f"old {k}" for k in range(10))
+    with staged_output(out, ["frame_[0-9]*.png"]) as stage:
+        for k in range(3):
+            (stage / f"frame_{k:05d}.png").write_text(f"new {k}")
+    assert sorted(p.name for p in out.iterdir()) == [
+        "frame_00000.png", "frame_00001.png", "frame_00002.png", "notes.txt"]
+    assert (out / "frame_00002.png").read_text() == "new 2"
+
+
+def test_render_and_export_with_overwrite_stopped_half_way_keep_the_earlier_output(
+        traj_path, tmp_path, monkeypatch):
+    """The CLI's folder outputs (PNG frames, a .pvd and its frames, an OBJ sequence) go
+    through the staging: each is written once, then re-written with --overwrite by a writer
+    that stops (KeyboardInterrupt) after two files; the first output stays whole."""
+    import jellysim.cli_visual as cv
+
+    monkeypatch.chdir(tmp_path)
+    runner = CliRunner()
+    first = {}
+    for args in (["render", str(traj_path), "-o", "frames", "--size", "64x48", "--every", "5",
+                  "--quiet"],
+                 ["export", str(traj_path), "-o", "run.pvd"],
+                 ["export", str(traj_path), "--sequence", "obj", "seq"]):
+        res = runner.invoke(cli, args)
+        assert res.exit_code == 0, res.output
+    for p in sorted(tmp_path.rglob("*")):
+        if p.is_file():
+            first[p.relative_to(tmp_path)] = p.read_bytes()
+    assert len(first) > 10
+
+    def stops_after_two(name):
+        def write(traj, where, *a, **k):
+            where = Path(where)
+            folder = where if not where.suffix else where.parent
+            folder.mkdir(parents=True, exist_ok=True)
+            for k in range(2):
+                (folder / name.format(k)).write_bytes(b"half")
+            raise KeyboardInterrupt
+        return write
+
+    monkeypatch.setattr(cv, "render_trajectory", stops_after_two("frame_{:05d}.png"))
+    monkeypatch.setattr(cv, "export_pvd_file", stops_after_two("run.pvd"))
+    monkeypatch.setattr(cv, "export_mesh_sequence", stops_after_two("skin_{:05d}.obj"))
+    for args in (["render", str(traj_path), "-o", "frames", "--overwrite", "--quiet"],
+                 ["export", str(traj_path), "-o", "run.pvd", "--overwrite"],
+                 ["export", str(traj_path), "--sequence", "obj", "seq", "--overwrite"]):
+        res = runner.invoke(cli, args)
+        assert res.exit_code != 0
+    now = {p.relative_to(tmp_path): p.read_bytes() for p in sorted(tmp_path.rglob("*"))
+           if p.is_file()}
+    assert now == first
+    assert not [p for p in tmp_path.rglob(".new-*")]

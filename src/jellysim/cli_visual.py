@@ -11,7 +11,7 @@ from pathlib import Path
 
 import click
 
-from .errors import JellysimError
+from .errors import JellysimError, RunInterrupted
 from .render.offscreen import RenderOptions
 from .io.trajectory import load_trajectory
 from .demo import run_demo
@@ -261,8 +261,12 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
 @click.option("--up", type=click.Choice(["y", "z", "x", "-y", "-z", "-x"]), default="y",
               show_default=True, help="--mesh: its axis that points up (z for most CAD / "
               "STL files).")
+@click.option("--resume", is_flag=True,
+              help="Continue the demo in OUT that was interrupted (Ctrl-C, a kill) with the "
+                   "same options, then render it.")
 def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
-         precision=None, threads=None, overwrite=False, points=None, mesh=None, up="y"):
+         precision=None, threads=None, overwrite=False, points=None, mesh=None, up="y",
+         resume=False):
     """Real gelatin on a plate: writes OUT/demo.mp4 and OUT/demo.usdc (--mesh: your own
     shape as the jello)."""
     import warnings
@@ -273,9 +277,12 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
             r = run_demo(out_dir, frames=frames, size=_size(size), usd=not no_usd,
                          progress=not quiet, scene=scene, backend=backend, device=device,
                          precision=precision, threads=threads, overwrite=overwrite,
-                         points=points, mesh=mesh, up=up)
+                         points=points, mesh=mesh, up=up, resume=resume)
         for w in dict.fromkeys(str(w.message) for w in caught):
             say_once(w)
+    except RunInterrupted as exc:  # (what was saved, and the command that continues it)
+        click.secho(str(exc), fg="yellow", err=True)
+        sys.exit(128 + exc.signal if exc.signal else 3)
     except JellysimError as exc:
         _fail(str(exc))
     s = r["seconds"]
@@ -364,10 +371,19 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
             raise JellysimError("side by side the runs share one fixed camera (one scale): "
                                 "remove --camera follow, or render the runs one at a time")
         guard_output(output, overwrite)  # (after the checks: a refusal deletes nothing)
-        path = render_trajectory(traj, output, options, fps=fps, frames=frames,
-                                 progress=not quiet, beside=runs[1:],
-                                 labels=[_run_name(tr) for tr in trajectory]
-                                 if len(runs) > 1 else None)
+        labels = [_run_name(tr) for tr in trajectory] if len(runs) > 1 else None
+        from .render.video import output_kind
+
+        if output_kind(Path(output)) == "pngdir":  # old frames kept until all new are written
+            from .io.atomic import staged_output
+
+            with staged_output(output, ["frame_[0-9]*.png"]) as stage:
+                render_trajectory(traj, stage, options, fps=fps, frames=frames,
+                                  progress=not quiet, beside=runs[1:], labels=labels)
+            path = Path(output)
+        else:  # (one file: written to a temporary name, then renamed)
+            path = render_trajectory(traj, output, options, fps=fps, frames=frames,
+                                     progress=not quiet, beside=runs[1:], labels=labels)
     except JellysimError as exc:
         _fail(str(exc))
     click.echo(f"wrote {path}")
@@ -415,12 +431,13 @@ def export(trajectory, target, output, sequence, fps, max_frames, overwrite=Fals
             if out.suffix and not out.is_dir():
                 raise JellysimError(f"{out}: --sequence writes one file per frame into a "
                                     "folder; give a folder name (no suffix)")
-            from .io.atomic import guard_folder
+            from .io.atomic import guard_folder, staged_output
             from .io.usd import surface_of
 
             surface_of(traj)  # (no surface to write: refused before old frames go)
             guard_folder(out, [f"skin_[0-9]*.{sequence}"], overwrite)
-            paths = export_mesh_sequence(traj, out, fmt=sequence)
+            with staged_output(out, [f"skin_[0-9]*.{sequence}"]) as stage:
+                paths = export_mesh_sequence(traj, stage, fmt=sequence)
             click.echo(f"wrote {len(paths)} {sequence.upper()} files in {out}")
             return
         suffix = out.suffix.lower()
@@ -430,8 +447,12 @@ def export(trajectory, target, output, sequence, fps, max_frames, overwrite=Fals
             written = [export_usd(traj, out, fps=fps)]
         elif suffix == ".glb":
             written = [export_glb(traj, out, max_frames=max_frames)]
-        elif suffix == ".pvd":
-            written = export_pvd_file(traj, out)
+        elif suffix == ".pvd":  # the .pvd and its frame folder replace the old together
+            from .io.atomic import staged_output
+
+            with staged_output(out.parent, [f"{out.stem}_[0-9]*.vtu",
+                                            f"{out.stem}_skin_[0-9]*.vtu"]) as stage:
+                written = [out.parent / p.name for p in export_pvd_file(traj, stage / out.name)]
         else:
             raise JellysimError(f"{out}: unknown export type '{suffix}'; use .usdc, .usda, "
                                 ".glb, .pvd, or --sequence obj|ply with a folder")

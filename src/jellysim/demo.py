@@ -13,13 +13,15 @@ from pathlib import Path
 import numpy as np
 
 from .params import REPORT_DENSITY
-from .errors import BuildError, JellysimError
+from .errors import BuildError, JellysimError, RunInterrupted
 from .skin import bind_body_skin
 from .io.trajectory import load_trajectory
 from .render.offscreen import RenderOptions
 from .render.video import render_trajectory
 from .runner import prepare_out_dir, run_scene
 from .io.usd import export_usd
+from .io.checkpoint import CHECKPOINT
+from .io.stream import STREAM_DIR
 
 __all__ = ["DEMO_SCENE", "DEMO_SHAPE", "DEMO_SHAPES", "build_demo_body", "demo_mesh",
            "run_demo"]
@@ -140,12 +142,35 @@ def build_demo_body(name: str = "jelly", points: int | None = None, mesh=None,
     return body, bind_body_skin(body, verts, faces)
 
 
+def demo_command(out_dir, scene, mesh, up, points, frames, usd, backend=None, device=None,
+                 precision=None) -> str:
+    """The ``jellysim demo ... --resume`` command that continues a demo made with these
+    options (a shell line)."""
+    import shlex
+
+    opts = [("--out", out_dir), ("--scene", None if scene == "jelly" else scene),
+            ("--mesh", mesh), ("--up", None if mesh is None or up == "y" else up),
+            ("--points", points), ("--frames", frames), ("--backend", backend),
+            ("--device", device), ("--precision", precision)]
+    return ("jellysim demo" + "".join(f" {k} {shlex.quote(str(v))}" for k, v in opts
+                                      if v is not None)
+            + ("" if usd else " --no-usd") + " --resume")
+
+
+def _drop_stale(old, run_dir: Path) -> None:
+    """An earlier demo's video and USD go once a new demo's run has started in ``run_dir``
+    (they no longer match the run beside them); kept when it never started."""
+    if (run_dir / CHECKPOINT).is_file() or (run_dir / STREAM_DIR).is_dir():
+        for p in old:
+            p.unlink(missing_ok=True)
+
+
 def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: bool = True,
              progress: bool = True, vtu: bool = False, scene: str = "jelly",
              backend: str | None = None, device: str | None = None,
              precision: str | None = None, threads: int | None = None,
              overwrite: bool = False, points: int | None = None, mesh=None,
-             up: str = "y") -> dict:
+             up: str = "y", resume: bool = False) -> dict:
     """Simulate a demo scene (``"jelly"``: a fluted gelatin mould slid onto a plate at 0.7 m/s
     from 1 cm; ``"cow"``: Spot, in firm gelatin, set down on it) and write ``<out_dir>/demo.mp4`` (+
     ``demo.usdc``; the cow: ``demo_cow.*``); the run itself goes to ``<out_dir>/demo/``
@@ -154,7 +179,10 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     :class:`~jellysim.errors.SceneError` where the backend lacks the demo's physical path);
     ``threads``: numba threads (default: by problem size).  An earlier demo's outputs there
     are refused (:class:`~jellysim.errors.JellysimError`) unless ``overwrite``, which
-    replaces them once the new demo runs (a demo that fails keeps them).  ``points``: see :func:`build_demo_body`.  ``mesh``: a surface mesh
+    replaces them once the new demo runs (a demo that fails before it starts keeps them; one
+    stopped after it started leaves only its own partial run, no older video or USD beside
+    it).  ``resume``: continue the interrupted demo in ``out_dir`` (Ctrl-C, a kill; give the
+    same options), then render it.  ``points``: see :func:`build_demo_body`.  ``mesh``: a surface mesh
     file of one's own instead, scaled to 10 cm, its ``up`` axis turned up, dropped 1 cm onto
     the plate in dessert gelatin (writes ``demo_<its name>.*``).  Returns the paths written
     and timings [s]."""
@@ -179,7 +207,20 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     stem = ("demo" if scene == "jelly" else f"demo_{scene}" if own is None else
             f"demo_mesh_{own}" if own in DEMO_SHAPES else f"demo_{own}")  # (not Spot's)
     old = [out_dir / f"{stem}.mp4", out_dir / f"{stem}.usdc"]
-    if not overwrite and any(p.exists() for p in old):
+    again = demo_command(out_dir, scene if mesh is None else "jelly", mesh, up, points, frames,
+                         usd, backend, device, precision)
+    run_dir = out_dir / stem
+    interrupted = (run_dir / CHECKPOINT).is_file() or (run_dir / STREAM_DIR).is_dir()
+    if resume and overwrite:
+        raise JellysimError("--resume and --overwrite: give one (--overwrite starts afresh)")
+    if resume and not interrupted:
+        raise JellysimError(f"--resume: {run_dir} holds no interrupted demo to continue (no "
+                            f"{CHECKPOINT}); run it without --resume")
+    if not resume and not overwrite and interrupted:
+        raise JellysimError(f"--out {out_dir}: holds an interrupted demo ({run_dir}); continue "
+                            f"it with: {again}, or pass --overwrite to start afresh (its "
+                            "frames so far are lost), or choose another --out")
+    if not overwrite and not resume and any(p.exists() for p in old):
         raise JellysimError(f"--out {out_dir}: holds an earlier demo "
                             f"({', '.join(p.name for p in old if p.exists())}); pass "
                             "--overwrite to replace it, or choose another --out")
@@ -204,10 +245,21 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
                          ) from None
     # only checked here: run_scene deletes an earlier demo run once this one can start, and
     # the video and USD below replace the old ones atomically (a failed demo keeps them)
-    prepare_out_dir(out_dir / stem, overwrite=overwrite, delete=False)
+    if not resume:
+        prepare_out_dir(run_dir, overwrite=overwrite, delete=False)
     steps = sc.steps if frames is None else max(1, int(frames) - 1) * sc.frame_every
-    result = run_scene(sc, out_dir / stem, progress=progress, vtu=vtu, steps=steps,
-                       skin=skin, body=body, overwrite=overwrite)
+    try:
+        result = run_scene(sc, run_dir, progress=progress, vtu=vtu, steps=steps,
+                           skin=skin, body=body, overwrite=overwrite, resume=resume)
+    except RunInterrupted as exc:
+        _drop_stale(old, run_dir)
+        said = str(exc).split("; continue with: ")[0]
+        raise RunInterrupted(f"{said}; continue with: {again}", step=exc.step,
+                             signal=exc.signal, out_dir=exc.out_dir) from None
+    except BaseException:
+        if overwrite:
+            _drop_stale(old, run_dir)
+        raise
     t_sim = time.perf_counter()
     traj = load_trajectory(result.trajectory)
     video = render_trajectory(traj, out_dir / f"{stem}.mp4",
