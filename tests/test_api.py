@@ -366,8 +366,9 @@ def test_the_python_api_refuses_what_a_scene_refuses():
 
 def test_from_mesh_says_when_its_default_size_rescales_the_mesh():
     """Body.from_mesh scales the mesh to 10 cm unless told (build_body, the CLI and scenes keep
-    metres): a 2-unit sphere scaled by the default is said (its extent and both fixes); an
-    explicit size, size=None, or a mesh already near 10 cm is not.  The body is the size
+    metres): a 2-unit sphere scaled by the default is said (its extent and both fixes), and
+    so is an 8 cm one (a new user's 8 cm mesh became 10 cm, twice the mass, unsaid); an
+    explicit size, size=None, or a mesh already 10 cm across is not.  The body is the size
     asked either way."""
     import warnings
 
@@ -382,6 +383,9 @@ def test_from_mesh_says_when_its_default_size_rescales_the_mesh():
         warnings.simplefilter("error")
         small = jellysim.Body.from_mesh(sphere, size=0.05, points=300)
         metres = jellysim.Body.from_mesh(sphere, size=None, points=300)
+        exact = jellysim.Body.from_mesh((0.05 * mesh.vertices, mesh.faces), points=300)
+    with pytest.warns(UserWarning, match=r"largest extent, 0\.08 in its own units, is scaled "
+                                         r"to 0\.1 m"):
         near = jellysim.Body.from_mesh((0.04 * mesh.vertices, mesh.faces), points=300)
-    for b, extent in ((body, 0.1), (small, 0.05), (metres, 2.0), (near, 0.1)):
+    for b, extent in ((body, 0.1), (small, 0.05), (metres, 2.0), (near, 0.1), (exact, 0.1)):
         assert np.ptp(b.points, axis=0).max() == pytest.approx(extent, rel=0.05)

@@ -110,8 +110,8 @@ class Body:
         faces)`` pair such as :func:`~jellysim.geometry.shapes.jelly_mould`'s).
 
         ``size``: the largest bounding-box extent [m] the mesh is scaled to (about the
-        origin; default 0.1 m, said in a warning when the mesh's own extent is not within a
-        factor 2 of it); ``None`` keeps the mesh's coordinates, which are then read as metres
+        origin; default 0.1 m, said in a warning whenever that changes the mesh's own extent);
+        ``None`` keeps the mesh's coordinates, which are then read as metres
         (as ``build_body``, the CLI and scenes do).
         ``points``: about this many points (``marching``: the grid warped onto the surface;
         ``radius``/``delaunay``: sampled inside, ``delaunay`` adding points on the surface).
@@ -138,7 +138,7 @@ class Body:
         m = _mesh_of(mesh, None)
         if size is _DEFAULT_SIZE:
             own = float(np.ptp(m.vertices, axis=0).max())
-            if not 0.5 * size <= own <= 2.0 * size:
+            if abs(own / float(size) - 1.0) > 1e-6:  # (an 8 cm mesh made 10 cm: 2x the mass)
                 import warnings
 
                 warnings.warn(f"Body.from_mesh: the mesh's largest extent, {own:.4g} in its own "
