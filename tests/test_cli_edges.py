@@ -291,7 +291,8 @@ def test_render_and_export_with_overwrite_stopped_half_way_keep_the_earlier_outp
                  ["export", str(traj_path), "-o", "run.pvd", "--overwrite"],
                  ["export", str(traj_path), "--sequence", "obj", "seq", "--overwrite"]):
         res = runner.invoke(cli, args)
-        assert res.exit_code != 0
+        assert res.exit_code == 130 and "nothing half-written was kept" in res.output, (
+            res.output)
     now = {p.relative_to(tmp_path): p.read_bytes() for p in sorted(tmp_path.rglob("*"))
            if p.is_file()}
     assert now == first

@@ -32,6 +32,10 @@ def _set_max_memory(value) -> None:
         _fail(f"--max-memory: {exc}")
 
 
+_WRITERS = ("build", "render", "export", "plot")
+"""Commands whose output files are written whole or not at all (a Ctrl-C says so)."""
+
+
 class _Group(click.Group):
     """Any jellysim error or file-system error that a command did not report itself becomes
     one ``error:`` line (exit code 2), never a traceback."""
@@ -50,6 +54,15 @@ class _Group(click.Group):
                 return super().invoke(ctx)
         except JellysimError as exc:
             _fail(str(exc))
+        except KeyboardInterrupt:
+            if ctx.invoked_subcommand not in _WRITERS:
+                raise  # (click: "Aborted!")
+            # their outputs go to a temporary name (or a staging folder) and are renamed
+            # only when complete: an interrupted one leaves what was there before
+            click.secho(f"interrupted: {ctx.invoked_subcommand} stopped; nothing half-written "
+                        "was kept (an earlier output of the same name is as it was)",
+                        fg="yellow", err=True)
+            sys.exit(130)
         except OSError as exc:
             where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
             _fail(f"{where}{exc.strerror or exc}")
