@@ -268,7 +268,7 @@ def test_the_drag_spring_and_pins_forces_balance_the_momentum():
         sim.advance(1)
         rate = ((m * sim.state.v).sum(axis=0) - p0) / sim.dt
         # the drag's damper is implicit: it acts on the step's end velocities
-        f0 += sim.handles.drag[5] * (held - sim.handles.drag_weight[:, None]
+        f0 += sim.drag_spring.damping * (held - sim.handles.drag_weight[:, None]
                                      * sim.state.v).sum(axis=0)
         assert np.allclose(rate, f0 + weight, rtol=0, atol=1e-6 * np.linalg.norm(weight)), (
             rate, f0 + weight)
@@ -840,10 +840,12 @@ def test_a_body_hanging_on_the_drag_spring_overshoots_as_a_damped_oscillator(bac
     x[:, 1] += 0.5                       # in the air, far above the ground
     top = np.flatnonzero(np.isclose(x[:, 1], x[:, 1].max()))
     c = top[np.argmin(np.linalg.norm(x[top][:, [0, 2]] - x[:, [0, 2]].mean(0), axis=1))]
+    goal = x[c].copy()
+    assert sim.drag_spring is None
     if zeta is None:
-        sim.drag(c, x[c].copy())
+        sim.drag(c, goal)
     else:
-        sim.drag(c, x[c].copy(), damping_ratio=zeta)
+        sim.drag(c, goal, damping_ratio=zeta)
     m = model.point_mass
     M = m.sum()
     y0 = m @ x[:, 1] / M
@@ -851,7 +853,13 @@ def test_a_body_hanging_on_the_drag_spring_overshoots_as_a_damped_oscillator(bac
     for _ in range(120):                 # 0.2 s: the first swing down ends at ~0.1 s
         sim.advance(1)
         low = min(low, float(m @ sim.state.x[:, 1] / M - y0))
-    static = M * np.linalg.norm(model.gravity) / sim.handles.drag[4]
+    spring = sim.drag_spring
+    static = M * np.linalg.norm(model.gravity) / spring.stiffness
     z = 0.7 if zeta is None else zeta
+    assert spring.point == c and spring.damping_ratio == pytest.approx(z, rel=1e-12)
+    assert spring.damping == pytest.approx(2 * z * np.sqrt(spring.stiffness * M), rel=1e-12)
+    assert c in spring.points and np.array_equal(spring.target, goal)
     expect = np.exp(-np.pi * z / np.sqrt(1.0 - z * z))
     assert (-low - static) / static == pytest.approx(expect, abs=0.015)
+    sim.drag(None)
+    assert sim.drag_spring is None

@@ -13,13 +13,15 @@ every step.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .errors import SceneError, did_you_mean, ParameterError
 
-__all__ = ["Handles", "HandleMethods", "PinPath", "select_points"]
+__all__ = ["DragSpring", "Handles", "HandleMethods", "PinPath", "select_points"]
 
 
 def select_points(points: np.ndarray, *, box=None, sphere=None, indices=None,
@@ -445,6 +447,21 @@ class HandleMethods:
         self.handles.gravity_scale[self._point_indices(indices, "set_gravity_scale")] = float(
             scale)
 
+    @property
+    def drag_spring(self) -> "DragSpring | None":
+        """The spring :meth:`drag` pulls with now (its point, target [m], stiffness [N/m],
+        damper [N s/m] and damping ratio, the grabbed patch's points), or ``None`` when
+        nothing is dragged.  Physical path only (else ``None``)."""
+        h = getattr(self, "handles", None)
+        if h is None or h.drag[0] < 0.0:
+            return None
+        d = h.drag
+        k, c = float(d[4]), float(d[5])
+        mass = float(self.model.total_mass)
+        return DragSpring(int(d[0]), d[1:4].copy(), k, c,
+                          c / (2.0 * np.sqrt(k * mass)) if k > 0 and mass > 0 else 0.0,
+                          np.flatnonzero(h.drag_weight > 0.0))
+
     def drag(self, point: int | None, target=None, stiffness: float | None = None, *,
              radius: float | None = None, damping_ratio: float = DRAG_DAMPING_RATIO) -> None:
         """Pull ``point`` and the patch around it towards ``target`` [m] with a spring of total
@@ -504,6 +521,23 @@ class HandleMethods:
         d[1:4] = goal
         d[4] = float(stiffness)
         d[5] = drag_damping(float(stiffness), self.model.total_mass, float(damping_ratio))
+
+
+class DragSpring(NamedTuple):
+    """What :meth:`HandleMethods.drag` holds (``Simulator.drag_spring``)."""
+
+    point: int
+    """The grabbed point's index."""
+    target: np.ndarray
+    """Where it is pulled [m], shape (3,) (each patch point: to this plus its offset)."""
+    stiffness: float
+    """The spring's total stiffness k [N/m]."""
+    damping: float
+    """The damper's total coefficient c [N s/m] (``2 damping_ratio sqrt(k M)``)."""
+    damping_ratio: float
+    """``c / (2 sqrt(k M))`` [-], M the body's mass."""
+    points: np.ndarray
+    """The patch's point indices, shape (m,) (the spring is shared evenly by them)."""
 
 
 def drag_damping(stiffness: float, mass: float, damping_ratio: float) -> float:
