@@ -376,40 +376,25 @@ class WarpBackend:
 
     def run_steps(self, nsteps, dt, integrator, x, v, a, springs, points, provot, ground,
                   obstacles, scratch):
-        """The backend interface's explicit driver (:mod:`jellysim.kernels.records`): the
-        records unpacked into :meth:`run_steps_flat`."""
-        sp, pt, pv, g, ob, sc = springs, points, provot, ground, obstacles, scratch
-        return self.run_steps_flat(
-            nsteps, dt, integrator, x, v, a, pt.x0, pt.inv_mass, pt.mass, pt.damping,
-            pt.gravity,
-            sp.ij, sp.rest, sp.stiff, sp.first_ptr, sp.second_ptr, sp.second_slot,
-            sp.second_other, pv.loops, pv.tau, pv.tolerance, pv.all_pairs, pv.gauss_seidel,
-            pv.velocity_update, g.paper, g.height, g.mu, g.nu, ob.kind, ob.data, ob.rest_speed,
-            g.center, g.bound2, sc.spring_scalar, sc.dx, sc.count, sc.max_corr, sc.x_pre,
-            sc.provot_scalar, ob.slip)
-
-    def run_steps_flat(self, nsteps, dt, integrator, x, v, a, x0, inv_mass, mass, damping,
-                       gravity,
-                       spring_ij, rest, stiff, first_ptr, second_ptr, second_slot,
-                       second_other, provot_loops, tau, tolerance, all_pairs, gauss_seidel,
-                       velocity_update, ground, height, mu, nu, obstacle_kind, obstacle_data,
-                       rest_speed, center, bound2, spring_scalar, dx, count, max_corr, x_pre,
-                       provot_scalar, slip=None):
-        """:func:`jellysim.kernels.numba_backend.run_steps` on the device: same arguments
-        (numpy arrays), same in-place results on x, v, a (and ``max_corr``); the other scratch
-        arrays stay on the device; ``slip`` (n,) [m], the contact's slip-weakening state (in
-        and out; required with obstacles).  Returns ``(steps_done, status)``."""
-        dm = self._model((x0, inv_mass, mass, spring_ij, rest, stiff, first_ptr, second_ptr,
-                          second_slot, second_other))
-        ok = np.asarray(obstacle_kind)
-        od = np.asarray(obstacle_data, dtype=np.float64)
-        p = dict(dt=float(dt), integrator=int(integrator), damping=float(damping),
-                 gravity=tuple(float(g) for g in gravity), loops=int(provot_loops),
-                 tau=float(tau), tolerance=float(tolerance), all_pairs=bool(all_pairs),
-                 gauss_seidel=bool(gauss_seidel), velocity_update=bool(velocity_update),
-                 ground=bool(ground), height=float(height), mu=float(mu), nu=float(nu),
-                 rest_speed=float(rest_speed), center=tuple(float(c) for c in center),
-                 bound2=float(bound2))
+        """The backend interface's explicit driver (:mod:`jellysim.kernels.records`) on the
+        device: the arguments and in-place results on x, v, a (and ``scratch.max_corr``,
+        ``obstacles.slip``: the contact's slip-weakening state, in and out) of
+        :func:`jellysim.kernels.numba_backend.run_steps`; the other scratch arrays stay on
+        the device.  Returns ``(steps_done, status)``."""
+        sp, pt, pv, g, ob = springs, points, provot, ground, obstacles
+        max_corr, slip = scratch.max_corr, ob.slip
+        dm = self._model((pt.x0, pt.inv_mass, pt.mass, sp.ij, sp.rest, sp.stiff, sp.first_ptr,
+                          sp.second_ptr, sp.second_slot, sp.second_other))
+        ok = np.asarray(ob.kind)
+        od = np.asarray(ob.data, dtype=np.float64)
+        p = dict(dt=float(dt), integrator=int(integrator), damping=float(pt.damping),
+                 gravity=tuple(float(c) for c in pt.gravity), loops=int(pv.loops),
+                 tau=float(pv.tau), tolerance=float(pv.tolerance),
+                 all_pairs=bool(pv.all_pairs), gauss_seidel=bool(pv.gauss_seidel),
+                 velocity_update=bool(pv.velocity_update), ground=bool(g.paper),
+                 height=float(g.height), mu=float(g.mu), nu=float(g.nu),
+                 rest_speed=float(ob.rest_speed), center=tuple(float(c) for c in g.center),
+                 bound2=float(g.bound2))
         key = (tuple(p.items()), ok.tobytes(), od.tobytes())
         p["obstacle_kind"], p["obstacle_data"] = ok, od
         prog = self._program(dm, key, p)
