@@ -92,13 +92,19 @@ class PhysicalStepping:
         w = h.drag_weight[:, None]
         return (w * (d[4] * (d[1:4] + h.drag_offset - x) - d[5] * v)).sum(axis=0)
 
+    @property
+    def _force_model(self):
+        """The model whose points :meth:`_forces_now` returns (a rank's local model under
+        MPI)."""
+        return self.model
+
     def _forces_now(self) -> np.ndarray:
         """Every force [N] on each point at the current state, shape (n, 3): the tets (the
         damping branch as it stands), springs, point forces, drag spring, gravity and the
         model's viscous damping (the numpy spec's terms, :mod:`.kernels.fem_numpy`)."""
         from .kernels import fem_numpy
 
-        m, s, h = self.model, self.state, self.handles
+        m, s, h = self._force_model, self.state, self.handles
         fem = m.fem.kernel_tuple(self._q.copy(), 0.0)  # (decay 1: the branch as it is)
         t = m.fem.tet_count
         corner = np.zeros((4 * t, 3))

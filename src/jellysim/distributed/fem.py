@@ -254,6 +254,39 @@ class PhysicalMethods(PhysicalStepping):
             stability=self.stability, dt_step=self.dt_step, implicit=self.implicit)
         raise_agreed(self.comm, lambda: Simulator._check_collapse(view, before, steps))
 
+    # -- force gauges (collective) -----------------------------------------------------------
+    @property
+    def _force_model(self):
+        return self.local_model
+
+    def _owned_mask(self) -> np.ndarray:
+        owned = np.zeros(self.part.glob.size, dtype=bool)
+        owned[self.part.owned_local] = True
+        return owned
+
+    def pin_force(self) -> np.ndarray:
+        """:meth:`Simulator.pin_force` over the ranks, a collective call (every rank makes
+        it and gets the same figure): each rank sums its *owned* pinned points, whose forces
+        are whole on it (it holds every tet of its points), and the sums are added in rank
+        order (:meth:`_global_sum`)."""
+        self._require_physical("pin_force")
+        pinned = (self.handles.pinned != 0) & self._owned_mask()
+        mine = -self._forces_now()[pinned].sum(axis=0) if pinned.any() else np.zeros(3)
+        return self._global_sum(mine)
+
+    def drag_force(self) -> np.ndarray:
+        """:meth:`Simulator.drag_force` over the ranks (a collective call, as
+        :meth:`pin_force`): the owner of the dragged point adds its pull."""
+        self._require_physical("drag_force")
+        d, h = self.handles.drag, self.handles
+        mine = np.zeros(3)
+        if d[0] >= 0.0:
+            held = (h.drag_weight > 0.0) & self._owned_mask()
+            x, v = self.state.x[held], self.state.v[held]
+            w = h.drag_weight[held][:, None]
+            mine = (w * (d[4] * (d[1:4] + h.drag_offset[held] - x) - d[5] * v)).sum(axis=0)
+        return self._global_sum(mine)
+
     # -- handles (global point indices) -----------------------------------------------------
     def _local_rows(self, indices):
         """Local rows of the global ``indices`` held by this rank (owned or ghost), and the
@@ -352,12 +385,3 @@ def _rest_thinness(x0):
         n >= COLLAPSE_MIN_POINTS) else np.zeros(3)
     return float(spread[0]), bool(n >= COLLAPSE_MIN_POINTS and spread[0] > 0.1 * spread[2])
 
-    def pin_force(self) -> np.ndarray:
-        """Not on the distributed simulator (each rank holds a part of the pinned points):
-        :meth:`gather` the state and read it from a serial Simulator."""
-        from ..errors import SceneError
-
-        raise SceneError("pin_force is not available under MPI (each rank holds part of the "
-                         "body): gather() the state and read it from a serial Simulator")
-
-    drag_force = pin_force
