@@ -297,3 +297,27 @@ def test_render_and_export_with_overwrite_stopped_half_way_keep_the_earlier_outp
            if p.is_file()}
     assert now == first
     assert not [p for p in tmp_path.rglob(".new-*")]
+
+
+def test_an_interrupted_overwrite_run_drops_the_earlier_runs_video(tmp_path, monkeypatch):
+    """`run --overwrite --video V` stopped half-way left the earlier run's V beside the new
+    partial run (it matched no run left there).  Now V goes with the earlier run; the printed
+    resume command keeps --video, and resuming writes the new V."""
+    import jellysim.cli as cli_module
+
+    out, video = tmp_path / "run", tmp_path / "v.gif"
+    res = _run(tmp_path, out, 40, "--video", str(video), "--no-vtu")
+    assert res.exit_code == 0, res.output
+    assert video.is_file()
+    real = cli_module.run_scene
+    monkeypatch.setattr(cli_module, "run_scene", lambda *a, **k: real(
+        *a, **k, **({} if k.get("resume") else {"stop_after": 10})))
+    res = _run(tmp_path, out, 40, "--video", str(video), "--no-vtu", "--overwrite")
+    assert res.exit_code == 3, res.output
+    assert "--resume" in res.output and f"--video {video}" in res.output
+    assert not video.exists()
+    monkeypatch.setattr(cli_module, "run_scene", real)
+    res = CliRunner().invoke(cli, ["run", str(tmp_path / "s.toml"), "--resume", str(out),
+                                   "--quiet", "--no-vtu", "--video", str(video)])
+    assert res.exit_code == 0, res.output
+    assert video.is_file() and load_trajectory(out / "trajectory.npz").frame_count == 9

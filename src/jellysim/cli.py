@@ -207,6 +207,11 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         # outputs (the step count is in the checkpoint)
         import shlex
 
+        if overwrite:  # an earlier run's video/USD/glTF no longer match the run beside them
+            for path in (video, usd, glb):
+                if path and Path(path).is_file():
+                    Path(path).unlink()
+
         extra = "".join(f" {flag} {shlex.quote(str(v))}" for flag, v in
                         (("--video", video), ("--usd", usd), ("--glb", glb)) if v)
         click.secho(str(exc) + (" --no-vtu" if no_vtu else "") + extra, fg="yellow", err=True)
