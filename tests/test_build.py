@@ -1,5 +1,6 @@
 """From a surface mesh to a body: sampling, builders, mass, defective meshes, CLI."""
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -212,7 +213,17 @@ def test_cli_inspect_a_scene_says_what_it_will_run(tmp_path):
     substeps = scene.simulator().substeps
     assert f"; {substeps} substeps per step" in rows["step"]
     assert "120 steps = 2 s simulated" in rows["step"]
+    assert "provot" not in rows  # (the physical path has no strain limiting)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cube.toml"]
+    # the report's scene: its Provot, what defines it and costs the most (a lecturer's trial)
+    paper = Path(__file__).parents[1] / "examples" / "paper_cube.toml"
+    res = CliRunner().invoke(cli, ["inspect", str(paper)])
+    assert res.exit_code == 0, res.output
+    rows = dict(line.split(None, 1) for line in res.output.splitlines()[1:] if line.strip())
+    n = int(rows["points"].split()[0])
+    assert rows["provot"].strip() == (f"tau = 0.001, 1 loop(s), all pairs ({n * (n - 1) // 2:,} "
+                                      "per loop), gauss-seidel order, positions only (the "
+                                      "report's)")
     res = CliRunner().invoke(cli, ["inspect", str(tmp_path / "missing.toml")])
     assert res.exit_code != 0 and "missing.toml" in res.output and "Traceback" not in res.output
     # --set as `jellysim run` takes it: 6^3 cells = 7^3 points (session 10's trial)

@@ -357,10 +357,13 @@ def test_a_body_files_own_masses_and_stiffness_against_the_scene(tmp_path):
         with pytest.raises(SceneError, match=rf"\[mass\] {key.split()[0]} = .* but the body file "
                                              r"m.jello gives every point its own mass; remove"):
             model(masses, f"[springs]\nstiffness = 20.0\n[mass]\n{key}\n")
-    # the paper preset keeps the file's masses and stiffnesses (its k = 2 gives way, said)
+    # the paper preset keeps the file's masses and stiffnesses (its k = 2 and its even mass
+    # split give way, both said: a lecturer's file ran with its own masses, unsaid)
     m, said = model(stiff, '[material]\npreset = "paper-2010"\n')
     assert m.point_mass.tolist() == [1e9, 0.5] and m.spring_stiffness.tolist() == [20.0]
-    assert len(said) == 1 and "own stiffness, used instead of the preset's" in said[0]
+    assert len(said) == 2 and "own stiffness, used instead of the preset's" in said[0]
+    assert "gives every point its own mass (1e+09 kg in all), used instead of the " \
+           "'paper-2010' preset's masses" in said[1]
     with pytest.raises(SceneError, match=r"\[springs\] stiffness = 5, but the body file k.jello"):
         model(stiff, "[springs]\nstiffness = 5.0\n")
     with pytest.raises(SceneError, match=r"b.jello has no masses and no volume: give \[mass\] "

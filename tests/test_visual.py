@@ -241,6 +241,9 @@ def test_an_export_of_a_body_turned_inside_out_says_so(traj, tmp_path):
                                  str(tmp_path / "paper.glb")])
     assert r.exit_code == 0 and "inside out" in r.output
     assert (tmp_path / "paper.glb").stat().st_size > 0
+    r = CliRunner().invoke(cli, ["render", str(tmp_path / "paper"), "-o",   # a picture of it
+                                 str(tmp_path / "paper.png"), "--size", "64x48", "--quiet"])
+    assert r.exit_code == 0 and "inside out" in r.output      # says so too (it did not)
 
 
 def test_usd_has_one_time_sample_per_frame_equal_to_the_skin(traj, tmp_path):

@@ -162,10 +162,10 @@ def write_run_outputs(trajectory, *, video=None, usd=None, glb=None, progress=Tr
     if not (video or usd or glb):
         return out
     traj = _load(trajectory)
+    if video or usd or glb:
+        _warn_inside_out(traj)
     if video:
         out.append(render_trajectory(traj, video, progress=progress))
-    if usd or glb:
-        _warn_inside_out(traj)
     if usd:
         out.append(export_usd(traj, usd))
     if glb:
@@ -370,6 +370,7 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
         if len(runs) > 1 and camera_mode == "follow":
             raise JellysimError("side by side the runs share one fixed camera (one scale): "
                                 "remove --camera follow, or render the runs one at a time")
+        _warn_inside_out(traj)  # (as export does: a mirrored run's skin is shaded inside out)
         guard_output(output, overwrite)  # (after the checks: a refusal deletes nothing)
         labels = [_run_name(tr) for tr in trajectory] if len(runs) > 1 else None
         from .render.video import output_kind

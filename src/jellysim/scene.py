@@ -449,6 +449,12 @@ class Scene:
                              f"body file {path} gives every point its own mass; remove [mass] "
                              f"{written[0]} to use the file's (or the mass column of the file "
                              "to use it)")
+        preset = self.params.get("material", {}).get("preset")
+        if body.masses is not None and not written and preset:
+            warnings.warn(f"{self.name}: the body file {path} gives every point its own mass "
+                          f"({body.masses.sum():.4g} kg in all), used instead of the "
+                          f"{preset!r} preset's masses (remove the file's mass column for "
+                          "the preset's)", UserWarning, stacklevel=3)
         if body.masses is None and body.volume is None and mass["point_mass"] is None:
             raise SceneError(f"{self.name}: the body file {path} has no masses and no volume: "
                              "give [mass] point_mass (kg) in the scene, or a mass column or a "

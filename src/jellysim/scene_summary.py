@@ -73,6 +73,15 @@ def scene_summary(scene, said: list | None = None) -> list[tuple[str, str]]:
                  + ("(set in the scene)" if given else "from the stability estimate")
                  + f" ({_seconds(dt / sim.substeps)} each)")
     rows.append(("step", step))
+    pv = getattr(sim, "provot", None)
+    if not sim.physical and pv is not None:  # (the physical path has no Provot)
+        n = model.point_count
+        pairs = (f"all pairs ({n * (n - 1) // 2:,} per loop)" if _name(pv.pairs) == "all"
+                 else f"the springs ({model.spring_count:,} per loop)")
+        rows.append(("provot", "off" if not pv.enabled else (
+            f"tau = {pv.tau:g}, {pv.loops} loop(s), {pairs}, {_name(pv.order)} order, "
+            + ("correction / dt added to the velocity" if pv.velocity_update
+               else "positions only (the report's)"))))
     rows.append(("backend", f"{_name(sim.backend)}, {sim.threads} thread(s)"))
     kind = scene.ground_params(model).model.value  # an unset model: the body's path's
     ground = "off" if not g["enabled"] else (

@@ -72,7 +72,7 @@ def inside_out_note(traj) -> str | None:
     bad = [k for k in range(1, len(frames)) if volume(frames[k]) < 0]
     if not bad:
         return None
-    return (f"the exported surface is inside out in {len(bad)} of {len(frames)} frames (from "
+    return (f"the body's surface is inside out in {len(bad)} of {len(frames)} frames (from "
             f"t = {float(traj.times[bad[0]]):.3g} s): the body passed through itself (the "
             "report's step does this to the paper cube as it lands, docs/physics.md section 4);"
             " a viewer that hides back faces shows little of it there")
