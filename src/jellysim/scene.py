@@ -23,9 +23,10 @@ from .params import (MAX_ALL_PAIRS_POINTS, GroundParams, ImplicitParams, ProvotO
 from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-exported)
                               make_obstacle, validate_obstacles)
 from .scene_schema import SCHEMA
-from .scene_spec import (Spec, as_toml, check_backend, check_given_keys, check_value,
-                         given_keys, plain, grid_radius, infer_body_type, missing_path,
-                         refuse_point_mass, refuse_unused_keys, said_springs_ignore)
+from .scene_spec import (Spec, as_toml, check_backend, check_body_file, check_given_keys,
+                         check_value, given_keys, plain, grid_radius, infer_body_type,
+                         missing_path, refuse_point_mass, refuse_unused_keys,
+                         said_springs_ignore)
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
 from .scene_doc import schema_markdown as make
@@ -382,7 +383,7 @@ class Scene:
             warnings.warn(f"{self.name}: [mass] density {slip}", UserWarning, stacklevel=2)
         given = self.params["springs"]["stiffness"]
         if self.params["body"]["type"] == "file" and mat["youngs_modulus"] is None:
-            given = self._check_body_file(body, given, m)
+            given = check_body_file(self.name, self.params, self.given, body, given, m)
         try:
             model = self._material_model(body)
             if model is not None:
@@ -424,42 +425,6 @@ class Scene:
             return model
         except ValueError as exc:
             raise SceneError(f"{self.name}: {exc}") from None
-
-    def _check_body_file(self, body, stiffness, mass):
-        """A body file's own stiffnesses and masses against the scene's: the stiffness to use
-        (``None``: the file's).  A value the user wrote that the file's data would silently
-        override is refused; a preset's default gives way to the file's data (said)."""
-        path = self.params["body"]["path"]
-        if body.stiffness is not None and stiffness is not None:
-            if "stiffness" in self.given.get("springs", ()):
-                raise SceneError(f"{self.name}: [springs] stiffness = {stiffness:g}, but the "
-                                 f"body file {path} gives every spring its own stiffness; "
-                                 "remove [springs] stiffness to use the file's")
-            warnings.warn(f"{self.name}: the body file {path} gives every spring its own "
-                          f"stiffness, used instead of the preset's [springs] stiffness = "
-                          f"{stiffness:g} N/m", UserWarning, stacklevel=3)
-            stiffness = None
-        if body.stiffness is None and stiffness is None:
-            raise SceneError(f"{self.name}: the body file {path} has no spring stiffness; "
-                             "give [springs] stiffness (N/m) or [material] youngs_modulus "
-                             "(Pa), or [material] preset = 'gelatin'")
-        written = [k for k in ("point_mass", "density") if k in self.given.get("mass", ())]
-        if body.masses is not None and written:
-            raise SceneError(f"{self.name}: [mass] {written[0]} = {mass[written[0]]:g}, but the "
-                             f"body file {path} gives every point its own mass; remove [mass] "
-                             f"{written[0]} to use the file's (or the mass column of the file "
-                             "to use it)")
-        preset = self.params.get("material", {}).get("preset")
-        if body.masses is not None and not written and preset:
-            warnings.warn(f"{self.name}: the body file {path} gives every point its own mass "
-                          f"({body.masses.sum():.4g} kg in all), used instead of the "
-                          f"{preset!r} preset's masses (remove the file's mass column for "
-                          "the preset's)", UserWarning, stacklevel=3)
-        if body.masses is None and body.volume is None and mass["point_mass"] is None:
-            raise SceneError(f"{self.name}: the body file {path} has no masses and no volume: "
-                             "give [mass] point_mass (kg) in the scene, or a mass column or a "
-                             "volume line in the file (docs/jello-format.md)")
-        return stiffness
 
     def material(self):
         """The scene's :class:`~jellysim.params.Material` (``None`` without youngs_modulus)."""

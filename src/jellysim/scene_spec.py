@@ -17,7 +17,7 @@ from .errors import SceneError, did_you_mean
 from .kernels import WARP_INTEGRATORS
 
 __all__ = ["REQUIRED", "Spec", "as_toml", "missing_path", "check_table", "check_value", "plain",
-           "apply_override", "check_backend", "grid_radius"]
+           "apply_override", "check_backend", "grid_radius", "check_body_file"]
 
 REQUIRED = object()
 
@@ -388,3 +388,43 @@ def refuse_point_mass(name: str, given: dict, point_mass, density: float, model)
             f"density = {density:g} kg/m^3, {model.point_mass.sum():.4g} kg in all); remove "
             "[mass] point_mass and set [material] density to change the mass (or [material] "
             "model = 'springs' for equal point masses)")
+
+
+def check_body_file(name, params, given, body, stiffness, mass):
+    """A ``[body] type = 'file'`` body's own stiffnesses and masses against the scene's
+    (``params``; ``given``: the keys the user wrote; ``name``: the scene's): the stiffness
+    to use (``None``: the file's).  A value the user wrote that the file's data would silently
+    override is refused; a preset's default gives way to the file's data (said)."""
+    import warnings
+
+    path = params["body"]["path"]
+    if body.stiffness is not None and stiffness is not None:
+        if "stiffness" in given.get("springs", ()):
+            raise SceneError(f"{name}: [springs] stiffness = {stiffness:g}, but the "
+                             f"body file {path} gives every spring its own stiffness; "
+                             "remove [springs] stiffness to use the file's")
+        warnings.warn(f"{name}: the body file {path} gives every spring its own "
+                      f"stiffness, used instead of the preset's [springs] stiffness = "
+                      f"{stiffness:g} N/m", UserWarning, stacklevel=3)
+        stiffness = None
+    if body.stiffness is None and stiffness is None:
+        raise SceneError(f"{name}: the body file {path} has no spring stiffness; "
+                         "give [springs] stiffness (N/m) or [material] youngs_modulus "
+                         "(Pa), or [material] preset = 'gelatin'")
+    written = [k for k in ("point_mass", "density") if k in given.get("mass", ())]
+    if body.masses is not None and written:
+        raise SceneError(f"{name}: [mass] {written[0]} = {mass[written[0]]:g}, but the "
+                         f"body file {path} gives every point its own mass; remove [mass] "
+                         f"{written[0]} to use the file's (or the mass column of the file "
+                         "to use it)")
+    preset = params.get("material", {}).get("preset")
+    if body.masses is not None and not written and preset:
+        warnings.warn(f"{name}: the body file {path} gives every point its own mass "
+                      f"({body.masses.sum():.4g} kg in all), used instead of the "
+                      f"{preset!r} preset's masses (remove the file's mass column for "
+                      "the preset's)", UserWarning, stacklevel=3)
+    if body.masses is None and body.volume is None and mass["point_mass"] is None:
+        raise SceneError(f"{name}: the body file {path} has no masses and no volume: "
+                         "give [mass] point_mass (kg) in the scene, or a mass column or a "
+                         "volume line in the file (docs/jello-format.md)")
+    return stiffness
