@@ -18,10 +18,9 @@ from .skin import bind_body_skin
 from .io.trajectory import load_trajectory
 from .render.offscreen import RenderOptions
 from .render.video import render_trajectory
-from .runner import prepare_out_dir, run_scene
+from .runner import holds_unfinished_run, prepare_out_dir, run_scene
 from .io.usd import export_usd
 from .io.checkpoint import CHECKPOINT
-from .io.stream import STREAM_DIR
 
 __all__ = ["DEMO_SCENE", "DEMO_SHAPE", "DEMO_SHAPES", "build_demo_body", "demo_mesh",
            "run_demo"]
@@ -160,7 +159,7 @@ def demo_command(out_dir, scene, mesh, up, points, frames, usd, backend=None, de
 def _drop_stale(old, run_dir: Path) -> None:
     """An earlier demo's video and USD go once a new demo's run has started in ``run_dir``
     (they no longer match the run beside them); kept when it never started."""
-    if (run_dir / CHECKPOINT).is_file() or (run_dir / STREAM_DIR).is_dir():
+    if holds_unfinished_run(run_dir):
         for p in old:
             p.unlink(missing_ok=True)
 
@@ -210,7 +209,7 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     again = demo_command(out_dir, scene if mesh is None else "jelly", mesh, up, points, frames,
                          usd, backend, device, precision)
     run_dir = out_dir / stem
-    interrupted = (run_dir / CHECKPOINT).is_file() or (run_dir / STREAM_DIR).is_dir()
+    interrupted = holds_unfinished_run(run_dir)
     if resume and overwrite:
         raise JellysimError("--resume and --overwrite: give one (--overwrite starts afresh)")
     if resume and not interrupted:

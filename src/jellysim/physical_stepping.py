@@ -77,20 +77,28 @@ class PhysicalStepping:
         if not self.physical:
             raise SceneError("pin_force is for the physical path (a body with a FEM material)")
         pinned = self.handles.pinned != 0
-        if not pinned.any():
-            return np.zeros(3)
-        return -self._forces_now()[pinned].sum(axis=0)
+        forces = -self._forces_now() if pinned.any() else np.zeros_like(self.state.x)
+        return self._gauge(forces, pinned)
 
     def drag_force(self) -> np.ndarray:
         """The pull [N], shape (3,), of :meth:`drag`'s spring on the body now (zero when
         nothing is dragged): ``sum_p w_p (k (target + offset_p - x_p) - c v_p)``, the
         spring and its damper at the current velocities.  Physical path only."""
-        d, h = self.handles.drag, self.handles
+        return self._gauge(self._drag_pull(), self.handles.drag_weight > 0.0)
+
+    def _gauge(self, forces, rows) -> np.ndarray:
+        """A gauge's reading [N], shape (3,): ``forces`` (n, 3) summed over the points
+        ``rows`` (the distributed simulator sums its owned ones over the ranks)."""
+        return forces[rows].sum(axis=0)
+
+    def _drag_pull(self) -> np.ndarray:
+        """Each point's pull [N] by the drag spring and its damper, shape (n, 3):
+        ``w_p (k (target + offset_p - x_p) - c v_p)``; zeros when nothing is dragged."""
+        h, s = self.handles, self.state
+        d = h.drag
         if d[0] < 0.0:
-            return np.zeros(3)
-        x, v = self.state.x, self.state.v
-        w = h.drag_weight[:, None]
-        return (w * (d[4] * (d[1:4] + h.drag_offset - x) - d[5] * v)).sum(axis=0)
+            return np.zeros_like(s.x)
+        return h.drag_weight[:, None] * (d[4] * (d[1:4] + h.drag_offset - s.x) - d[5] * s.v)
 
     @property
     def _force_model(self):
@@ -116,9 +124,7 @@ class PhysicalStepping:
                        m.point_first_ptr, m.point_second_ptr, m.spring_second_slot,
                        m.point_second_other)
             f += fem_numpy.spring_forces(s.x, springs, np.zeros(m.spring_count))
-        d = h.drag
-        if d[0] >= 0.0:
-            f += h.drag_weight[:, None] * (d[4] * (d[1:4] + h.drag_offset - s.x) - d[5] * s.v)
+        f += self._drag_pull()
         mass = np.asarray(m.point_mass, dtype=np.float64)
         f += h.point_force - float(m.damping) * s.v
         f += (mass * h.gravity_scale)[:, None] * np.asarray(m.gravity, dtype=np.float64)

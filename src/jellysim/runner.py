@@ -50,6 +50,13 @@ RUN_FILES = ("trajectory.npz", "body.pvd", "body_[0-9]*.vtu", "skin.pvd", "skin_
 removes before a new run (nothing else in the folder is touched)."""
 
 
+def holds_unfinished_run(out_dir) -> bool:
+    """Whether ``out_dir`` holds a run that started and did not finish (interrupted, killed,
+    or running): its checkpoint or its frame stream."""
+    out_dir = Path(out_dir)
+    return (out_dir / CHECKPOINT).exists() or (out_dir / STREAM_DIR).is_dir()
+
+
 def prepare_out_dir(out_dir, *, overwrite: bool = False, owned=RUN_FILES,
                     option: str = "--out", delete: bool = True, held: bool = False) -> Path:
     """Make ``out_dir`` ready for a run: create it; if it already holds files, refuse
@@ -68,7 +75,7 @@ def prepare_out_dir(out_dir, *, overwrite: bool = False, owned=RUN_FILES,
     if present and not overwrite:
         names = ", ".join(p.name for p in present[:3]) + (", ..." if len(present) > 3 else "")
         quoted = shlex.quote(str(out_dir))
-        if (out_dir / CHECKPOINT).exists() or (out_dir / STREAM_DIR).is_dir():
+        if holds_unfinished_run(out_dir):
             raise JellysimError(f"{option} {out_dir}: holds an interrupted run; continue it with "
                                 f"--resume {quoted} (and no {option}), or pass --overwrite to "
                                 f"replace it (its frames so far are lost), or choose another "

@@ -259,33 +259,15 @@ class PhysicalMethods(PhysicalStepping):
     def _force_model(self):
         return self.local_model
 
-    def _owned_mask(self) -> np.ndarray:
+    def _gauge(self, forces, rows) -> np.ndarray:
+        """``pin_force()`` / ``drag_force()`` over the ranks, collective calls (every rank
+        makes them and gets the same figure): each rank sums its *owned* points of ``rows``,
+        whose forces are whole on it (it holds every tet of its points), and the sums are
+        added in rank order (:meth:`_global_sum`)."""
+        self._require_physical("the force gauges (pin_force, drag_force)")
         owned = np.zeros(self.part.glob.size, dtype=bool)
         owned[self.part.owned_local] = True
-        return owned
-
-    def pin_force(self) -> np.ndarray:
-        """:meth:`Simulator.pin_force` over the ranks, a collective call (every rank makes
-        it and gets the same figure): each rank sums its *owned* pinned points, whose forces
-        are whole on it (it holds every tet of its points), and the sums are added in rank
-        order (:meth:`_global_sum`)."""
-        self._require_physical("pin_force")
-        pinned = (self.handles.pinned != 0) & self._owned_mask()
-        mine = -self._forces_now()[pinned].sum(axis=0) if pinned.any() else np.zeros(3)
-        return self._global_sum(mine)
-
-    def drag_force(self) -> np.ndarray:
-        """:meth:`Simulator.drag_force` over the ranks (a collective call, as
-        :meth:`pin_force`): the owner of the dragged point adds its pull."""
-        self._require_physical("drag_force")
-        d, h = self.handles.drag, self.handles
-        mine = np.zeros(3)
-        if d[0] >= 0.0:
-            held = (h.drag_weight > 0.0) & self._owned_mask()
-            x, v = self.state.x[held], self.state.v[held]
-            w = h.drag_weight[held][:, None]
-            mine = (w * (d[4] * (d[1:4] + h.drag_offset[held] - x) - d[5] * v)).sum(axis=0)
-        return self._global_sum(mine)
+        return self._global_sum(forces[rows & owned].sum(axis=0))
 
     # -- handles (global point indices) -----------------------------------------------------
     def _local_rows(self, indices):
