@@ -824,3 +824,41 @@ def test_ctrl_c_while_trimesh_is_imported_stops_the_mesh_load_and_leaves_trimesh
     faces = sum(1 for ln in (DATA / "sphere.obj").read_text().splitlines()
                 if ln.startswith("f "))
     assert int(lines[2]) == faces and lines[3] == "module"
+
+
+@pytest.mark.parametrize("module", ["numpy", "click", "jellysim.cli"])
+def test_ctrl_c_while_the_command_is_still_loading_says_so_without_a_traceback(
+        tmp_path, module):
+    """A Ctrl-C in the command's first ~0.4 s (before ``jellysim.cli`` has loaded, so before
+    the command's own interrupt handling exists) printed a KeyboardInterrupt traceback from
+    inside an import.  The ``jellysim`` script's entry point (``_jellysim_launch.main``) must
+    answer it with one line and exit status 130, and write nothing.  SIGINT is sent from an
+    audit hook as ``module`` starts to import, then the real entry point runs; the same probe
+    without the signal must run the command (``jellysim --version``)."""
+    src = Path(__file__).parents[1] / "src"
+    out_dir = tmp_path / "out"
+    probe = tmp_path / "probe.py"
+    probe.write_text(
+        "import os, signal, sys\n"
+        "sent = []\n"
+        "def hook(event, args):\n"
+        f"    if event == 'import' and args[0] == {module!r} and not sent and "
+        "os.environ.get('SEND'):\n"
+        "        sent.append(1)\n"
+        "        os.kill(os.getpid(), signal.SIGINT)\n"
+        "sys.addaudithook(hook)\n"
+        "import _jellysim_launch\n"
+        f"sys.argv = ['jellysim', *sys.argv[1:]]\n"
+        "_jellysim_launch.main()\n")
+    env = dict(os.environ, PYTHONPATH=str(src), SEND="1")
+    args = [sys.executable, str(probe), "build", "--out-of-nowhere", str(out_dir)]
+    out = subprocess.run(args, capture_output=True, text=True, timeout=120, env=env)
+    assert out.returncode == 130, out.stderr
+    assert "Traceback" not in out.stderr and "KeyboardInterrupt" not in out.stderr, out.stderr
+    assert out.stderr.strip() == ("interrupted while jellysim was starting: nothing was read "
+                                  "or written"), out.stderr
+    assert not out_dir.exists()
+    env.pop("SEND")
+    ok = subprocess.run([sys.executable, str(probe), "--version"], capture_output=True,
+                        text=True, timeout=120, env=env)
+    assert ok.returncode == 0 and "0.1.0" in ok.stdout, ok.stdout + ok.stderr
