@@ -286,7 +286,17 @@ def test_render_and_export_with_overwrite_stopped_half_way_keep_the_earlier_outp
 
     monkeypatch.setattr(cv, "render_trajectory", stops_after_two("frame_{:05d}.png"))
     monkeypatch.setattr(cv, "export_pvd_file", stops_after_two("run.pvd"))
-    monkeypatch.setattr(cv, "export_mesh_sequence", stops_after_two("skin_{:05d}.obj"))
+    import meshio   # (export_mesh_sequence stages its frames itself: its writer stops)
+
+    calls = []
+
+    def meshio_stops_after_two(path, mesh, file_format=None):
+        calls.append(path)
+        if len(calls) > 2:
+            raise KeyboardInterrupt
+        Path(path).write_bytes(b"half")
+
+    monkeypatch.setattr(meshio, "write", meshio_stops_after_two)
     for args in (["render", str(traj_path), "-o", "frames", "--overwrite", "--quiet"],
                  ["export", str(traj_path), "-o", "run.pvd", "--overwrite"],
                  ["export", str(traj_path), "--sequence", "obj", "seq", "--overwrite"]):

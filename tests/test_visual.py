@@ -756,6 +756,63 @@ def test_a_refused_render_or_recording_deletes_and_replaces_nothing(run_dir, tra
     assert load_trajectory(rec.save(mine)).frame_count == 2
 
 
+def test_python_saves_and_exports_refuse_to_replace_what_is_not_theirs(traj, tmp_path):
+    """Session 20's API trial: ``Recorder.save("notes.txt")`` overwrote the notes with a zip,
+    ``save("out.glb")`` replaced a 1.3 MB export with a 6 kB npz, and the Python exports
+    replaced files silently (a second ``export_mesh_sequence`` into the same folder left the
+    first run's extra frames mixed with the new ones), where the CLI refuses.  Now: a
+    recording must be named ``.npz``; a file that is not a recording is kept unless
+    ``overwrite=True``; the exports refuse an existing output unless ``overwrite=True``, and
+    a sequence overwritten by a shorter run holds exactly the new frames."""
+    import dataclasses
+
+    from jellysim.errors import OutputError
+    from jellysim.io.gltf import export_glb
+    from jellysim.io.meshseq import export_mesh_sequence
+    from jellysim.io.trajectory import Recorder
+    from jellysim.io.usd import export_usd
+    from jellysim.simulator import Simulator
+
+    model = Scene.from_text(SCENE, name="s.toml").build_model()
+    rec = Recorder(model)
+    rec.record(Simulator(model, dt=1e-3).state)
+    notes = tmp_path / "notes.txt"
+    notes.write_text("my notes\n")
+    with pytest.raises(OutputError, match=r"notes.txt: a recording is saved as \.npz.*notes\.npz"):
+        rec.save(notes)
+    assert notes.read_text() == "my notes\n"
+    foreign = tmp_path / "data.npz"     # someone's own arrays, not a recording
+    np.savez(foreign, a=np.arange(3))
+    kept = foreign.read_bytes()
+    with pytest.raises(OutputError, match="not a jellysim recording: it would be lost"):
+        rec.save(foreign)
+    assert foreign.read_bytes() == kept
+    assert load_trajectory(rec.save(foreign, overwrite=True)).frame_count == 1
+
+    frames = tmp_path / "objs"
+    first = export_mesh_sequence(traj, frames, fmt="obj")
+    assert len(first) == traj.frame_count >= 4
+    before = {p.name: p.read_bytes() for p in frames.iterdir()}
+    short = dataclasses.replace(traj, positions=traj.positions[:3],
+                                velocities=traj.velocities[:3], times=traj.times[:3],
+                                steps=traj.steps[:3])
+    with pytest.raises(OutputError, match=r"already holds .* pass overwrite=True"):
+        export_mesh_sequence(short, frames, fmt="obj")
+    assert {p.name: p.read_bytes() for p in frames.iterdir()} == before
+    export_mesh_sequence(short, frames, fmt="obj", overwrite=True)
+    assert sorted(p.name for p in frames.iterdir()) == [f"skin_{k:05d}.obj" for k in range(3)]
+    import meshio
+    assert np.allclose(meshio.read(frames / "skin_00002.obj").points, traj.skin_positions(2),
+                       rtol=0, atol=1e-12)  # the new run's frame 2
+    for export, name in ((export_usd, "run.usdc"), (export_glb, "run.glb")):
+        path = export(traj, tmp_path / name)
+        kept = path.read_bytes()
+        with pytest.raises(OutputError, match=r"exists; pass overwrite=True"):
+            export(short, path)
+        assert path.read_bytes() == kept
+        assert export(short, path, overwrite=True).read_bytes() != kept
+
+
 def test_obstacles_are_drawn_and_a_run_without_ground_has_no_floor(tmp_path):
     """Session 10's trial: a body resting on a [[obstacle]] sphere seemed to float (the
     sphere was not drawn), and a run with the ground disabled still showed a floor under the

@@ -167,9 +167,9 @@ def write_run_outputs(trajectory, *, video=None, usd=None, glb=None, progress=Tr
     if video:
         out.append(render_trajectory(traj, video, progress=progress))
     if usd:
-        out.append(export_usd(traj, usd))
+        out.append(export_usd(traj, usd, overwrite=True))  # (checked before the run)
     if glb:
-        out.append(export_glb(traj, glb))
+        out.append(export_glb(traj, glb, overwrite=True))
     return out
 
 
@@ -432,22 +432,21 @@ def export(trajectory, target, output, sequence, fps, max_frames, overwrite=Fals
             if out.suffix and not out.is_dir():
                 raise JellysimError(f"{out}: --sequence writes one file per frame into a "
                                     "folder; give a folder name (no suffix)")
-            from .io.atomic import guard_folder, staged_output
+            from .io.atomic import guard_folder
             from .io.usd import surface_of
 
             surface_of(traj)  # (no surface to write: refused before old frames go)
             guard_folder(out, [f"skin_[0-9]*.{sequence}"], overwrite)
-            with staged_output(out, [f"skin_[0-9]*.{sequence}"]) as stage:
-                paths = export_mesh_sequence(traj, stage, fmt=sequence)
+            paths = export_mesh_sequence(traj, out, fmt=sequence, overwrite=True)  # (staged)
             click.echo(f"wrote {len(paths)} {sequence.upper()} files in {out}")
             return
         suffix = out.suffix.lower()
         if suffix in (".usdc", ".usda", ".usd", ".glb", ".pvd"):
             guard_output(out, overwrite)
         if suffix in (".usdc", ".usda", ".usd"):
-            written = [export_usd(traj, out, fps=fps)]
+            written = [export_usd(traj, out, fps=fps, overwrite=True)]  # (guarded above)
         elif suffix == ".glb":
-            written = [export_glb(traj, out, max_frames=max_frames)]
+            written = [export_glb(traj, out, max_frames=max_frames, overwrite=True)]
         elif suffix == ".pvd":  # the .pvd and its frame folder replace the old together
             from .io.atomic import staged_output
 

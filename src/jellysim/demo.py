@@ -267,7 +267,7 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     t_render = time.perf_counter()
     written = {"trajectory": result.trajectory, "video": video}
     if usd:
-        written["usd"] = export_usd(traj, out_dir / f"{stem}.usdc")
+        written["usd"] = export_usd(traj, out_dir / f"{stem}.usdc", overwrite=True)
     else:  # an earlier demo's USD would no longer match this one's video
         old[1].unlink(missing_ok=True)
     written["seconds"] = {"simulate": t_sim - t0, "render": t_render - t_sim,

@@ -27,8 +27,9 @@ _FLOAT, _UINT = 5126, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 
 
-def export_glb(traj, path, *, max_frames: int | None = None) -> Path:
-    """Write the skin of a loaded trajectory as an animated ``.glb``.
+def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = False) -> Path:
+    """Write the skin of a loaded trajectory as an animated ``.glb`` (an existing ``path`` is
+    refused unless ``overwrite``).
 
     ``max_frames``: keep at most this many frames (evenly spaced) to bound the file size;
     default all."""
@@ -36,6 +37,9 @@ def export_glb(traj, path, *, max_frames: int | None = None) -> Path:
     path = Path(path)
     if path.suffix.lower() != ".glb":
         raise JellysimError(f"{path}: a binary glTF file name must end in .glb")
+    from .atomic import guard_file
+
+    guard_file(path, overwrite, flag="overwrite=True")
     frames, faces = surface_of(traj)
     times = np.asarray(traj.times, dtype=np.float64)
     idx = np.arange(len(frames))

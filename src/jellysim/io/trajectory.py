@@ -110,7 +110,8 @@ class Recorder:
     def save(self, path, *, status: str = "complete", overwrite: bool = False,
              held: bool = False) -> Path:
         """Write the frames to ``path`` (``.npz``; atomically).  A file there from an earlier
-        save is replaced; one in the folder of a ``jellysim run`` (its checkpoint, frame
+        save is replaced; any other file there (not a recording: it would be lost) is refused
+        unless ``overwrite``, and so is one in the folder of a ``jellysim run`` (its checkpoint, frame
         stream or lock beside it, which would no longer match) is refused unless
         ``overwrite``; a folder a live run is writing, always (``held``: the caller is that
         run, saving its own trajectory)."""
@@ -121,6 +122,15 @@ class Recorder:
             raise OutputError(f"{path}: no frame recorded: call record(sim.state) at least "
                               "once before save")
         path = Path(path)
+        if path.suffix.lower() != ".npz":
+            raise OutputError(f"{path}: a recording is saved as .npz (what load_trajectory and "
+                              f"jellysim render/export read): name it "
+                              f"{path.with_suffix('.npz').name}")
+        if path.is_dir():
+            raise OutputError(f"{path}: is a folder; give a file name ending in .npz")
+        if path.exists() and not overwrite and not _is_recording(path):
+            raise OutputError(f"{path}: exists and is not a jellysim recording: it would be "
+                              "lost; save elsewhere, or pass overwrite=True to replace it")
         from .lock import refuse_if_held
 
         if path.parent.is_dir() and not held:  # a live run writes there: never
@@ -145,6 +155,19 @@ class Recorder:
                     steps=np.asarray(self.steps, dtype=np.int64),
                     status=np.array(status), **meta)
         return Path(path)
+
+
+def _is_recording(path: Path) -> bool:
+    """Whether ``path`` is a zip holding a recording's frames (what :meth:`Recorder.save`
+    writes), read from its directory only."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as z:
+            names = set(z.namelist())
+    except (OSError, zipfile.BadZipFile):
+        return False
+    return {"positions.npy", "times.npy", "steps.npy"} <= names
 
 
 def _simulator_params(sim) -> dict:

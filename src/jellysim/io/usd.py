@@ -94,8 +94,10 @@ def _time_codes(times, count: int, fps: float) -> list[float]:
     return codes.tolist()
 
 
-def export_usd(traj, path, *, fps: float | None = None, name: str = "jello") -> Path:
-    """Write the skin of a loaded trajectory as a USD stage with time-sampled points."""
+def export_usd(traj, path, *, fps: float | None = None, name: str = "jello",
+               overwrite: bool = False) -> Path:
+    """Write the skin of a loaded trajectory as a USD stage with time-sampled points (an
+    existing ``path`` is refused unless ``overwrite``)."""
     try:
         from pxr import Gf, Sdf, Usd, UsdGeom, Vt
     except ImportError as exc:
@@ -104,6 +106,9 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello") -> 
     path = Path(path)
     if path.suffix.lower() not in (".usdc", ".usda", ".usd"):
         raise JellysimError(f"{path}: a USD file name must end in .usdc, .usda or .usd")
+    from .atomic import guard_file
+
+    guard_file(path, overwrite, flag="overwrite=True")
     frames, faces = surface_of(traj)
     fps = (frame_rate(traj.times) or 30.0) if fps is None else float(fps)  # real time
     with atomic_path(path) as tmp:
