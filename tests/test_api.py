@@ -389,3 +389,21 @@ def test_from_mesh_says_when_its_default_size_rescales_the_mesh():
         near = jellysim.Body.from_mesh((0.04 * mesh.vertices, mesh.faces), points=300)
     for b, extent in ((body, 0.1), (small, 0.05), (metres, 2.0), (near, 0.1), (exact, 0.1)):
         assert np.ptp(b.points, axis=0).max() == pytest.approx(extent, rel=0.05)
+
+
+def test_a_simulator_given_a_body_or_a_dict_for_state_says_what_it_needs():
+    """Session 20's API trial: ``Simulator(body, dt=...)`` (a Body, not a Model) and
+    ``state={"x": ...}`` failed with an AttributeError deep in the contact checks."""
+    import jellysim as js
+    from jellysim.errors import ParameterError
+
+    body = js.Body.box(points=27)
+    with pytest.raises(ParameterError, match=r"model must be a jellysim\.Model, got a Body: "
+                                             r"make the body a model first.*physical_model"):
+        js.Simulator(body, dt=1 / 60)
+    model = js.physical_model(body, js.material("gelatin"))
+    with pytest.raises(ParameterError, match=r"state must be a jellysim\.State .* got a dict"):
+        js.Simulator(model, dt=1 / 60, state={"x": 1})
+    sim = js.Simulator(model, dt=1 / 60)
+    again = js.Simulator(model, dt=1 / 60, state=sim.state)   # a State is taken
+    assert np.array_equal(again.state.x, model.point_x0)

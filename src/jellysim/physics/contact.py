@@ -236,6 +236,19 @@ def start_checks(model, state, ground, obstacles) -> tuple:
     ground (:func:`check_ground_placement`), not inside an obstacle (:func:`user_obstacles`,
     as a :class:`~jellysim.errors.SceneError`).  A resumed state (past step 0) may rest on
     them with round-off inside and is not checked.  Returns the obstacles as a tuple."""
+    from ..model import Model
+    from ..state import State
+
+    if not isinstance(model, Model):  # (a Body failed deep inside: session 20's trial)
+        hint = (": make the body a model first, js.physical_model(body, js.material("
+                "'gelatin')) for jello or js.finalize(body) for the report's springs"
+                if type(model).__name__ == "Body" else "")
+        raise ParameterError(f"Simulator: model must be a jellysim.Model, got a "
+                             f"{type(model).__name__}{hint}")
+    if state is not None and not isinstance(state, State):
+        raise ParameterError(f"Simulator: state must be a jellysim.State (another run's "
+                             f"sim.state, or None: the model at rest), got a "
+                             f"{type(state).__name__}")
     fresh = state is None or getattr(state, "step", 0) == 0
     x = None if not fresh else (model.point_x0 if state is None else state.x)
     if x is not None and ground is not None and ground.enabled:
