@@ -309,6 +309,33 @@ def test_render_and_export_with_overwrite_stopped_half_way_keep_the_earlier_outp
     assert not [p for p in tmp_path.rglob(".new-*")]
 
 
+def test_ctrl_c_while_a_run_writes_its_video_says_the_run_is_saved_and_how_to_finish(
+        tmp_path, monkeypatch):
+    """Session 20's CLI trial: Ctrl-C while `run --video V --usd U` rendered V printed a bare
+    `Aborted!` (the run was complete and saved, V and U were not written, and neither a
+    re-run nor --resume would make them).  Now it says so, with the commands that do, and
+    leaves no half-written V; the printed export command then writes U."""
+    import shlex
+
+    import jellysim.cli_visual as cv
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(cv, "render_trajectory", interrupted)
+    out, video, usd = tmp_path / "run", tmp_path / "v.gif", tmp_path / "u.usda"
+    res = _run(tmp_path, out, 40, "--video", str(video), "--usd", str(usd), "--no-vtu")
+    assert res.exit_code == 130, res.output
+    assert "the run is complete" in res.output and "nothing half-written was kept" in res.output
+    assert f"jellysim render {out / 'trajectory.npz'} -o {video}" in res.output
+    assert not video.exists() and not usd.exists()
+    assert load_trajectory(out / "trajectory.npz").frame_count == 9   # the whole run saved
+    export = res.output.split(" and ")[-1].strip()
+    assert export == f"jellysim export {out / 'trajectory.npz'} -o {usd}"
+    done = CliRunner().invoke(cli, shlex.split(export)[1:])
+    assert done.exit_code == 0, done.output
+    assert usd.is_file()
+
+
 def test_an_interrupted_overwrite_run_drops_the_earlier_runs_video(tmp_path, monkeypatch):
     """`run --overwrite --video V` stopped half-way left the earlier run's V beside the new
     partial run (it matched no run left there).  Now V goes with the earlier run; the printed

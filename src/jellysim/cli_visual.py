@@ -153,6 +153,13 @@ def echo_run_outputs(result, fail, *, video=None, usd=None, glb=None, quiet=Fals
             click.echo(f"wrote {p}")
     except JellysimError as exc:
         fail(str(exc))
+    except KeyboardInterrupt:  # (the run itself is complete and saved: say how to finish)
+        todo = [f"jellysim render {result.trajectory} -o {video}"] if video else []
+        todo += [f"jellysim export {result.trajectory} -o {o}" for o in (usd, glb) if o]
+        click.secho(f"interrupted while writing the run's outputs: the run is complete "
+                    f"({result.trajectory}); nothing half-written was kept; write them with: "
+                    + " and ".join(todo), fg="yellow", err=True)
+        sys.exit(130)
 
 
 def write_run_outputs(trajectory, *, video=None, usd=None, glb=None, progress=True):
