@@ -800,6 +800,9 @@ def test_ctrl_c_while_trimesh_is_imported_stops_the_mesh_load_and_leaves_trimesh
     probe = tmp_path / "probe.py"
     probe.write_text(
         "import os, signal, sys\n"
+        # (a live Ctrl-C, as in a terminal: a parent that ignores SIGINT, as a test worker
+        # may, passes SIG_IGN on, and then the noted signal is rightly ignored)
+        "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
         "def hook(event, args):\n"
         "    if event == 'import' and args[0] == 'trimesh.grouping':\n"
         "        os.kill(os.getpid(), signal.SIGINT)\n"
