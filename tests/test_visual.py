@@ -570,8 +570,10 @@ def test_the_plate_is_framed_whole(traj):
     from jellysim.render.offscreen import Renderer, RenderOptions
 
     img = Renderer(traj, RenderOptions(size=(320, 180), plate=True)).render(traj.frame_count - 1)
-    plate = np.all(img.astype(int) >= (225, 220, 210), axis=2)  # the plate's near-white
-    assert plate.sum() > 0.02 * plate.size  # the plate is drawn
+    # the plate's near-white: the one thing brighter than the background (7-11 levels) that
+    # the floor fades into
+    plate = np.all(img.astype(int) >= np.add((0xf4, 0xf1, 0xec), 4), axis=2)
+    assert plate.sum() > 0.005 * plate.size  # the plate is drawn (around the body on it)
     border = np.concatenate([plate[0], plate[-1], plate[:, 0], plate[:, -1]])
     assert not border.any()
 
@@ -604,12 +606,12 @@ def test_a_travelling_body_is_followed_not_shrunk_to_a_speck(traj):
         assert not np.concatenate([red[0], red[-1], red[:, 0], red[:, -1]]).any()
     assert body_pixels(moved, "fixed", traj.frame_count - 1).sum() < 0.1 * still
     # the floor's tiles stay on the world, so the following camera's picture shows the
-    # travel: the far floor (the image's top rows) changes between frames
+    # travel: the near floor (the image's bottom rows, under the body) changes between frames
     slow = shift.copy()
     slow[:, 0, 0] *= 0.3 / 30.0   # a third of a tile per frame (whole tiles would look alike)
     r = Renderer(dataclasses.replace(traj, positions=traj.positions + slow),
                  RenderOptions(size=(160, 96), camera="follow"))
-    a, b = (r.render(f)[:12].astype(int) for f in (1, 2))
+    a, b = (r.render(f)[-12:].astype(int) for f in (1, 2))
     assert np.abs(a - b).mean() > 2.0
 
 
@@ -830,10 +832,13 @@ def test_obstacles_are_drawn_and_a_run_without_ground_has_no_floor(tmp_path):
         img = Renderer(t, RenderOptions(size=(160, 96))).render(0).astype(int)
         grey = (np.abs(img - [0x9d, 0xa3, 0xa8]).max(axis=2) < 40) & (
             np.abs(img[..., 0] - img[..., 2]) < 20)
-        background = np.abs(img - [0xf4, 0xf1, 0xec]).max(axis=2) < 6
+        from jellysim.render.floor import TILE_DARK, TILE_LIGHT
+
+        tiles = (np.abs(img - TILE_LIGHT).max(axis=2) < 6) | (
+            np.abs(img - TILE_DARK).max(axis=2) < 6)
         assert grey.sum() > 0.02 * grey.size            # the sphere is drawn
-        # a floor fills the view behind the body; without one the background shows
-        assert (background.mean() < 0.05) == (not ground), background.mean()
+        # the floor's tiles fill the lower part of the view; without a ground, none show
+        assert (tiles.mean() > 0.2) == (not ground), tiles.mean()
 
 
 def test_a_transparent_background_gives_the_jello_alone_for_slides(run_dir, tmp_path):
@@ -1088,8 +1093,8 @@ def test_a_gif_asked_faster_than_it_can_play_is_said(tmp_path, traj):
 def test_the_floor_and_shadow_lie_strictly_under_a_resting_skin(traj):
     """Skin vertices that dip below the ground are lifted exactly onto it (Skin.deform), so a
     floor drawn at the ground's height z-fought them: a saw-toothed contact patch through the
-    translucent jello (session 14's trial).  The floor is now drawn below every skin point of
-    every frame, and the contact shadow between the two."""
+    translucent jello (session 14's trial).  The floor and its contact shadow are now drawn
+    below every skin point of every frame."""
     from jellysim.render.offscreen import Renderer, RenderOptions, ground_height
 
     r = Renderer(traj, RenderOptions(size=SIZE))
@@ -1099,13 +1104,56 @@ def test_the_floor_and_shadow_lie_strictly_under_a_resting_skin(traj):
     lowest = min(float(np.asarray(r._surface_frames(f))[:, 1].min())
                  for f in range(traj.frame_count))
     assert lowest == pytest.approx(gh, abs=1e-12)  # the resting skin touches the ground
-    assert floor < shadow < lowest
-    # on the demo's plate: its top under the shadow (it stood on the ground, so a resting
-    # body looked sunk 0.4 % into it, with light patches where its skin crossed the top)
+    assert floor == shadow < lowest  # (the shadow drawn over the floor by a polygon offset)
+    # the demo's plate is painted on the floor (a plate standing on the ground showed a
+    # resting body sunk 0.4 % into it, with light patches where its skin crossed the top):
+    # the floor and shadow stay where they were, the plate under the body's last position
     r = Renderer(traj, RenderOptions(size=SIZE, plate=True))
-    plate_top = r.plotter.actors["plate"].mapper.dataset.bounds[3]
-    assert float(r.floor.points[:, 1].max()) < plate_top < float(
-        r.shadow.points[:, 1].max()) < lowest
+    assert float(r.floor.points[:, 1].max()) == float(r.shadow.points[:, 1].max()) < lowest
+    px, pz, radius = r._floor.plate
+    last = np.asarray(traj.positions[-1])
+    assert np.hypot(px - last[:, 0].mean(), pz - last[:, 2].mean()) < 0.5 * radius
+    assert set(r.plotter.actors) >= {"floor", "shadow"} and "plate" not in r.plotter.actors
+
+
+def test_the_floor_reads_as_a_floor_with_a_horizon_and_a_contact_shadow(traj):
+    """Session 20's trial: the default floor was one flat colour filling the frame, the
+    background's (nothing showed where the jello stood, and `--background` changed nothing).
+    The floor now shows two tile colours below the body, fades into the background colour at
+    a horizon (the top row is the background, whichever it is), and a resting body darkens the
+    floor just around its footprint and nowhere else; lifted two body sizes up, its shadow
+    all but goes."""
+    import dataclasses
+
+    from jellysim.render.floor import SHADOW_DARKEST, TILE_DARK, TILE_LIGHT
+    from jellysim.render.offscreen import Renderer, RenderOptions
+
+    last = traj.frame_count - 1
+    for bg in ("#f4f1ec", "#203040"):
+        img = Renderer(traj, RenderOptions(size=(320, 180), background=bg)).render(last)
+        img = img.astype(int)
+        want = np.array([int(bg[i:i + 2], 16) for i in (1, 3, 5)])
+        assert np.abs(img[0] - want).max() <= 2          # above the horizon: the background
+        for tile in (TILE_LIGHT, TILE_DARK):              # a checker below it, not a flat tint
+            assert (np.abs(img - tile).max(axis=2) <= 3).mean() > 0.05
+    opts = RenderOptions(size=(320, 180))
+    lit = Renderer(traj, dataclasses.replace(opts, shadow=False)).render(last).astype(int)
+    shaded = Renderer(traj, opts).render(last).astype(int)
+    darker = (lit - shaded).min(axis=2) >= 4
+    red = (lit[..., 0] > lit[..., 1] + 60) & (lit[..., 0] > lit[..., 2] + 40)
+    assert (shaded - lit)[~red].max() <= 1                # a shadow only darkens the floor
+    assert darker.mean() > 0.003
+    rows, cols = np.nonzero(red)
+    h, w = np.ptp(rows) + 1, np.ptp(cols) + 1
+    r2, c2 = np.nonzero(darker)                           # all of it at the body's foot
+    assert r2.min() >= rows.min() + 0.3 * h and r2.max() <= rows.max() + 0.3 * h
+    assert c2.min() >= cols.min() - 0.3 * w and c2.max() <= cols.max() + 0.3 * w
+    # the shadow's strength: full under a body on the floor, faint under one held aloft
+    floor = Renderer(traj, opts)._floor
+    x = np.asarray(traj.positions[last], dtype=np.float64)
+    size = float(np.max(np.ptp(x, axis=0)))
+    assert floor.shade(x).min() == pytest.approx(SHADOW_DARKEST, abs=0.02)
+    assert floor.shade(x + [0.0, 2.0 * size, 0.0]).min() > 0.9
 
 
 def test_an_fps_other_than_the_runs_says_how_fast_it_plays(traj, tmp_path):

@@ -95,14 +95,16 @@ def _faces(tri: np.ndarray) -> np.ndarray:
     return np.hstack([np.full((len(tri), 1), 3, dtype=np.int64), tri]).ravel()
 
 
-def _floor_texture(pv):
-    """Two beige tiles on the diagonal of a 2 x 2 image, repeated, without blending."""
-    light, dark = (0xcf, 0xc8, 0xbd), (0xbd, 0xb5, 0xa8)
-    img = np.array([[light, dark], [dark, light]], dtype=np.uint8)
-    tex = pv.Texture(img)
-    tex.repeat = True
-    tex.interpolate = False
-    return tex
+def _spacing(x) -> float:
+    """The median distance [m] from a point of ``x`` (n, 3) to its nearest neighbour (0 for
+    fewer than two finite points)."""
+    from scipy.spatial import cKDTree
+
+    x = np.asarray(x, dtype=np.float64)
+    x = x[np.all(np.isfinite(x), axis=1)]
+    if len(x) < 2:
+        return 0.0
+    return float(np.median(cKDTree(x).query(x, k=2)[0][:, 1]))
 
 
 _CORNERS = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
@@ -205,54 +207,42 @@ class Renderer:
         lo, hi = motion.min(axis=0), motion.max(axis=0)
         self._track = None if frame_with else _body_track(boxes, o.camera)
         gh = ground_height(traj)
-        extra = self.floor = None
+        extra = self.floor = self.shadow = self._floor = None
         if o.floor and gh is not None:  # no ground in the run: no floor drawn under it
+            from .floor import Floor
+
             floor_y = gh
             ext = float(np.max(hi - lo))
             c = 0.5 * (lo + hi)
             if self._track is not None:  # a floor patch that travels with the camera (its
-                c = np.zeros(3)          # tiles stay on the world), so the clipping range
+                c = self._track[0][0]    # tiles stay on the world), so the clipping range
                 #                          stays the body's
                 ext = 2.0 * float(np.max(self._track[1]))
-            size = 100.0 * max(ext, 1e-3)  # its far edge out of the frame
-            # drawn a hair below the ground: a skin resting on it is lifted onto y = floor_y
-            # (Skin.deform), and a floor in that plane z-fights it (a saw-toothed contact
-            # patch through the translucent jello, session 14's trial)
-            plate_h = 0.004 * ext if o.plate else 0.0  # the plate's top at the ground, the
-            #                                            floor under it
-            self.floor = pv.Plane(center=(c[0], floor_y - (1 + bool(o.plate)) * FLOOR_BELOW
-                                          * ext - plate_h, c[2]),
-                                  direction=(0, 1, 0),
-                                  i_size=size, j_size=size, i_resolution=1, j_resolution=1)
-            self._floor_points = np.array(self.floor.points)
-            if self._track is None:
-                p.add_mesh(self.floor, color="#cfc8bd", ambient=0.35, diffuse=0.7,
-                           specular=0.0, name="floor")
-            else:  # tiles of the body's size, fixed to the world: they show the travel
-                self._tile = ext
-                self._set_floor_tiles(np.zeros(3))
-                p.add_mesh(self.floor, texture=_floor_texture(pv), ambient=0.35, diffuse=0.7,
-                           specular=0.0, name="floor")
+            sizes = boxes[:, 1] - boxes[:, 0]
+            sizes = sizes[np.all(np.isfinite(sizes), axis=1)]
+            body = float(np.max(sizes[0])) if len(sizes) else ext
+            span = float(np.max(sizes[:, [0, 2]])) if len(sizes) else ext
+            plate = None
             extra = np.array([[lo[0], floor_y, lo[2]], [hi[0], floor_y, hi[2]]])
-            if o.plate:
-                x0 = np.asarray(traj.positions[-1])  # under where the body comes to rest
+            if o.plate:  # painted on the floor under where the body comes to rest
+                x0 = np.asarray(traj.positions[-1])
                 mid = 0.5 * (x0.min(axis=0) + x0.max(axis=0))
                 radius = 0.8 * float(np.max(np.ptp(x0[:, [0, 2]], axis=0)))
-                # its top a hair below the ground, as the floor's (a plate standing on the
-                # ground showed a body resting on the ground sunk 0.4 % into it: light patches
-                # where the skin crossed its top, session 14)
-                plate = pv.Cylinder(center=(mid[0], floor_y - FLOOR_BELOW * ext - 0.5 * plate_h,
-                                            mid[2]),
-                                    direction=(0, 1, 0), radius=radius, height=plate_h,
-                                    resolution=96)
-                p.add_mesh(plate, color="#fbfaf7", ambient=0.4, diffuse=0.7, specular=0.2,
-                           name="plate")
+                plate = (float(mid[0]), float(mid[2]), radius)
                 rim = np.linspace(0.0, 2.0 * np.pi, 16, endpoint=False)  # framed whole
                 extra = np.vstack([extra, np.stack([mid[0] + radius * np.cos(rim),
                                                     np.full(16, floor_y),
                                                     mid[2] + radius * np.sin(rim)], axis=1)])
-            self._floor_y = floor_y - 0.5 * FLOOR_BELOW * ext  # under the skin, over the
-            #                                                    floor or the plate
+            # drawn a hair below the ground (the shadow in its plane): a skin resting on it is lifted onto y = floor_y (Skin.deform), and a floor in that
+            # plane z-fights it (a saw-toothed contact patch through the translucent jello,
+            # session 14's trial)
+            self._floor = Floor(pv, p, floor_y - FLOOR_BELOW * ext, (c[0], c[2]), ext, body,
+                                "white" if self._transparent else o.background, plate=plate,
+                                shadow_span=span, spacing=_spacing(traj.positions[0]))
+            self.floor, self.shadow = self._floor.mesh, self._floor.shadow
+            if not o.shadow:
+                p.remove_actor(self._floor.shadow_actor)
+                self.shadow = None
         near = self._add_obstacles(traj, lo, hi)  # the solids the body meets: framed too
         if near is not None:
             extra = near if extra is None else np.vstack([extra, near])
@@ -268,11 +258,6 @@ class Renderer:
                 box[0, 1] = min(box[0, 1], floor_y)
             self.camera = frame_motion(box[_CORNERS, [0, 1, 2]], self.size, zoom=o.zoom,
                                        direction=direction)
-
-        self.shadow = None
-        if self.floor is not None and o.shadow and self._surface_frames is not None:
-            self.shadow = pv.PolyData(self._shadow_points(0), _faces(faces))
-            p.add_mesh(self.shadow, color="#6f685f", lighting=False, name="shadow")
 
         self.surface = self.points = self.springs = None
         if self._surface_frames is not None:
@@ -338,30 +323,25 @@ class Renderer:
                 near.append(box[_CORNERS, [0, 1, 2]])             # its eight corners
         return np.concatenate(near) if near else None
 
-    def _set_floor_tiles(self, shift) -> None:
-        """Move the following camera's floor patch by ``shift`` [m], its texture coordinates
-        (world x, z over the tile size) kept on the world, so the tiles stay where they are."""
-        pts = self._floor_points + shift
-        self.floor.points = pts
-        self.floor.active_texture_coordinates = pts[:, [0, 2]] / self._tile
-
     def _shadow_points(self, f: int) -> np.ndarray:
-        pts = np.array(self._surface_frames(f), dtype=np.float64)
-        pts[:, 1] = self._floor_y
-        return pts
+        """What casts the contact shadow at frame ``f``: the points and the drawn surface [m]."""
+        x = np.asarray(self.traj.positions[f], dtype=np.float64)
+        if self._surface_frames is None:
+            return x
+        return np.vstack([x, np.asarray(self._surface_frames(f), dtype=np.float64)])
 
     def set_frame(self, f: int) -> None:
         """Move every drawn mesh (and a following camera) to frame ``f``."""
         x = self.traj.positions[f]
         if self._track is not None:
             shift = self._track[0][f]
-            if self.floor is not None:
-                self._set_floor_tiles(shift)
+            if self._floor is not None:
+                self._floor.move_to(shift[[0, 2]])
             c = self.camera
             Camera(tuple(np.add(c.position, shift)), tuple(np.add(c.focal_point, shift)),
                    c.up, c.view_angle).apply(self.plotter)
         if self.shadow is not None:
-            self.shadow.points = self._shadow_points(f)
+            self._floor.update(self._shadow_points(f))
         if self.surface is not None:
             self.surface.points = np.asarray(self._surface_frames(f))[self._crease_source]
             self.surface.compute_normals(inplace=True, cell_normals=False, split_vertices=False)
