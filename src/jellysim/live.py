@@ -105,8 +105,16 @@ def view_live(scene, *, size=(1024, 640), screenshot=None, frames: int = 0) -> N
     lo, hi = sim.state.x.min(axis=0), sim.state.x.max(axis=0)
     ext = float(np.max(hi - lo))
     c = 0.5 * (lo + hi)
-    p.add_mesh(pv.Plane(center=(c[0], 0.0, c[2]), direction=(0, 1, 0), i_size=4 * ext,
-                        j_size=4 * ext), color="#cfc8bd")
+    floor = None
+    ground = scene.params.get("ground", {})
+    if ground.get("enabled", True):  # the renderer's floor: tiles, horizon, contact shadow
+        from .render.floor import Floor
+        from .render.offscreen import FLOOR_BELOW, _spacing
+
+        floor = Floor(pv, p, float(ground.get("height", 0.0)) - FLOOR_BELOW * 3 * ext,
+                      (c[0], c[2]), 3 * ext, ext, "#f4f1ec", shadow_span=2 * ext,
+                      spacing=_spacing(sim.state.x))
+        floor.update(sim.state.x)
     p.add_text("right-drag: pull the jello   space: pause", position="upper_left",
                font_size=9)
     ctl = DragController(sim)
@@ -146,6 +154,8 @@ def view_live(scene, *, size=(1024, 640), screenshot=None, frames: int = 0) -> N
         if state["playing"]:
             sim.advance(1)
             surf.points = sim.state.x
+            if floor is not None:
+                floor.update(sim.state.x)
             p.render()
 
     p.camera_position = "xy"
