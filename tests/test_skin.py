@@ -96,7 +96,7 @@ def test_skin_is_stored_in_the_trajectory_and_old_files_load(tmp_path):
     np.testing.assert_allclose(traj.skin_positions(1), skin.rest_vertices + [0, 1, 0],
                                atol=1e-12)
     assert traj.skin_positions().shape == (2, skin.vertex_count, 3)
-    plain = Recorder(model)  # (no skin given: the box body has no surface of its own)
+    plain = Recorder(model, skin=None)  # (as a file written before skins)
     plain.record(state)
     old = load_trajectory(plain.save(tmp_path / "old.npz"))
     assert old.skin is None and old.skin_positions(0) is None
@@ -239,3 +239,56 @@ def test_a_low_poly_skin_is_subdivided_so_that_it_bends():
                                        axis=1))
     assert edges.max() <= 1.5 * spacing
     assert trimesh.Trimesh(v, f).volume == pytest.approx(cube.volume, rel=1e-9)  # same shape
+
+
+def _closed_volume(vertices, faces):
+    """The signed volume [m^3] a triangle mesh encloses (> 0: outward) and whether every
+    edge is shared by exactly two faces, once each way (closed and consistently oriented)."""
+    v = vertices[faces]
+    volume = float(np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])).sum() / 6.0)
+    directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    keys = {tuple(e) for e in directed.tolist()}
+    closed = len(keys) == len(directed) and all((b, a) in keys for a, b in keys)
+    return volume, closed
+
+
+def test_a_points_and_springs_body_file_gets_the_skin_of_what_its_springs_hold(tmp_path):
+    """Session 20's trial: a `.jello` file of points and springs (the report's custom format)
+    ran with no skin: `render` drew dots and `export -o x.glb` refused.  Its skin is now the
+    outer faces of the cells its springs hold: closed and outward, enclosing the grid's own
+    volume, for a cube joined along its axes only (a Delaunay of a grid has flat cells that
+    left holes between cubes split along different diagonals) and for a U whose gap is wider
+    than the springs reach (not its convex hull); a run of the file carries it."""
+    from scipy.spatial import cKDTree
+
+    from jellysim.geometry.jellyfile import write_jello
+    from jellysim.scene import Scene
+    from jellysim.runner import run_scene
+    from jellysim.skin import outer_skin
+
+    a = 0.02
+    g = np.arange(6) * a
+    cube = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+    u = cube[(cube[:, 1] < 2.5 * a) | (cube[:, 0] < 1.5 * a) | (cube[:, 0] > 3.5 * a)]
+    # the U: a base two cells high, two prongs one cell wide, a gap of three cells between
+    # them: 80 cells of the hull's 125, and a fillet in each of its two inner corners of at
+    # most half a cell per cell along z (a corner's cells are as round as a cube's)
+    for x, least, most in ((cube, 125, 125), (u, 80, 85)):
+        springs = np.array(sorted(cKDTree(x).query_pairs(1.01 * a)))  # along the axes
+        skin = outer_skin(Body(points=x, springs=springs))
+        enclosed, closed = _closed_volume(skin.rest_vertices, skin.faces)
+        assert closed
+        assert least * a**3 * (1 - 1e-9) <= enclosed <= most * a**3 * (1 + 1e-9)
+        # every skin vertex is a body point, carried with weight one
+        np.testing.assert_array_equal(skin.weights[:, 0], 1.0)
+        np.testing.assert_array_equal(x[skin.point_index[:, 0]], skin.rest_vertices)
+    write_jello(tmp_path / "u.jello", Body(points=u + [0.0, 0.05, 0.0], springs=springs))
+    text = ('[body]\ntype = "file"\npath = "u.jello"\n[springs]\nstiffness = 200.0\n'
+            '[mass]\npoint_mass = 0.005\n[integrator]\ndt = 0.001\nsteps = 20\n'
+            '[output]\nevery = 10\n')
+    (tmp_path / "u.toml").write_text(text)
+    run_scene(Scene.from_file(tmp_path / "u.toml"), tmp_path / "run", progress=False, vtu=False)
+    traj = load_trajectory(tmp_path / "run")
+    assert traj.skin is not None
+    enclosed, closed = _closed_volume(traj.skin_positions(0), traj.skin.faces)
+    assert closed and 80 * a**3 * (1 - 1e-6) <= enclosed <= 85 * a**3 * (1 + 1e-6)

@@ -37,7 +37,7 @@ import numpy as np
 from .errors import BuildError
 
 __all__ = ["Skin", "bind_body_skin", "bind_skin", "body_tets", "box_skin", "box_surface", "default_skin",
-           "identity_skin"]
+           "identity_skin", "outer_skin"]
 
 CANDIDATES = 16
 """How many tets (nearest by centroid) are examined per skin vertex."""
@@ -385,7 +385,9 @@ def box_skin(body, lower, upper, divisions: int = 8) -> Skin:
 def default_skin(scene, body) -> Skin | None:
     """The skin a scene's body gets when none is given: the input mesh for mesh scenes, and
     the mesh a body file was built from (``body.skin_vertices``); the box surface for box
-    scenes; the body's own ``triangles`` when it has some; else ``None``."""
+    scenes; the body's own ``triangles`` when it has some; ``None`` for a tet body (drawn and
+    exported by its tets' outer faces); else the outer faces of the cells its springs hold
+    together (:func:`outer_skin`; ``None`` when there are none)."""
     b = scene.params.get("body", {}) if scene is not None else {}
     surface = getattr(scene, "surface", None)
     if surface is not None:  # a mesh scene carries its (placed) input mesh
@@ -396,4 +398,67 @@ def default_skin(scene, body) -> Skin | None:
         return box_skin(body, b["lower"], b["upper"])
     if body.triangles is not None and len(body.triangles):
         return identity_skin(body.points, body.triangles)
-    return None
+    if getattr(body, "tets", None) is not None and len(body.tets):
+        return None  # (a trajectory carries a tet body's outer faces as its triangles)
+    return outer_skin(body)
+
+
+def outer_skin(body) -> Skin | None:
+    """The skin of a body with neither a mesh nor triangles: the outer faces of its ``tets``,
+    else of the cells its springs hold together, on the body's own points, outward.
+
+    Those cells are the Delaunay cells of the points (a fixed sub-micron jitter breaks a
+    grid's ties, whose flat cells would leave holes between two cubes split along different
+    diagonals) whose six edges are springs or whose circumsphere is smaller than 0.95 of the
+    median spring (a grid joined along its axes only: a cube's cells, radius 0.87 of a side),
+    so a gap wider than the springs reach stays open.  ``None`` for fewer than four points, or
+    points in one plane (nothing to enclose)."""
+    from scipy.spatial import Delaunay, QhullError
+
+    from .geometry.tetra import boundary_faces, orient_tets
+
+    points = np.asarray(body.points, dtype=np.float64).reshape(-1, 3)
+    n = len(points)
+    tets = getattr(body, "tets", None)
+    if tets is not None and len(tets):
+        tets = orient_tets(points, np.asarray(tets, dtype=np.int64).reshape(-1, 4))
+        faces = boundary_faces(tets, n)
+        return identity_skin(points, faces) if len(faces) else None
+    springs = np.asarray(body.springs if body.springs is not None else (), np.int64)
+    if n < 4 or springs.size == 0 or not np.all(np.isfinite(points)):
+        return None
+    size = float(np.max(np.ptp(points, axis=0)))
+    jitter = np.random.default_rng(0).uniform(-1.0, 1.0, points.shape) * 1e-7 * size
+    try:
+        cells = Delaunay(points + jitter).simplices.astype(np.int64)
+    except QhullError:
+        return None
+    springs = springs.reshape(-1, 2)
+    lengths = np.linalg.norm(points[springs[:, 0]] - points[springs[:, 1]], axis=1)
+    s = np.sort(springs, axis=1)
+    keys = np.sort(s[:, 0] * n + s[:, 1])
+    edged = np.ones(len(cells), dtype=bool)
+    for i, j in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)):
+        k = np.minimum(cells[:, i], cells[:, j]) * n + np.maximum(cells[:, i], cells[:, j])
+        pos = np.clip(np.searchsorted(keys, k), 0, len(keys) - 1)
+        edged &= keys[pos] == k
+    keep = edged | (_circumradius(points + jitter, cells) < 0.95 * float(np.median(lengths)))
+    if not keep.any():
+        return None
+    cells = orient_tets(points + jitter, cells[keep])
+    faces = boundary_faces(cells, n)
+    return identity_skin(points, faces) if len(faces) else None
+
+
+def _circumradius(points, cells) -> np.ndarray:
+    """Each tet's circumsphere radius [m], shape (t,) (inf for a flat one)."""
+    a = points[cells[:, 0]]
+    e = points[cells[:, 1:]] - a[:, None, :]                  # (t, 3, 3) edges from a
+    rhs = 0.5 * np.einsum("tij,tij->ti", e, e)
+    det = np.linalg.det(e)
+    ok = np.abs(det) > 1e-300
+    r = np.full(len(cells), np.inf)
+    if ok.any():
+        c = np.linalg.solve(e[ok], rhs[ok][..., None])[..., 0]
+        r[ok] = np.linalg.norm(c, axis=1)
+    return r

@@ -62,7 +62,9 @@ class Recorder:
                  skin="auto"):
         """``skin``: a :class:`~jellysim.skin.Skin` to carry, ``None`` for none, or
         ``"auto"`` (default): the surface the body was built from (``Body.from_mesh``, a
-        body file), bound to its tets, so renders and exports show the smooth shape."""
+        body file), bound to its tets, so renders and exports show the smooth shape; for a
+        body of points and springs alone, the outer faces of the cells its springs hold
+        (:func:`jellysim.skin.outer_skin`)."""
         self.model = model
         if isinstance(skin, str) and skin == "auto":
             from ..errors import BuildError
