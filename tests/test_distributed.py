@@ -328,11 +328,31 @@ def test_an_interrupted_mpi_run_ends_every_rank_and_keeps_its_frames(tmp_path):
     out = tmp_path / "out"
     proc, seconds = _mpirun(2, str(DATA / "fail_rank.py"), "interrupt", str(scene), str(out),
                             timeout=60)
+    # session 20's trial: the job ended by MPI_Abort (its own lines after ours), the line said
+    # "run it again to finish" where a re-run is refused without --overwrite, and a later
+    # `--resume` said "the run has finished (it failed, or an older jellysim wrote it)".  The
+    # ranks now agree at the next frame to stop: exit 130, no abort, the frames up to it kept
+    assert proc.returncode == 130 and seconds < 30
+    assert "interrupted at step 30 of" in proc.stderr and "on 2 ranks" in proc.stderr
+    assert "run it again with --overwrite to start afresh" in proc.stderr
+    assert "MPI_Abort" not in proc.stdout + proc.stderr
+    got = load_trajectory(out / "trajectory.npz")
+    assert got.status.startswith("interrupted at step 30 of")
+    assert len(got.times) == 4  # the start and the three frames up to the interrupt's
+    np.testing.assert_array_equal(got.steps, [0, 10, 20, 30])
+    resume = subprocess.run([sys.executable, "-m", "jellysim.cli", "run", str(scene),
+                             "--resume", str(out)], capture_output=True, text=True, timeout=60)
+    assert resume.returncode != 0
+    assert "interrupted under mpiexec at step 30" in resume.stderr
+    assert "--overwrite" in resume.stderr and "older jellysim" not in resume.stderr
+    # a second Ctrl-C does not wait for the frame: the job is aborted, the frames still kept
+    out2 = tmp_path / "out2"
+    proc, seconds = _mpirun(2, str(DATA / "fail_rank.py"), "interrupt-twice", str(scene),
+                            str(out2), timeout=60)
     assert proc.returncode != 0 and seconds < 30
     assert "interrupted: the run stopped; its frames so far are in" in proc.stderr
-    got = load_trajectory(out / "trajectory.npz")
-    assert got.status.startswith("interrupted at step")
-    assert len(got.times) == 3  # the start and the two frames before the interrupt
+    got = load_trajectory(out2 / "trajectory.npz")
+    assert got.status.startswith("interrupted at step") and len(got.times) == 3
 
 
 @needs_mpi

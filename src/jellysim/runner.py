@@ -32,7 +32,7 @@ from .errors import (BuildError, CheckpointError, JellysimError, NothingToResume
 from .io.checkpoint import CHECKPOINT, FINAL_CHECKPOINT, read_checkpoint, write_checkpoint
 from .io.lock import claim, refuse_if_held
 from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream, reopen_stream
-from .io.trajectory import skin_bounds, trajectory_meta
+from .io.trajectory import load_trajectory, skin_bounds, trajectory_meta
 from .io.vtk import PVDSeries
 from .skin import default_skin
 
@@ -303,6 +303,14 @@ def _asked_text(scene, total: int) -> str:
     return scene.text.rstrip("\n") + f"\n# run for {int(total)} steps (--steps)\n"
 
 
+def _status(npz_path) -> str:
+    """The ``status`` a saved trajectory records ("" when it cannot be read)."""
+    try:
+        return str(load_trajectory(npz_path, mmap=True).status or "")
+    except (JellysimError, OSError, ValueError):
+        return ""
+
+
 def finished_run(out_dir) -> bool:
     """Whether ``out_dir`` holds a completed (or failed) run: its ``trajectory.npz`` and
     neither a stream nor a checkpoint of a run still to finish."""
@@ -362,6 +370,12 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
     if resume:
         finished = finished_run(out_dir)
         if finished and not final_path.exists():
+            status = _status(npz_path)
+            if status.startswith("interrupted") and "mpiexec" in status:
+                raise CheckpointError(  # (not finished: an error, as a lost checkpoint is)
+                    f"{out_dir}: cannot resume: the run was interrupted under mpiexec at "
+                    f"step {status.split()[3]}, and mpiexec runs keep no checkpoint: run it "
+                    "again with --overwrite to start afresh")
             raise NothingToResume(f"{out_dir}: nothing to resume: the run has finished "
                                   f"({npz_path}) and kept no final state to extend it from "
                                   "(it failed, or an older jellysim wrote it); run without "

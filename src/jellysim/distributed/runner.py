@@ -6,7 +6,10 @@ part (:class:`~.simulator.DistributedSimulator`); at each frame the state is gat
 which records it, writes the ParaView frame and at the end the one ``trajectory.npz`` (the
 same files as a serial run; fine while one frame of the whole body fits in rank 0's memory).
 Rank 0 prints progress.  An error on one rank only is printed with the rank's number and the
-whole job is aborted (``MPI_Abort``), so the other ranks do not wait for it.
+whole job is aborted (``MPI_Abort``), so the other ranks do not wait for it.  A Ctrl-C or
+SIGTERM while the ranks step stops them all at the next frame (:class:`StoppedTogether`: the
+frames so far saved, exit 130, no abort); a second one, or one while the body is built,
+aborts the job.
 """
 from __future__ import annotations
 
@@ -25,7 +28,54 @@ from .simulator import DistributedSimulator, on_root, world
 from ..handles import apply_handle_tables
 from ..skin import default_skin
 
-__all__ = ["run_scene_distributed", "cli_run"]
+__all__ = ["run_scene_distributed", "cli_run", "StoppedTogether"]
+
+RERUN = "under mpiexec no checkpoint is kept: run it again with --overwrite to start afresh"
+
+
+class StoppedTogether(KeyboardInterrupt):
+    """Raised on every rank after a Ctrl-C or SIGTERM on rank 0 during the stepping: the ranks
+    agreed at the next frame to stop, rank 0 saved the frames so far; nothing is left waiting
+    (``cli_run`` ends each rank with exit 130, no ``MPI_Abort``)."""
+
+    def __init__(self, message: str, path=None):
+        super().__init__(message)
+        self.message, self.path = message, path
+
+
+class _StopAtFrame:
+    """On rank 0, while the ranks step: SIGINT and SIGTERM set a flag that every rank reads at
+    the next frame (:meth:`agreed`); a second signal interrupts at once (the abort path).
+    Elsewhere (and off the main thread) it changes nothing."""
+
+    def __init__(self, comm):
+        self.comm, self.asked, self.saved = comm, 0, {}
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        if self.comm.Get_rank() == 0 and threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self.saved[sig] = signal.signal(sig, self._ask)
+        return self
+
+    def _ask(self, signum, frame):
+        self.asked += 1
+        if self.asked > 1:
+            raise KeyboardInterrupt
+
+    def agreed(self) -> bool:
+        from mpi4py import MPI
+
+        return bool(self.comm.allreduce(int(self.asked > 0), op=MPI.MAX))
+
+    def __exit__(self, *exc):
+        import signal
+
+        for sig, handler in self.saved.items():
+            signal.signal(sig, handler)
+        return False
 
 
 def run_scene_distributed(scene, out_dir, *, comm=None, progress: bool = True,
@@ -150,30 +200,41 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
     during = warnings.catch_warnings(record=True)  # run-time warnings: into the result
     caught = during.__enter__()
     warnings.simplefilter("always")
+    stop = _StopAtFrame(comm)
     try:
         done = 0
-        while done < total:
-            n = min(every, total - done)
-            t0 = time.perf_counter()
-            try:
-                sim.advance(n)
-            finally:
-                stepped += time.perf_counter() - t0
-            done += n
-            emit()
-            if bar is not None:
-                bar.update(task, completed=done)
+        with stop:
+            while done < total:
+                n = min(every, total - done)
+                t0 = time.perf_counter()
+                try:
+                    sim.advance(n)
+                finally:
+                    stepped += time.perf_counter() - t0
+                done += n
+                emit()
+                if bar is not None:
+                    bar.update(task, completed=done)
+                if done < total and stop.agreed():  # every rank stops at this frame
+                    path = None
+                    if rank == 0:
+                        path = recorder.save(out_dir / "trajectory.npz", status=(
+                            f"interrupted at step {done} of {total} ({RERUN})"),
+                            overwrite=True, held=True)
+                    raise StoppedTogether(f"interrupted at step {done} of {total}", path)
     except SimulationError as exc:
         emit()
         if rank == 0:
             recorder.save(out_dir / "trajectory.npz", status=f"failed: {exc}", overwrite=True,
                           held=True)
         raise
-    except KeyboardInterrupt:  # Ctrl-C / SIGTERM: rank 0 keeps the frames so far
+    except StoppedTogether:
+        raise
+    except KeyboardInterrupt:  # a second Ctrl-C: rank 0 keeps the frames so far, aborts
         if rank == 0:
             recorder.save(out_dir / "trajectory.npz", status=(
-                f"interrupted at step {done} of {total} (under mpiexec: no checkpoint, run it "
-                "again to finish)"), overwrite=True, held=True)
+                f"interrupted at step {done} of {total} ({RERUN})"), overwrite=True,
+                held=True)
         raise
     finally:
         during.__exit__(None, None, None)
@@ -269,14 +330,19 @@ def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
         for w in getattr(exc, "run_warnings", ()) if rank == 0 and say is not None else ():
             say(w)
         fail(str(exc))
+    except StoppedTogether as stopped:  # every rank stopped at one frame: none is waiting
+        if rank == 0:
+            click.secho(f"{stopped.message} on {comm.Get_size()} ranks; its frames so far "
+                        f"are in {stopped.path} (status 'interrupted'); {RERUN}",
+                        fg="yellow", err=True)
+        sys.exit(130)
     except KeyboardInterrupt:  # Ctrl-C (every rank) or SIGTERM: end every rank, not a hang
         if rank == 0:
             where = locals().get("out")
             click.secho("interrupted: the run stopped" + (
                 f"; its frames so far are in {where / 'trajectory.npz'} (status "
                 "'interrupted')" if where is not None and (where / "trajectory.npz").exists()
-                else "") + "; under mpiexec no checkpoint is kept: run it again to finish",
-                fg="yellow", err=True)
+                else "") + f"; {RERUN}", fg="yellow", err=True)
             sys.stderr.flush()
             time.sleep(0.5)  # (the launcher forwards the line before Abort ends the job)
         comm.Abort(130)

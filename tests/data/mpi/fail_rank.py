@@ -1,6 +1,6 @@
 """Test helper, run under ``mpiexec -n 2``: rank 1 fails at its third frame, by an exception
-(``raise``) or by being killed (``kill``), or rank 0 is interrupted there (``interrupt``: a
-Ctrl-C); the job must end with a clear message, not hang."""
+(``raise``) or by being killed (``kill``), or rank 0 is sent SIGINT there (``interrupt``: a
+Ctrl-C; ``interrupt-twice``: two); the job must end with a clear message, not hang."""
 import os
 import signal
 import sys
@@ -16,8 +16,11 @@ calls = {"n": 0}
 def advance(self, steps=1):
     calls["n"] += 1
     if mode == "interrupt" and self.rank == 0 and calls["n"] == 3:
-        raise KeyboardInterrupt
-    if mode != "interrupt" and self.rank == 1 and calls["n"] == 3:
+        os.kill(os.getpid(), signal.SIGINT)  # a Ctrl-C reaching rank 0 as it steps
+    if mode == "interrupt-twice" and self.rank == 0 and calls["n"] == 3:
+        os.kill(os.getpid(), signal.SIGINT)
+        os.kill(os.getpid(), signal.SIGINT)  # (a second one: stop now)
+    if mode in ("raise", "kill") and self.rank == 1 and calls["n"] == 3:
         if mode == "kill":
             os.kill(os.getpid(), signal.SIGKILL)
         raise MemoryError("injected failure")
