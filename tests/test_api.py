@@ -407,3 +407,42 @@ def test_a_simulator_given_a_body_or_a_dict_for_state_says_what_it_needs():
     sim = js.Simulator(model, dt=1 / 60)
     again = js.Simulator(model, dt=1 / 60, state=sim.state)   # a State is taken
     assert np.array_equal(again.state.x, model.point_x0)
+
+
+def test_a_body_with_values_no_step_could_use_is_refused_where_it_is_made():
+    """Session 20's trial: `Body(...)` took NaN points, a spring to a point the body does not
+    have, a negative mass or an infinite stiffness, and only `finalize` (or a run, much later)
+    said so; `Body.from_mesh(points=300.5)`, `points='500'` and `base=(0, 0)` failed inside
+    numpy or were silently accepted, and an unknown keyword was named as build_body's.  Each
+    is now one ParameterError naming the row or the argument; good values still build."""
+    from jellysim.errors import ParameterError
+
+    x = [[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.0, 0.01, 0.0]]
+    ok = jellysim.Body(points=x, springs=[[0, 1], [1, 2]], masses=[1e-3] * 3,
+                       stiffness=[5.0, 0.0], rest_length=[0.01, 0.02])
+    assert ok.springs.shape == (2, 2)
+    for kw, says in (
+            (dict(points=[*x[:2], [float("nan"), 0.0, 0.0]]), r"points\[2\] is \[nan"),
+            (dict(springs=[[0, 1], [1, 3]]), r"springs\[1\] = \[1, 3\].*in \[0, 2\]"),
+            (dict(springs=[[-1, 1]]), r"springs\[0\] = \[-1, 1\]"),
+            (dict(springs=[[2, 2]]), r"springs\[0\] = \[2, 2\] joins a point to itself"),
+            (dict(masses=[1e-3, -1e-3, 1e-3]), r"masses\[1\] is -0.001.*> 0 \[kg\]"),
+            (dict(stiffness=[5.0, float("inf")]), r"stiffness\[1\] is inf.*>= 0 \[N/m\]"),
+            (dict(rest_length=[0.01]), r"rest_length must have shape \(2,\)"),
+            (dict(rest_length=[0.01, -1.0]), r"rest_length\[1\] is -1.0"),
+            (dict(tets=[[0, 1, 2, 3]]), r"tets\[0\] = \[0, 1, 2, 3\]"),
+            (dict(triangles=[[0, 1, 2], [0, 1, 9]]), r"triangles\[1\] = \[0, 1, 9\]")):
+        args = dict(points=x, springs=[[0, 1], [1, 2]]) | kw
+        with pytest.raises(ParameterError, match=says):
+            jellysim.Body(**args)
+    sphere = mesh_path("sphere.obj")
+    for kw, says in ((dict(points=300.5), r"points must be a whole number.*got 300.5"),
+                     (dict(points="500"), r"points must be a whole number.*got '500'"),
+                     (dict(base=(0, 0)), r"base must be 3 finite coordinates.*got \(0, 0\)"),
+                     (dict(base=(0, "a", 0)), r"base must be 3 finite coordinates"),
+                     (dict(colour="red"), r"Body.from_mesh: unknown keyword 'colour'.*radius")):
+        with pytest.raises(ParameterError, match=says):
+            jellysim.Body.from_mesh(sphere, size=0.04, **kw)
+    body = jellysim.Body.from_mesh(sphere, size=0.04, points=np.int64(200), base=(0, 0, 0),
+                                   connect="radius", sampling="uniform")
+    assert float(body.points[:, 1].min()) >= 0.0 and len(body.points) >= 200

@@ -23,6 +23,43 @@ _DEFAULT_SIZE = _Default(0.1)
 
 __all__ = ["Body"]
 
+_OWN = ("points", "connect", "seed", "density")
+"""build_body's parameters that :meth:`Body.from_mesh` takes by name itself."""
+
+
+def _check_values(pts: np.ndarray, springs: np.ndarray, body) -> None:
+    """Refuse, naming the first bad row, what no later step could use: a point that is not
+    finite, a spring or a tet / triangle corner that is not a point, a spring from a point to
+    itself, and ``rest_length`` of the wrong shape (masses and stiffness: checked next)."""
+    n = len(pts)
+    bad = ~np.all(np.isfinite(pts), axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ParameterError(f"Body: points[{i}] is {pts[i].tolist()}: every point must be 3 "
+                             "finite coordinates [m]")
+    for name, idx in (("springs", springs), ("tets", body.tets), ("triangles", body.triangles)):
+        if idx is None:
+            continue
+        a = np.asarray(idx)
+        if a.size and (a.dtype.kind not in "iu" or a.min() < 0 or a.max() >= n):
+            rows = a.reshape(len(a), -1) if a.ndim else a.reshape(1, -1)
+            out = (np.any((rows < 0) | (rows >= n), axis=1) if a.dtype.kind in "iu"
+                   else np.ones(len(rows), dtype=bool))
+            i = int(np.flatnonzero(out)[0])
+            raise ParameterError(f"Body: {name}[{i}] = {rows[i].tolist()}: every index must be "
+                                 f"an integer point index in [0, {n - 1}] (the body has {n} "
+                                 "points)")
+    if len(springs):
+        loop = springs[:, 0] == springs[:, 1]
+        if loop.any():
+            i = int(np.flatnonzero(loop)[0])
+            raise ParameterError(f"Body: springs[{i}] = {springs[i].tolist()} joins a point to "
+                                 "itself")
+    if body.rest_length is not None and np.shape(body.rest_length) != (len(springs),):
+        raise ParameterError(f"Body: rest_length must have shape ({len(springs)},) [m], one per "
+                             f"spring, got shape {np.shape(body.rest_length)} (or None: the "
+                             "springs' start lengths)")
+
 
 @dataclass
 class Body:
@@ -89,6 +126,7 @@ class Body:
             raise ParameterError(f"Body: volume must be > 0 [m^3] (or None: unknown), got "
                              f"{self.volume!r}")
         self.points, self.springs = pts, springs
+        _check_values(pts, springs, self)
         for name, shape, unit in (("masses", (len(pts),), "kg"),
                                   ("stiffness", (len(springs),), "N/m")):
             value = getattr(self, name)
@@ -100,6 +138,21 @@ class Body:
                                      if name == "masses" and np.ndim(value) == 0 else
                                      " (one value for all: finalize(body, stiffness=...))"
                                      if np.ndim(value) == 0 else ""))
+
+        for name, value, low, unit in (("masses", self.masses, "> 0", "kg"),
+                                       ("stiffness", self.stiffness, ">= 0", "N/m"),
+                                       ("rest_length", self.rest_length, ">= 0", "m")):
+            if value is None:
+                continue
+            v = np.asarray(value, dtype=np.float64).ravel()
+            ok = np.isfinite(v) & ((v > 0) if low == "> 0" else (v >= 0))
+            if not ok.all():
+                i = int(np.flatnonzero(~ok)[0])
+                raise ParameterError(f"Body: {name}[{i}] is {float(v[i])!r}: every value must be finite "
+                                     f"and {low} [{unit}]" + (
+                                         "" if name == "masses" else
+                                         " (or None: the scene's k)" if name == "stiffness" else
+                                         " (or None: the springs' start lengths)"))
 
     @classmethod
     def from_mesh(cls, mesh, *, size: float | None = _DEFAULT_SIZE, points: int = 5000,
@@ -128,11 +181,30 @@ class Body:
         ``"y"``, ``"x"``, or negated), turned to +y first.  Other keywords go to
         :func:`jellysim.build.build_body`.
         """
+        import inspect
         from dataclasses import replace
 
         from .build import _mesh_of, build_body
         from .geometry.mesh import rotate_up
 
+        takes = set(inspect.signature(build_body).parameters) - {"mesh", "size", "up"}
+        unknown = sorted(set(options) - takes)
+        if unknown:
+            raise ParameterError(f"Body.from_mesh: unknown keyword {unknown[0]!r}; it takes "
+                                 "size, points, connect, seed, density, base, up and "
+                                 f"build_body's {', '.join(sorted(takes - set(_OWN)))}")
+        if isinstance(points, bool) or not isinstance(points, (int, np.integer)):
+            raise ParameterError(f"Body.from_mesh: points must be a whole number of points "
+                                 f"(>= 4), got {points!r}")
+        if base is not None:
+            b = np.asarray(base, dtype=object).ravel()
+            try:
+                ok = b.size == 3 and np.all(np.isfinite(b.astype(np.float64)))
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
+                raise ParameterError(f"Body.from_mesh: base must be 3 finite coordinates [m] "
+                                     f"(x, y, z) of the body's bottom centre, got {base!r}")
         if size is not None and np.isfinite(size):
             _warn_size(float(size), "Body.from_mesh: size")
         m = _mesh_of(mesh, None)
