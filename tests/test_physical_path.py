@@ -314,6 +314,34 @@ def test_pinned_points_moved_along_a_path_drag_the_body():
     assert c[2] - c0[2] == pytest.approx(0.0, abs=0.002)
 
 
+def test_the_clock_and_a_moving_pin_do_not_depend_on_how_the_run_is_cut():
+    """Session 20's trial: `state.t` was a running sum (150 advances of 1/60 s made
+    2.4999999999999996 s) and a pin moving along a path read its targets from it, so
+    `advance(60)` and `advance(20); advance(40)` ended 4e-16 m apart.  Now t is step x dt to
+    the last bit, and the cut makes no bitwise difference; a clock set by hand keeps its
+    offset."""
+    body = _box((3, 3, 3), (0.03, 0.03, 0.03))
+    model = physical_model(body, gelatin())
+    top = np.flatnonzero(model.point_x0[:, 1] > 0.03 - 1e-9)
+    runs = []
+    for cuts in ((60,), (20, 40), (1,) * 60):
+        sim = Simulator(model, dt=1 / 60)
+        sim.pin(top, path=[[0.0, 0.0, 0.0, 0.0], [0.7, 0.02, 0.01, 0.0]])
+        for n in cuts:
+            sim.advance(n)
+        assert sim.state.t == 60 * (1 / 60) == 1.0 and sim.state.step == 60
+        runs.append(sim.state.x.copy())
+    for x in runs[1:]:
+        np.testing.assert_array_equal(x, runs[0])
+    sim = Simulator(model, dt=1 / 60)
+    for _ in range(150):
+        sim.advance(1)
+    assert sim.state.t == 150 * (1 / 60) == 2.5
+    sim.state.t = 10.0  # moved in time by hand: later times count from there
+    sim.advance(3)
+    assert sim.state.t == pytest.approx(10.0 + 3 / 60, abs=1e-15) and sim.state.step == 153
+
+
 def test_a_path_starting_later_ramps_from_rest_and_a_jump_is_refused():
     """Offsets are from where the points are when pinned: a path whose first keyframe comes
     later ramps from a zero offset at the pinning time (no teleport: the pins move 0.02 m over

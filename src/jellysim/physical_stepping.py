@@ -12,6 +12,7 @@ from .errors import StabilityWarning
 from .kernels import STATUS_OK, STATUS_RUNAWAY, Backend
 from .physics.stability_fem import fem_omega_max
 from .physics.fem import FemArrays
+from .state import clock
 
 __all__ = ["PhysicalStepping"]
 
@@ -324,7 +325,7 @@ class PhysicalStepping:
         done = 0
         status = STATUS_OK
         while done < steps and status == STATUS_OK:
-            t0 = s.t + done * self.dt
+            t0 = clock(s.t, s.step, self.dt, done)  # (the same, however the frames are cut)
             hd.targets(t0, hd.pin_from)
             hd.targets(t0 + self.dt, hd.pin_to)
             saved = (s.x.copy(), s.v.copy(), s.a.copy(), self._q.copy(), self._slip.copy())

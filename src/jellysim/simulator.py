@@ -25,7 +25,7 @@ from .physical_stepping import PhysicalStepping, blowup_error, travel_error
 from .physics.contact import start_checks
 from .stability import (MAX_AUTO_SUBSTEPS, StabilityEstimate, estimate_stability,  # noqa: F401
                         implicit_accuracy, springs_auto_substeps)
-from .state import check_state
+from .state import check_state, clock
 
 __all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads",
            "springs_auto_substeps"]
@@ -479,8 +479,7 @@ class Simulator(HandleMethods, PhysicalStepping):
                 done, status = self._advance_explicit(int(steps))
         finally:
             numba.set_num_threads(previous)
-        s.step += int(done)
-        s.t += int(done) * self.dt
+        s.t, s.step = clock(s.t, s.step, self.dt, int(done)), s.step + int(done)
         if status != STATUS_OK:
             self._raise(status)
         self._check_collapse(thin_before, int(done))

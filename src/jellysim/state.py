@@ -9,7 +9,7 @@ from .errors import SceneError
 
 from .kernels.records import point_arrays, spring_arrays
 
-__all__ = ["State", "check_state"]
+__all__ = ["State", "check_state", "clock"]
 
 
 @dataclass(eq=False)
@@ -53,6 +53,18 @@ class State:
         self.a[:] = other.a
         self.t = other.t
         self.step = other.step
+
+
+def clock(t: float, step: int, dt: float, steps: int) -> float:
+    """The time [s] ``steps`` steps of ``dt`` [s] after a state at time ``t`` and step
+    ``step``: ``origin + (step + steps) dt``, where ``origin = t - step dt`` (exactly 0 when
+    the state's clock started at zero).  So ``t`` is ``step dt`` to the last bit, whatever
+    the advances' sizes (a sum of steps drifts: 150 of 1/60 s made 2.4999999999999996 s), and
+    a state moved in time by hand keeps its offset."""
+    origin = float(t) - int(step) * float(dt)
+    if abs(origin) <= 1e-9 * abs(float(dt)):
+        origin = 0.0
+    return origin + (int(step) + int(steps)) * float(dt)
 
 
 def check_state(state, n: int, where: str) -> "State":

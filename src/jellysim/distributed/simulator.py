@@ -21,7 +21,7 @@ import numpy as np
 from ..errors import SceneError, SimulationError
 from ..kernels import STATUS_NONFINITE, STATUS_OK, STATUS_RUNAWAY
 from ..params import GroundModel, GroundParams, ImplicitParams, Integrator, ProvotParams
-from ..state import State
+from ..state import State, clock
 from .fem import PhysicalMethods, _rest_thinness
 from .local import LocalPart, combine_status, halo_depth, replicated_reason
 from .partition import partition_points, point_graph
@@ -368,8 +368,7 @@ class DistributedSimulator(PhysicalMethods):
                 done += 1
                 if status != STATUS_OK:
                     break
-        self.step += done
-        self.t += done * self.dt
+        self.t, self.step = clock(self.t, self.step, self.dt, done), self.step + done
         self.state.step, self.state.t = self.step, self.t
         if status != STATUS_OK:
             self._raise(status)
