@@ -446,3 +446,20 @@ def test_a_body_with_values_no_step_could_use_is_refused_where_it_is_made():
     body = jellysim.Body.from_mesh(sphere, size=0.04, points=np.int64(200), base=(0, 0, 0),
                                    connect="radius", sampling="uniform")
     assert float(body.points[:, 1].min()) >= 0.0 and len(body.points) >= 200
+
+
+def test_the_force_gauges_refuse_a_springs_model_alike():
+    """Session 20's trial: on a springs model `pin_force()` refused but `drag_force()`
+    returned zeros, a reading that looked like "nothing pulls".  Both now refuse with the same
+    message, naming how to get the physical path; on the physical path both read."""
+    import jellysim as js
+    from jellysim.errors import SceneError
+
+    body = js.Body.box(points=27)
+    springs = js.Simulator(js.finalize(body, stiffness=50.0, point_mass=1e-3), dt=1e-3)
+    for gauge in (springs.pin_force, springs.drag_force):
+        with pytest.raises(SceneError, match=r"needs the physical path.*physical_model"):
+            gauge()
+    sim = js.Simulator(js.physical_model(body, js.material("gelatin")), dt=1 / 60)
+    assert np.array_equal(sim.pin_force(), np.zeros(3))
+    assert np.array_equal(sim.drag_force(), np.zeros(3))

@@ -534,6 +534,42 @@ def test_spot_example_runs_from_a_plain_clone_and_stands(tmp_path):
     assert sim.min_tet_volume_ratio > 0
 
 
+def test_the_shipped_mesh_is_named_so_a_copied_scene_still_finds_it(tmp_path):
+    """Session 20's trial: examples/spot_drop.toml read `../src/jellysim/data/spot.obj` and
+    failed once copied out of the clone.  `jellysim:spot.obj` names the mesh shipped inside
+    the package: the copied scene builds the same body as the clone's, and the name works for
+    `inspect`, `build` and `Body.from_mesh`; a name jellysim does not ship is one error that
+    lists what it does ship."""
+    import jellysim as js
+    from jellysim.errors import MeshError
+    from jellysim.geometry.mesh import load_mesh
+
+    copy = tmp_path / "elsewhere" / "spot_drop.toml"
+    copy.parent.mkdir()
+    copy.write_text((ROOT / "examples" / "spot_drop.toml").read_text())
+    assert 'path = "jellysim:spot.obj"' in copy.read_text()
+    here = Scene.load(copy, overrides=["body.points=300"]).build_body()
+    there = Scene.load(ROOT / "examples" / "spot_drop.toml",
+                       overrides=["body.points=300"]).build_body()
+    np.testing.assert_array_equal(here.points, there.points)
+    shipped = load_mesh("jellysim:spot.obj")
+    np.testing.assert_array_equal(shipped.vertices,
+                                  load_mesh(ROOT / "src/jellysim/data/spot.obj").vertices)
+    body = js.Body.from_mesh("jellysim:spot.obj", size=0.1, points=300, connect="radius",
+                             sampling="uniform")
+    assert float(np.ptp(body.points, axis=0).max()) <= 0.1 + 1e-9
+    r = CliRunner().invoke(cli, ["build", "jellysim:spot.obj", "--size", "0.1", "--points",
+                                 "300", "-o", str(tmp_path / "spot.jello")])
+    assert r.exit_code == 0, r.output
+    with pytest.raises(MeshError, match=r"jellysim ships no mesh named 'bunny.obj'; it ships "
+                                        r"jellysim:spot.obj"):
+        load_mesh("jellysim:bunny.obj")
+    bad = tmp_path / "bad.toml"
+    bad.write_text(copy.read_text().replace("jellysim:spot.obj", "jellysim:../README.md"))
+    with pytest.raises(SceneError, match=r"bad.toml: \[body\] path: jellysim:\.\./README"):
+        Scene.load(bad).build_body()
+
+
 OBSTACLE_SCENE = """
 [body]
 points = 300

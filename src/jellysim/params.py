@@ -151,17 +151,27 @@ class ProvotParams:
 
 @dataclass(frozen=True)
 class GroundParams:
-    """The report's ground (section 4.1, equations 2 and 3) at ``y = height``.
+    """The ground plane ``y = height`` [m], by one of two rules (``model``).
 
-    A point below the plane is put on it, its y velocity set to 0, its x and z velocities
+    ``GroundModel.PAPER`` (default): the report's ground (section 4.1, equations 2 and 3).  A
+    point below the plane is put on it, its y velocity set to 0, its x and z velocities
     multiplied by ``mu``, and its y acceleration replaced by ``a_y - nu a_y``.  (Only the
     report's step, integrator ``"paper"``, uses that stored acceleration: the others compute
     it afresh from the forces, so ``nu`` changes nothing there.)
+
+    ``GroundModel.CONTACT`` (what the physical path and the gelatin preset use): a contact
+    with a coefficient of ``restitution``, Coulomb ``friction`` (``static_friction`` held
+    until a point has slipped ``slip_distance``), or ``no_slip`` (docs/physics.md: the
+    friction impulse never exceeds mu times the normal one within a step).  Each rule's
+    parameters are refused with the other rule.
     """
 
     enabled: bool = True
+    """Whether there is a ground at all."""
     mu: float = 0.1
+    """Paper rule: factor [-] on the x/z velocity of a point on the ground (report eq. 2)."""
     nu: float = 0.2
+    """Paper rule: acceleration factor [-] (report eq. 3: ``a_y - nu a_y``)."""
     height: float = 0.0
     """Height of the ground plane [m]."""
     model: GroundModel = GroundModel.PAPER

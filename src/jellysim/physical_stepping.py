@@ -73,10 +73,7 @@ class PhysicalStepping:
         wobble, so average it over frames for a gauge's reading; a pin moving along a path
         is taken as moving steadily (the impulse at a keyframe's turn is not included).
         Zero without pins.  Physical path only."""
-        from .errors import SceneError
-
-        if not self.physical:
-            raise SceneError("pin_force is for the physical path (a body with a FEM material)")
+        self._require_physical("pin_force()")
         pinned = self.handles.pinned != 0
         forces = -self._forces_now() if pinned.any() else np.zeros_like(self.state.x)
         return self._gauge(forces, pinned)
@@ -85,6 +82,7 @@ class PhysicalStepping:
         """The pull [N], shape (3,), of :meth:`drag`'s spring on the body now (zero when
         nothing is dragged): ``sum_p w_p (k (target + offset_p - x_p) - c v_p)``, the
         spring and its damper at the current velocities.  Physical path only."""
+        self._require_physical("drag_force()")
         return self._gauge(self._drag_pull(), self.handles.drag_weight > 0.0)
 
     def _gauge(self, forces, rows) -> np.ndarray:

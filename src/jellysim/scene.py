@@ -252,7 +252,15 @@ class Scene:
 
     # -- building ---------------------------------------------------------------------------
     def resolve(self, path: str) -> Path:
-        """A path from the scene, relative to the scene file's directory."""
+        """A path from the scene, relative to the scene file's directory (``jellysim:NAME``:
+        a mesh shipped with the package)."""
+        from .geometry.mesh import SHIPPED, shipped
+
+        if str(path).startswith(SHIPPED):
+            try:
+                return shipped(path)
+            except JellysimError as exc:
+                raise SceneError(f"{self.name}: [body] path: {exc}") from None
         p = Path(path)
         if not p.is_absolute() and self.name not in ("<scene>", "demo"):
             p = Path(self.name).resolve().parent / p

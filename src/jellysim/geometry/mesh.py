@@ -28,8 +28,8 @@ import numpy as np
 from jellysim.errors import MeshError
 from jellysim.geometry.shells import _shell_of_faces, outward  # (outward: re-exported)
 
-__all__ = ["Mesh", "MeshDefects", "MESH_SUFFIXES", "UP_AXES", "load_mesh", "outward",
-           "rotate_up"]
+__all__ = ["Mesh", "MeshDefects", "MESH_SUFFIXES", "SHIPPED", "UP_AXES", "load_mesh", "outward",
+           "rotate_up", "shipped"]
 
 UP_AXES = {"y": ((1, 0, 0), (0, 1, 0), (0, 0, 1)), "z": ((1, 0, 0), (0, 0, 1), (0, -1, 0)),
            "x": ((0, -1, 0), (1, 0, 0), (0, 0, 1)), "-y": ((1, 0, 0), (0, -1, 0), (0, 0, -1)),
@@ -200,10 +200,32 @@ class Mesh:
         return float(np.linalg.norm(b[1] - b[0]))
 
 
+SHIPPED = "jellysim:"
+"""A path that starts with this names a mesh shipped inside the package (``jellysim:spot.obj``,
+``jellysim/data/``): a scene that uses one works wherever it is copied."""
+
+
+def shipped(path) -> Path:
+    """``path`` as a :class:`~pathlib.Path`; ``jellysim:NAME`` is the shipped mesh NAME
+    (:class:`MeshError` when there is none of that name)."""
+    text = str(path)
+    if not text.startswith(SHIPPED):
+        return Path(path)
+    data = Path(__file__).resolve().parents[1] / "data"
+    name = text[len(SHIPPED):]
+    p = data / name
+    if not name or "/" in name or "\\" in name or not p.is_file():
+        have = sorted(f.name for f in data.iterdir() if f.suffix.lower() in MESH_SUFFIXES)
+        raise MeshError(f"{text}: jellysim ships no mesh named {name!r}; it ships "
+                        f"{', '.join(SHIPPED + h for h in have)}")
+    return p
+
+
 def load_mesh(path, *, weld_tol: float = WELD_REL) -> Mesh:
     """Read, weld, clean and validate a triangle surface mesh.
 
-    Supported: ``.obj .ply .stl .off .glb .gltf`` (trimesh) and ``.vtk .vtu .vtp`` (meshio).
+    Supported: ``.obj .ply .stl .off .glb .gltf`` (trimesh) and ``.vtk .vtu .vtp`` (meshio);
+    ``jellysim:spot.obj`` is the mesh shipped with the package (:func:`shipped`).
     Raises :class:`jellysim.errors.MeshError` naming the file and the problem for a missing,
     empty or unparsable file, non-finite coordinates, or a file without (non-degenerate) faces.
 
@@ -211,8 +233,8 @@ def load_mesh(path, *, weld_tol: float = WELD_REL) -> Mesh:
     ``weld_tol * diagonal`` are merged (0 merges only identical positions). The default,
     1e-10, closes the cracks of float32 STL exports (0.0 next to -2.7e-16) and nothing else.
     """
-    p = Path(path)
-    name = str(p)
+    p = shipped(path)
+    name = str(path) if str(path).startswith(SHIPPED) else str(p)
     if not p.exists():
         raise MeshError(f"{name}: file not found")
     if not p.is_file():
