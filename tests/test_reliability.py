@@ -524,6 +524,22 @@ def test_python_run_into_an_earlier_run_is_refused_unless_overwrite(tmp_path):
     assert (out / "notes.txt").read_text() == "mine"
 
 
+def test_a_python_scene_stopped_early_says_how_to_continue_it_from_python(tmp_path):
+    """Session 20's trial: a scene made in Python (no file) stopped by ``stop_after`` said
+    "continue with: jellysim run '<scene>' --resume ...", a command that cannot work.  It now
+    names the Python call, and that call finishes the run bitwise equal to one not stopped."""
+    scene = Scene.from_text(EXPLICIT)
+    with pytest.raises(RunInterrupted) as info:
+        run_scene(scene, tmp_path / "cut", progress=False, stop_after=2 * scene.frame_every)
+    msg = str(info.value)
+    assert "<scene>" not in msg
+    assert f"continue with: run_scene(scene, {str(tmp_path / 'cut')!r}, resume=True)" in msg
+    run_scene(scene, tmp_path / "cut", progress=False, resume=True)
+    full = run_scene(scene, tmp_path / "full", progress=False)
+    a, b = load_trajectory(tmp_path / "cut"), load_trajectory(full.trajectory)
+    assert np.array_equal(a.positions, b.positions) and np.array_equal(a.times, b.times)
+
+
 def test_an_interrupted_run_in_a_folder_with_a_space_says_how_to_continue_it(tmp_path):
     """Session 10's trial: the printed "continue with" command broke on a folder with a space
     (not quoted), and running the same command again offered only --overwrite (which would

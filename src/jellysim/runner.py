@@ -303,6 +303,16 @@ def _asked_text(scene, total: int) -> str:
     return scene.text.rstrip("\n") + f"\n# run for {int(total)} steps (--steps)\n"
 
 
+def _resume_command(scene, out_dir) -> str:
+    """How to continue a run of ``scene`` in ``out_dir``: the command line for a scene file,
+    the Python call for a scene made in Python without a name (no file to name)."""
+    if str(scene.name) != "<scene>":
+        return (f"jellysim run {shlex.quote(str(scene.name))} --resume "
+                f"{shlex.quote(str(out_dir))}" + "".join(
+                    f" --set {shlex.quote(item)}" for item in getattr(scene, "overrides", ())))
+    return f"run_scene(scene, {str(out_dir)!r}, resume=True) with the same scene"
+
+
 def _status(npz_path) -> str:
     """The ``status`` a saved trajectory records ("" when it cannot be read)."""
     try:
@@ -519,10 +529,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                         f"{how} at step {done} of {total} (t = {sim.state.t:.6g} s); "
                         f"{stream.frames} frames saved in {stream_dir} (jellysim render, "
                         f"plot and export read it: pass {shlex.quote(str(out_dir))}); continue "
-                        f"with: jellysim run {shlex.quote(str(scene.name))} --resume "
-                        f"{shlex.quote(str(out_dir))}" + "".join(
-                            f" --set {shlex.quote(item)}"
-                            for item in getattr(scene, "overrides", ())),
+                        f"with: {_resume_command(scene, out_dir)}",
                         step=done, signal=stop[0], out_dir=out_dir)
                 if checkpoint_every is None:
                     due = time.monotonic() - last_wall >= AUTO_CHECKPOINT_SECONDS
