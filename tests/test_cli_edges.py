@@ -253,6 +253,26 @@ def test_a_staged_output_replaces_old_frames_only_once_all_new_are_written(tmp_p
     assert (out / "frame_00002.png").read_text() == "new 2"
 
 
+def test_ctrl_c_in_a_command_that_writes_nothing_is_one_line_and_exit_130(tmp_path,
+                                                                        monkeypatch):
+    """Session 20's trial: Ctrl-C in `inspect` (or in `run` while it was still building the
+    body) printed click's bare `Aborted!` with exit status 1, as if it had failed.  It now says
+    which command stopped, with the interrupt's status 130, and `run` leaves no folder."""
+    import jellysim.scene as sc
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sc.Scene, "build_model", interrupted)
+    scene = Path(__file__).resolve().parents[1] / "examples" / "gelatin_cube.toml"
+    runner = CliRunner()
+    for args in (["inspect", str(scene)], ["run", str(scene), "--out", str(tmp_path / "o")]):
+        res = runner.invoke(cli, args)
+        assert res.exit_code == 130, res.output
+        assert f"interrupted: {args[0]} stopped" in res.output and "Aborted" not in res.output
+    assert not (tmp_path / "o").exists()
+
+
 def test_render_and_export_with_overwrite_stopped_half_way_keep_the_earlier_output(
         traj_path, tmp_path, monkeypatch):
     """The CLI's folder outputs (PNG frames, a .pvd and its frames, an OBJ sequence) go

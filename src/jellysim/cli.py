@@ -55,8 +55,10 @@ class _Group(click.Group):
         except JellysimError as exc:
             _fail(str(exc))
         except KeyboardInterrupt:
-            if ctx.invoked_subcommand not in _WRITERS:
-                raise  # (click: "Aborted!")
+            if ctx.invoked_subcommand not in _WRITERS:  # (was click's bare "Aborted!", exit 1)
+                click.secho(f"interrupted: {ctx.invoked_subcommand} stopped", fg="yellow",
+                            err=True)
+                sys.exit(130)
             # their outputs go to a temporary name (or a staging folder) and are renamed
             # only when complete: an interrupted one leaves what was there before
             click.secho(f"interrupted: {ctx.invoked_subcommand} stopped; nothing half-written "
@@ -216,9 +218,11 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
                         (("--video", video), ("--usd", usd), ("--glb", glb)) if v)
         click.secho(str(exc) + (" --no-vtu" if no_vtu else "") + extra, fg="yellow", err=True)
         sys.exit(128 + exc.signal if exc.signal else 3)
-    except JellysimError as exc:
+    except (JellysimError, KeyboardInterrupt) as exc:
         if fresh and out.is_dir() and not any(out.iterdir()):
-            out.rmdir()  # refused before anything was written: leave no empty folder
+            out.rmdir()  # refused (or stopped) before anything was written: no empty folder
+        if isinstance(exc, KeyboardInterrupt):
+            raise  # (said by the command group: "interrupted: run stopped", exit 130)
         for w in getattr(exc, "run_warnings", ()):
             say(w)
         _fail(str(exc))
