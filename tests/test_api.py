@@ -463,3 +463,38 @@ def test_the_force_gauges_refuse_a_springs_model_alike():
     sim = js.Simulator(js.physical_model(body, js.material("gelatin")), dt=1 / 60)
     assert np.array_equal(sim.pin_force(), np.zeros(3))
     assert np.array_equal(sim.drag_force(), np.zeros(3))
+
+
+def test_cli_build_takes_the_delaunay_epsilon_and_keeps_an_existing_file(tmp_path):
+    """Session 20's trial: the Delaunay builder's near-duplicate distance (the report's
+    epsilon) was not on the command line.  `build --epsilon E` removes the later of two points
+    closer than E [m] (no two left closer, fewer points than the default's), and is refused with
+    a builder that does not use it.  An existing output is kept without --overwrite, also for
+    the shipped mesh's name (`jellysim:spot.obj`, which is not a path on disk)."""
+    from scipy.spatial import cKDTree
+
+    from jellysim.cli import cli
+    from jellysim.geometry.jellyfile import read_body
+
+    runner = CliRunner()
+    base = ["build", "jellysim:spot.obj", "--size", "0.1", "--points", "400", "--connect",
+            "delaunay", "--no-surface-samples"]
+    counts = {}
+    for eps in (None, 0.006):
+        out = tmp_path / f"e{eps}.jello"
+        res = runner.invoke(cli, base + ["-o", str(out)] + (
+            ["--epsilon", str(eps)] if eps else []))
+        assert res.exit_code == 0, res.output
+        body = read_body(out)
+        counts[eps] = len(body.points)
+        if eps:
+            d = cKDTree(body.points).query(body.points, k=2)[0][:, 1]
+            assert d.min() > eps
+    assert counts[0.006] < counts[None]
+    res = runner.invoke(cli, ["build", "jellysim:spot.obj", "--size", "0.1", "--epsilon",
+                              "0.001", "-o", str(tmp_path / "m.jello")])
+    assert res.exit_code != 0 and "--connect marching does not use it" in res.output
+    kept = (tmp_path / "e0.006.jello").read_bytes()
+    res = runner.invoke(cli, base + ["-o", str(tmp_path / "e0.006.jello")])
+    assert res.exit_code != 0 and "--overwrite" in res.output
+    assert (tmp_path / "e0.006.jello").read_bytes() == kept

@@ -280,6 +280,10 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
               help="delaunay: Lloyd passes of the interior points before the "
                    "tetrahedralization (default: 10 with surface samples; 0 is the report's "
                    "random points).")
+@click.option("--epsilon", type=click.FloatRange(min=0), default=None,
+              help="delaunay: of two points closer than EPSILON [m] the later is removed "
+                   "before the tetrahedralization (the report's near-duplicate removal; "
+                   "default: 1 % of the median nearest-neighbour distance).")
 @click.option("--density", type=click.FloatRange(min=0, min_open=True), default=REPORT_DENSITY,
               show_default=True, help="Density [kg/m^3].")
 @click.option("--size", type=click.FloatRange(min=0, min_open=True), default=None,
@@ -293,7 +297,7 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 @click.option("--overwrite", is_flag=True, help="Replace OUT_FILE if it exists.")
 def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h, snap,
           surface_vertices, surface_samples, relax, density, size, seed, up="y",
-          max_memory=None, overwrite=False) -> None:
+          max_memory=None, overwrite=False, epsilon=None) -> None:
     """Build a jello body from MESH_FILE and write it to a .jello or .npz file.
 
     The mesh's coordinates are read as metres unless --size scales it."""
@@ -309,17 +313,23 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
     from .io.atomic import guard_file
 
     try:
-        if Path(mesh_file).exists():  # else build_body names the missing mesh first
+        from .geometry.mesh import shipped
+
+        if shipped(mesh_file).exists():  # else build_body names the missing mesh first
             guard_file(out_file, overwrite)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             if connect is None:
                 connect = "radius" if radius is not None else "marching"
+            if epsilon is not None and connect != "delaunay":
+                raise JellysimError(f"--epsilon is the near-duplicate distance of --connect "
+                                    f"delaunay; --connect {connect} does not use it")
             body = build_body(mesh_file, points=points, connect=connect, sampling=sampling,
                               radius=radius, neighbours=neighbours, h=h,
                               surface_vertices=surface_vertices,
                               surface_samples=surface_samples, relax=relax, density=density,
-                              seed=seed, size=size, snap=snap, up=up)
+                              seed=seed, size=size, snap=snap, up=up,
+                              epsilon=epsilon)
             if getattr(body, "skin_vertices", None) is not None:  # as a run will bind it:
                 from .skin import bind_body_skin  # says which parts the points cannot carry
 
