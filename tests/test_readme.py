@@ -183,6 +183,14 @@ def test_readme_python_blocks_run(tmp_path):
         assert res.returncode == 0, f"{code}\n{res.stdout}\n{res.stderr}"
 
 
+def _in_repo(path: str) -> str:
+    """A path as the repository holds it: ``jellysim:NAME`` (the shipped mesh) is
+    ``src/jellysim/data/NAME``."""
+    if path.startswith("jellysim:"):
+        return "src/jellysim/data/" + path.removeprefix("jellysim:")
+    return path
+
+
 def test_readme_and_example_mesh_paths_exist_in_a_plain_clone():
     """Every mesh/scene/body file a README command reads is tracked by git (or written by an
     earlier README command); every example scene's mesh or body file exists, except the
@@ -199,13 +207,15 @@ def test_readme_and_example_mesh_paths_exist_in_a_plain_clone():
                 written.add(a)
             elif re.search(r"\.(obj|ply|stl|off|glb|toml|jello|npz)$", a) and (
                     a not in written and not a.startswith("out/")):
+                a = _in_repo(a)
                 assert (ROOT / a).is_file(), f"README reads {a}, which is not in the repository"
                 assert not tracked or a in tracked, f"README reads {a}, which git does not track"
     for scene in sorted((ROOT / "examples").glob("*.toml")):
         body = tomllib.loads(scene.read_text())["body"]
         if "path" not in body:
             continue
-        mesh = (scene.parent / body["path"]).resolve()
+        mesh = (ROOT / _in_repo(body["path"]) if body["path"].startswith("jellysim:")
+                else scene.parent / body["path"]).resolve()
         if "bunny" in body["path"]:
             text = scene.read_text()
             assert "not shipped" in text and "graphics.stanford.edu" in text

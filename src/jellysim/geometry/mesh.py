@@ -201,17 +201,15 @@ class Mesh:
 
 
 SHIPPED = "jellysim:"
-"""A path that starts with this names a mesh shipped inside the package (``jellysim:spot.obj``,
-``jellysim/data/``): a scene that uses one works wherever it is copied."""
+"""A path starting so names a mesh shipped in jellysim/data/ (a scene works wherever copied)."""
 
 
 def shipped(path) -> Path:
     """``path`` as a :class:`~pathlib.Path`; ``jellysim:NAME`` is the shipped mesh NAME
     (:class:`MeshError` when there is none of that name)."""
-    text = str(path)
+    text, data = str(path), Path(__file__).resolve().parents[1] / "data"
     if not text.startswith(SHIPPED):
         return Path(path)
-    data = Path(__file__).resolve().parents[1] / "data"
     name = text[len(SHIPPED):]
     p = data / name
     if not name or "/" in name or "\\" in name or not p.is_file():
