@@ -221,6 +221,34 @@ def test_inspect_says_an_open_surface_has_no_enclosed_volume():
     assert closed.volume == pytest.approx(8.0) and "open surface" not in closed.describe()
 
 
+def test_a_bowtie_with_one_part_inside_out_builds_both_parts(tmp_path):
+    """Earlier sessions' trial: two cubes touching at one corner, one wound inward, were one
+    "shell" (joined through the shared vertex), whose signed volume cancelled to 0: the
+    inward part was not turned and `Body.from_mesh` said the surface encloses no volume.
+    Shells are now joined through shared edges only (a winding cannot turn at a vertex):
+    two shells, the inward one turned (said), both cubes filled with points."""
+    import trimesh
+
+    import jellysim
+
+    a = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    a.apply_translation((0.5, 0.5, 0.5))
+    b = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    b.apply_translation((1.5, 1.5, 1.5))
+    b.invert()
+    m = trimesh.Trimesh(np.vstack([a.vertices, b.vertices]),
+                        np.vstack([a.faces, b.faces + len(a.vertices)]), process=False)
+    m.merge_vertices()
+    assert len(m.vertices) == 15                   # the corner (1, 1, 1) is shared
+    m.export(tmp_path / "bowtie.obj")
+    with pytest.warns(UserWarning, match=r"1 of its 2 separate shells wound inward"):
+        body = jellysim.Body.from_mesh(tmp_path / "bowtie.obj", size=0.1, points=2000)
+    p = body.points
+    first = np.all(p < 0.05 - 1e-9, axis=1).sum()
+    second = np.all(p > 0.05 + 1e-9, axis=1).sum()
+    assert first > 300 and second == first         # each cube filled alike (mirror images)
+
+
 def test_one_separate_shell_wound_inward_is_turned_a_cavity_is_not(tmp_path):
     """Session 12's artist trial: two separate spheres, one wound inward, were called
     'overlapping or nested' and the inward one was exported inside out.  Each separate shell

@@ -58,20 +58,30 @@ def face_volumes_x6(vertices: np.ndarray, faces: np.ndarray,
 
 
 def _shell_of_faces(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray]:
+    """(The number of shells, each face's shell (f,)): faces joined through shared edges.
+    Two parts that touch at a vertex only (a bowtie) are two shells: a winding cannot turn
+    from one to the other there, so each may be wound its own way."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    rows = np.concatenate([faces[:, 0], faces[:, 1], faces[:, 2]])
-    cols = np.concatenate([faces[:, 1], faces[:, 2], faces[:, 0]])
-    g = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_vertices, n_vertices))
+    f = np.asarray(faces, dtype=np.int64)
+    e = np.sort(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    key = e[:, 0] * max(int(n_vertices), 1) + e[:, 1]
+    owner = np.repeat(np.arange(len(f)), 3)
+    order = np.argsort(key, kind="stable")
+    k, o = key[order], owner[order]
+    same = k[1:] == k[:-1]                     # consecutive uses of one edge: faces joined
+    g = coo_matrix((np.ones(int(same.sum())), (o[:-1][same], o[1:][same])),
+                   shape=(len(f), len(f)))
     n, label = connected_components(g, directed=False)
-    return int(n), label[faces[:, 0]]
+    return int(n), label
 
 
 def _probe_inside(v: np.ndarray, f: np.ndarray, label: np.ndarray, count: int) -> np.ndarray:
-    """``inside[s, t]`` (count, count): is shell s's first vertex inside shell t (either
-    winding; False on the diagonal)."""
-    probe = np.array([v[f[np.argmax(label == s), 0]] for s in range(count)])
+    """``inside[s, t]`` (count, count): is shell s's first face's centre inside shell t
+    (either winding; False on the diagonal)."""
+    # a face's centre, on shell s and off every other (a vertex may be shared: a bowtie)
+    probe = np.array([v[f[np.argmax(label == s)]].mean(axis=0) for s in range(count)])
     inside = np.zeros((count, count), dtype=bool)
     for t in range(count):
         inside[:, t] = np.abs(_winding_many(v, f[label == t], probe)) > 0.5
