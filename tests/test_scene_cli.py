@@ -750,3 +750,27 @@ def test_set_addresses_an_obstacle_table_by_its_number():
         Scene.from_text(text, name="s.toml", overrides=("obstacle.2.frction=0.9",))
     with pytest.raises(SceneError, match=r"no \[\[handle\]\] table to set"):
         Scene.from_text(text, name="s.toml", overrides=("handle.1.force=[0, 1, 0]",))
+
+
+def test_a_run_that_will_be_slow_says_how_long_and_why(tmp_path, monkeypatch):
+    """Session 20's trial: a Delaunay cow (4,518 points, 855 substeps per frame) ran 89 s for
+    1 s of jello with nothing said but a progress bar.  After its second frame a run whose
+    pace leaves more than SLOW_RUN_SECONDS says how long the rest takes at that pace, why
+    (substeps per step, points) and what is faster; a run faster than that says nothing."""
+    import jellysim.runner as runner
+
+    text = ('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 125\n'
+            'lower = [0, 0, 0]\nupper = [0.05, 0.05, 0.05]\n[integrator]\nsteps = 6\n'
+            '[output]\nevery = 1\nvtu = false\n')
+    said = []
+    run_scene(Scene.from_text(text), tmp_path / "a", notify=said.append)
+    assert not [m for m in said if "at this pace" in m]
+    monkeypatch.setattr(runner, "SLOW_RUN_SECONDS", 0.0)
+    said.clear()
+    result = run_scene(Scene.from_text(text), tmp_path / "b", notify=said.append)
+    (line,) = [m for m in said if "at this pace" in m]
+    model = Scene.from_text(text).build_model()
+    substeps = Scene.from_text(text).simulator(model).substeps
+    assert f"({model.point_count:,} points, {substeps} substeps per step of" in line
+    assert substeps > 1 and "Ctrl-C stops it" in line
+    assert result.steps == 6  # (said, not stopped)

@@ -303,6 +303,31 @@ def _asked_text(scene, total: int) -> str:
     return scene.text.rstrip("\n") + f"\n# run for {int(total)} steps (--steps)\n"
 
 
+SLOW_RUN_SECONDS = 120.0
+"""A run whose pace after its first frames leaves more than this many seconds says so."""
+
+
+def _say_if_slow(notify, sim, seconds: float, steps: int, left: int) -> bool:
+    """Tell ``notify`` how long the rest of a run takes at the pace of its second frame
+    (``steps`` steps in ``seconds``; the first frame includes compiling) when that is more
+    than :data:`SLOW_RUN_SECONDS`, and why (substeps per step), with what is faster.
+    Returns True (said, or nothing to say)."""
+    if notify is None or steps <= 0 or seconds <= 0:
+        return True
+    eta = seconds / steps * left
+    if eta > SLOW_RUN_SECONDS:
+        sub = getattr(sim, "substeps", 1)
+        pace = f"{sim.model.point_count:,} points, " + (
+            f"{sub} substeps per step of {sim.dt:g} s: " if sub > 1 else "") + (
+            f"{steps / seconds:.3g} steps/s, {sim.dt * steps / seconds:.2g}x real time")
+        when = f"{eta / 60:.0f} min" if eta >= 90 else f"{eta:.0f} s"
+        notify(f"at this pace the run takes about {when} more ({pace}); Ctrl-C stops it "
+               "with its frames and a "
+               "checkpoint (--resume continues); fewer points (larger tets need fewer "
+               "substeps), connect = 'marching' or fewer steps are faster")
+    return True
+
+
 def _resume_command(scene, out_dir) -> str:
     """How to continue a run of ``scene`` in ``out_dir``: the command line for a scene file,
     the Python call for a scene made in Python without a name (no file to name)."""
@@ -480,7 +505,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             checkpoint()  # a killed run can always be resumed, from its start at least
     stepped = 0.0
     first = None  # (steps, seconds) of the first advance call
-    bar = None
+    bar, told, began = None, False, done
     stop: list[int | None] = [None]
     previous_handlers = {}
     if handle_signals and threading.current_thread() is threading.main_thread():
@@ -518,6 +543,9 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                 emit()
                 if bar is not None:
                     bar.update(task, completed=done)
+                    if not told and done - began > first[0]:  # the pace after the first
+                        told = _say_if_slow(notify, sim, stepped - first[1],  # (compiling)
+                                            done - began - first[0], total - done)
                 if done >= total:
                     break
                 if stop[0] is not None or (stop_after is not None and done >= stop_after):
