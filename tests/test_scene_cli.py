@@ -757,7 +757,7 @@ def test_a_run_that_will_be_slow_says_how_long_and_why(tmp_path, monkeypatch):
     1 s of jello with nothing said but a progress bar.  After its second frame a run whose
     pace leaves more than SLOW_RUN_SECONDS says how long the rest takes at that pace, why
     (substeps per step, points) and what is faster; a run faster than that says nothing."""
-    import jellysim.runner as runner
+    import jellysim.run_notes as notes
 
     text = ('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 125\n'
             'lower = [0, 0, 0]\nupper = [0.05, 0.05, 0.05]\n[integrator]\nsteps = 6\n'
@@ -765,7 +765,7 @@ def test_a_run_that_will_be_slow_says_how_long_and_why(tmp_path, monkeypatch):
     said = []
     run_scene(Scene.from_text(text), tmp_path / "a", notify=said.append)
     assert not [m for m in said if "at this pace" in m]
-    monkeypatch.setattr(runner, "SLOW_RUN_SECONDS", 0.0)
+    monkeypatch.setattr(notes, "SLOW_RUN_SECONDS", 0.0)
     said.clear()
     result = run_scene(Scene.from_text(text), tmp_path / "b", notify=said.append)
     (line,) = [m for m in said if "at this pace" in m]
