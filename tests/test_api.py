@@ -498,3 +498,25 @@ def test_cli_build_takes_the_delaunay_epsilon_and_keeps_an_existing_file(tmp_pat
     res = runner.invoke(cli, base + ["-o", str(tmp_path / "e0.006.jello")])
     assert res.exit_code != 0 and "--overwrite" in res.output
     assert (tmp_path / "e0.006.jello").read_bytes() == kept
+
+
+def test_finalize_says_when_a_radius_body_gets_another_density_than_it_was_built_at():
+    """Session 21's API trial: a radius mesh body (masses left to finalize: density x volume,
+    split evenly) built at 1141 kg/m^3 and finalized with density=500 took 500 without a word,
+    where a tet body's set masses make that an error.  It now says so (the given density is
+    used: its masses are that density x the volume); its own density gives no warning."""
+    import warnings
+
+    sphere = mesh_path("sphere.obj")
+    body = jellysim.Body.from_mesh(sphere, size=0.04, points=300, connect="radius",
+                                   sampling="uniform", density=1141.0)
+    assert body.masses is None and body.meta["density"] == 1141.0
+    with pytest.warns(UserWarning, match=r"density=500 kg/m\^3, but the body was built at "
+                                         r"1141 kg/m\^3"):
+        light = jellysim.finalize(body, stiffness=2.0, density=500.0)
+    assert light.total_mass == pytest.approx(500.0 * body.volume, rel=1e-12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        own = jellysim.finalize(body, stiffness=2.0)
+        assert jellysim.finalize(body, stiffness=2.0, density=1141.0).total_mass == \
+            own.total_mass == pytest.approx(1141.0 * body.volume, rel=1e-12)

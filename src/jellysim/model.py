@@ -230,8 +230,19 @@ def _masses(body: Body, n: int, density, volume, point_mass) -> np.ndarray:
                 "its masses with dataclasses.replace(body, masses=None) to split density x "
                 "volume evenly")
         return np.asarray(body.masses, dtype=np.float64).reshape(n)
+    built = body.meta.get("density") if isinstance(body.meta, dict) else None
+    if point_mass is None and density is not None and built is not None and float(built) != float(density):
+        import warnings
+
+        from .params import _user_stacklevel
+
+        warnings.warn(  # (a radius body's masses are split here: not silently another's)
+            f"finalize: density={density:g} kg/m^3, but the body was built at {built:g} "
+            f"kg/m^3: its masses are {density:g} x its volume, split evenly (leave density "
+            "out to use the body's)", UserWarning, stacklevel=_user_stacklevel())
     if point_mass is not None:
         return np.full(n, float(point_mass))
+    density = built if density is None and built is not None else density
     vol = volume if volume is not None else body.volume
     if vol is None:
         raise ParameterError("cannot derive masses: give point masses, point_mass or a volume")
