@@ -273,15 +273,23 @@ def test_a_points_and_springs_body_file_gets_the_skin_of_what_its_springs_hold(t
     # the U: a base two cells high, two prongs one cell wide, a gap of three cells between
     # them: 80 cells of the hull's 125, and a fillet in each of its two inner corners of at
     # most half a cell per cell along z (a corner's cells are as round as a cube's)
-    for x, least, most in ((cube, 125, 125), (u, 80, 85)):
-        springs = np.array(sorted(cKDTree(x).query_pairs(1.01 * a)))  # along the axes
+    # (and session 21's trial: a U with a two-cell slot and springs along the faces'
+    # diagonals too was filled to its hull, 90 of 66 cells: the rule read the springs'
+    # length, not the points' spacing)
+    slot = cube[(cube[:, 1] < 2.5 * a) | (cube[:, 0] < 1.5 * a) | (cube[:, 0] > 2.5 * a)]
+    for x, reach, least, most in ((cube, 1.01, 125, 125), (u, 1.01, 80, 85),
+                                  (cube, 1.42, 125, 125), (u, 1.42, 80, 85),
+                                  (slot, 1.42, 95, 100)):
+        springs = np.array(sorted(cKDTree(x).query_pairs(reach * a)))  # axes (+ diagonals)
         skin = outer_skin(Body(points=x, springs=springs))
         enclosed, closed = _closed_volume(skin.rest_vertices, skin.faces)
         assert closed
-        assert least * a**3 * (1 - 1e-9) <= enclosed <= most * a**3 * (1 + 1e-9)
+        assert least * a**3 * (1 - 1e-9) <= enclosed <= most * a**3 * (1 + 1e-9), (
+            len(x), reach, enclosed / a**3)
         # every skin vertex is a body point, carried with weight one
         np.testing.assert_array_equal(skin.weights[:, 0], 1.0)
         np.testing.assert_array_equal(x[skin.point_index[:, 0]], skin.rest_vertices)
+    springs = np.array(sorted(cKDTree(u).query_pairs(1.01 * a)))
     write_jello(tmp_path / "u.jello", Body(points=u + [0.0, 0.05, 0.0], springs=springs))
     text = ('[body]\ntype = "file"\npath = "u.jello"\n[springs]\nstiffness = 200.0\n'
             '[mass]\npoint_mass = 0.005\n[integrator]\ndt = 0.001\nsteps = 20\n'

@@ -410,8 +410,9 @@ def outer_skin(body) -> Skin | None:
     Those cells are the Delaunay cells of the points (a fixed sub-micron jitter breaks a
     grid's ties, whose flat cells would leave holes between two cubes split along different
     diagonals) whose six edges are springs or whose circumsphere is smaller than 0.95 of the
-    median spring (a grid joined along its axes only: a cube's cells, radius 0.87 of a side),
-    so a gap wider than the springs reach stays open.  ``None`` for fewer than four points, or
+    median distance between nearest points (a grid: a cube's cells, radius 0.87 of a side,
+    whichever of its diagonals are springs), so a gap of two spacings or more between the
+    points stays open.  ``None`` for fewer than four points, or
     points in one plane (nothing to enclose)."""
     from scipy.spatial import Delaunay, QhullError
 
@@ -434,7 +435,6 @@ def outer_skin(body) -> Skin | None:
     except QhullError:
         return None
     springs = springs.reshape(-1, 2)
-    lengths = np.linalg.norm(points[springs[:, 0]] - points[springs[:, 1]], axis=1)
     s = np.sort(springs, axis=1)
     keys = np.sort(s[:, 0] * n + s[:, 1])
     edged = np.ones(len(cells), dtype=bool)
@@ -442,7 +442,10 @@ def outer_skin(body) -> Skin | None:
         k = np.minimum(cells[:, i], cells[:, j]) * n + np.maximum(cells[:, i], cells[:, j])
         pos = np.clip(np.searchsorted(keys, k), 0, len(keys) - 1)
         edged &= keys[pos] == k
-    keep = edged | (_circumradius(points + jitter, cells) < 0.95 * float(np.median(lengths)))
+    from scipy.spatial import cKDTree
+
+    spacing = float(np.median(cKDTree(points).query(points, k=2)[0][:, 1]))
+    keep = edged | (_circumradius(points + jitter, cells) < 0.95 * spacing)
     if not keep.any():
         return None
     cells = orient_tets(points + jitter, cells[keep])

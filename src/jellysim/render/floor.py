@@ -32,7 +32,7 @@ MAX_TEXELS = 4096
 
 
 def round_tile(size: float) -> float:
-    """A round tile side [m] (1, 2 or 5 x 10^k) near half the body's size ``size`` [m]."""
+    """A round tile side [m] (1, 2 or 5 x 10^k) near half of ``size`` [m]."""
     target = 0.5 * max(float(size), 1e-6)
     k = np.floor(np.log10(target))
     choices = np.array([1.0, 2.0, 5.0, 10.0]) * 10.0 ** k
@@ -61,7 +61,9 @@ class Floor:
     def __init__(self, pv, plotter, y, centre, extent, body_size, background,
                  plate=None, shadow_span=None, spacing=None):
         self.pv, self.plotter = pv, plotter
-        self.tile = round_tile(body_size)
+        # about half the body, or an eighth of what the camera frames (a body travelling
+        # metres under a fixed camera: 5 cm tiles over 4 m of floor were a moire)
+        self.tile = round_tile(max(float(body_size), float(extent) / 4.0))
         self.body_size = max(float(body_size), 1e-6)
         self.background = _hex_rgb(background)
         self.plate = plate

@@ -208,7 +208,12 @@ class Renderer:
         self._track = None if frame_with else _body_track(boxes, o.camera)
         gh = ground_height(traj)
         extra = self.floor = self.shadow = self._floor = None
-        if o.floor and gh is not None:  # no ground in the run: no floor drawn under it
+        below = o.elevation is not None and o.elevation < 0 and gh is not None
+        if o.floor and below:  # (its opaque underside hid the body)
+            warnings.warn(f"elevation {o.elevation:g} deg: the camera looks up from below the "
+                          "floor, so the floor is not drawn (it would hide the body)",
+                          UserWarning, stacklevel=2)
+        if o.floor and gh is not None and not below:  # no ground in the run: no floor
             from .floor import Floor
 
             floor_y = gh
@@ -318,7 +323,8 @@ class Renderer:
                 c = c - ((c - np.asarray(ob.point, dtype=np.float64)) @ n) * n
                 mesh = pv.Plane(center=tuple(c), direction=tuple(n), i_size=size, j_size=size)
             self.plotter.add_mesh(mesh, color="#9da3a8", ambient=0.3, diffuse=0.7,
-                                  specular=0.2, smooth_shading=True, name=f"obstacle{k}")
+                                  specular=0.2, smooth_shading=not isinstance(ob, Box),
+                                  name=f"obstacle{k}")  # (a box's edges stay sharp)
             if box is not None and np.all(box[0] <= hi + reach) and np.all(box[1] >= lo - reach):
                 near.append(box[_CORNERS, [0, 1, 2]])             # its eight corners
         return np.concatenate(near) if near else None
