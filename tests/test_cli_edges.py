@@ -378,3 +378,17 @@ def test_an_interrupted_overwrite_run_drops_the_earlier_runs_video(tmp_path, mon
                                    "--quiet", "--no-vtu", "--video", str(video)])
     assert res.exit_code == 0, res.output
     assert video.is_file() and load_trajectory(out / "trajectory.npz").frame_count == 9
+
+
+def test_output_piped_to_a_reader_that_has_gone_ends_quietly():
+    """Session 21's trial: `jellysim inspect ... | head -4` and `jellysim scene-help | head -3`
+    printed `error: Broken pipe`.  A reader that has gone (here: the pipe closed before the
+    command writes) ends the command quietly, with a shell's 141 (128 + SIGPIPE)."""
+    scene = Path(__file__).resolve().parents[1] / "examples" / "gelatin_cube.toml"
+    for args in (["inspect", str(scene)], ["scene-help"]):
+        p = subprocess.Popen([sys.executable, "-m", "jellysim.cli", *args],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        p.stdout.close()               # gone before the first line
+        err = p.stderr.read().decode()
+        assert p.wait(timeout=60) == 141, err
+        assert "error" not in err and "Traceback" not in err and "Exception" not in err, err

@@ -353,6 +353,14 @@ def test_an_interrupted_mpi_run_ends_every_rank_and_keeps_its_frames(tmp_path):
     assert "interrupted: the run stopped; its frames so far are in" in proc.stderr
     got = load_trajectory(out2 / "trajectory.npz")
     assert got.status.startswith("interrupted at step") and len(got.times) == 3
+    # one while rank 0 builds the body (the others wait for it): every rank told, exit 130,
+    # no MPI_Abort, no folder left (session 21's trial: "run it again with --overwrite")
+    out3 = tmp_path / "out3"
+    proc, seconds = _mpirun(2, str(DATA / "fail_rank.py"), "interrupt-build", str(scene),
+                            str(out3), timeout=60)
+    assert proc.returncode == 130 and seconds < 30, proc.stderr
+    assert "stopped before its first frame; nothing was written" in proc.stderr
+    assert "MPI_Abort" not in proc.stdout + proc.stderr and not out3.exists()
 
 
 @needs_mpi

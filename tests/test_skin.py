@@ -300,3 +300,10 @@ def test_a_points_and_springs_body_file_gets_the_skin_of_what_its_springs_hold(t
     assert traj.skin is not None
     enclosed, closed = _closed_volume(traj.skin_positions(0), traj.skin.faces)
     assert closed and 80 * a**3 * (1 - 1e-6) <= enclosed <= 85 * a**3 * (1 + 1e-6)
+    from click.testing import CliRunner
+
+    from jellysim.cli import cli
+
+    said = CliRunner().invoke(cli, ["inspect", str(tmp_path / "u.jello")]).output
+    assert "none in the file (a run builds one: the outer faces of the cells its springs " \
+        "hold)" in said

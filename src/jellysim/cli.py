@@ -65,6 +65,14 @@ class _Group(click.Group):
                         "was kept (an earlier output of the same name is as it was)",
                         fg="yellow", err=True)
             sys.exit(130)
+        except BrokenPipeError:  # `jellysim inspect ... | head`: the reader has gone
+            import os
+
+            try:  # (quietly: no "error: Broken pipe", nor one more at the exit's flush)
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            except (OSError, ValueError):
+                pass
+            sys.exit(141)  # (128 + SIGPIPE, as a shell's own tools end)
         except OSError as exc:
             where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
             _fail(f"{where}{exc.strerror or exc}")
@@ -421,7 +429,10 @@ def inspect(path, settings=()) -> None:
             body = read_body(path)
             st = body_stats(body)
             click.echo(f"{path}: body")
-            skin = ("none" + (" (a run shows the surface triangles)" if st["triangles"] else "")
+            skin = ("none in the file" + (
+                " (a run shows the surface triangles)" if st["triangles"] else
+                " (a run shows the outer faces of its tets)" if st["tets"] else
+                " (a run builds one: the outer faces of the cells its springs hold)")
                     if body.skin_vertices is None else _skin_row(body))
             rows = [
                 ("points", st["points"]), ("springs", st["springs"]), ("tets", st["tets"]),

@@ -24,7 +24,7 @@ from ..runner import RunResult, _asked, _asked_text, prepare_out_dir, refuse_ear
 from ..io.lock import claim
 from ..io.trajectory import Recorder, skin_bounds
 from ..io.vtk import PVDSeries
-from .simulator import DistributedSimulator, on_root, world
+from .simulator import AllStopped, DistributedSimulator, on_root, world
 from ..handles import apply_handle_tables
 from ..skin import default_skin
 
@@ -336,13 +336,19 @@ def cli_run(scene_file, out_dir, *, steps=None, no_vtu=False, quiet=False,
                         f"are in {stopped.path} (status 'interrupted'); {RERUN}",
                         fg="yellow", err=True)
         sys.exit(130)
+    except AllStopped:  # while rank 0 built the body: every rank told, none waiting
+        if rank == 0:
+            click.secho("interrupted: the run stopped before its first frame; nothing was "
+                        "written", fg="yellow", err=True)
+        sys.exit(130)
     except KeyboardInterrupt:  # Ctrl-C (every rank) or SIGTERM: end every rank, not a hang
         if rank == 0:
             where = locals().get("out")
+            kept = where is not None and (where / "trajectory.npz").exists()
             click.secho("interrupted: the run stopped" + (
                 f"; its frames so far are in {where / 'trajectory.npz'} (status "
-                "'interrupted')" if where is not None and (where / "trajectory.npz").exists()
-                else "") + f"; {RERUN}", fg="yellow", err=True)
+                f"'interrupted'); {RERUN}" if kept else
+                " before its first frame; nothing was written"), fg="yellow", err=True)
             sys.stderr.flush()
             time.sleep(0.5)  # (the launcher forwards the line before Abort ends the job)
         comm.Abort(130)

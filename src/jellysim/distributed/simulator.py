@@ -55,10 +55,15 @@ def world():
     return MPI.COMM_WORLD
 
 
+class AllStopped(KeyboardInterrupt):
+    """A Ctrl-C (or SIGTERM) on rank 0 while it worked for every rank (:func:`on_root`),
+    raised on every rank: they all end together, none left waiting (no ``MPI_Abort``)."""
+
+
 def on_root(comm, fn, *, share: bool = True):
     """``fn()`` run on rank 0 and broadcast to every rank (``share=False``: kept on rank 0,
     ``None`` elsewhere); an exception there is raised on every rank (the same type and
-    message) instead of leaving the others waiting."""
+    message) instead of leaving the others waiting, an interrupt as :class:`AllStopped`."""
     payload = value = None
     if comm.Get_rank() == 0:
         try:
@@ -66,6 +71,8 @@ def on_root(comm, fn, *, share: bool = True):
             payload = (True, value if share else None)
         except Exception as exc:  # noqa: BLE001 (re-raised on every rank below)
             payload = (False, exc)
+        except KeyboardInterrupt:
+            payload = (False, AllStopped("interrupted on rank 0"))
     ok, shared = comm.bcast(payload, root=0)
     if not ok:
         raise shared

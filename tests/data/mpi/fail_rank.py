@@ -1,6 +1,7 @@
 """Test helper, run under ``mpiexec -n 2``: rank 1 fails at its third frame, by an exception
 (``raise``) or by being killed (``kill``), or rank 0 is sent SIGINT there (``interrupt``: a
-Ctrl-C; ``interrupt-twice``: two); the job must end with a clear message, not hang."""
+Ctrl-C; ``interrupt-twice``: two; ``interrupt-build``: one while rank 0 builds the body);
+the job must end with a clear message, not hang."""
 import os
 import signal
 import sys
@@ -28,4 +29,14 @@ def advance(self, steps=1):
 
 
 dsim.DistributedSimulator.advance = advance
+if mode == "interrupt-build":  # a Ctrl-C on rank 0 while it builds the body for all ranks
+    from jellysim.scene import Scene
+
+    build = Scene.build_model
+
+    def build_model(self, *args, **kw):
+        os.kill(os.getpid(), signal.SIGINT)
+        return build(self, *args, **kw)
+
+    Scene.build_model = build_model
 cli_run(scene, out, quiet=True)
