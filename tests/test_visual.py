@@ -1195,3 +1195,23 @@ def test_a_python_recording_keeps_how_it_ran(tmp_path):
     for k in range(4):
         np.testing.assert_array_equal(again.state.x, rec.positions[k])
         again.advance(2)
+
+
+def test_a_jpeg_still_is_the_png_picture(traj, tmp_path):
+    """Session 21's trial: `render -o x.jpg` was refused (artists reach for JPEG).  A .jpg
+    (or .jpeg) is the last frame's picture, as the .png is, within JPEG's loss; a transparent
+    background is refused for it (no alpha channel)."""
+    import imageio.v3 as iio
+
+    from jellysim.errors import JellysimError
+    from jellysim.render.offscreen import RenderOptions
+    from jellysim.render.video import render_trajectory
+
+    opts = RenderOptions(size=(160, 96))
+    png = iio.imread(render_trajectory(traj, tmp_path / "a.png", opts)).astype(int)
+    for name in ("a.jpg", "a.jpeg"):
+        jpg = iio.imread(render_trajectory(traj, tmp_path / name, opts)).astype(int)
+        assert jpg.shape == png.shape and np.abs(jpg - png).mean() < 3.0
+    with pytest.raises(JellysimError, match="no alpha channel"):
+        render_trajectory(traj, tmp_path / "t.jpg", RenderOptions(size=(160, 96),
+                                                                   background="transparent"))

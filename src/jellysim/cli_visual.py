@@ -229,8 +229,10 @@ _show = click.option("--show", multiple=True,
                                        case_sensitive=False),
                      help="What to draw (repeatable; default: the skin). 'all' = everything.")
 _size_opt = click.option("--size", default="960x540", show_default=True,
-                         help="Image size WIDTHxHEIGHT in pixels (runs side by side: "
-                              "each run's picture; they are put next to each other).")
+                         help="Image size WIDTHxHEIGHT in pixels.")
+_size_render = click.option("--size", default="960x540", show_default=True,
+                            help="Image size WIDTHxHEIGHT in pixels (runs side by side: "
+                                 "each run's picture; they are put next to each other).")
 _color = click.option("--color", default="#d81e3c", show_default=True,
                       help="Skin colour (name or #rrggbb).")
 _opacity = click.option("--opacity", type=click.FloatRange(0.05, 1.0), default=0.7,
@@ -307,14 +309,15 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
 @click.command()
 @click.argument("trajectory", nargs=-1, required=True, type=click.Path())
 @click.option("-o", "--output", required=True, type=click.Path(),
-              help="video.mp4, anim.gif, picture.png (last frame, or --frame) or a folder "
+              help="video.mp4, anim.gif, picture.png or .jpg (last frame, or --frame) or a folder "
                    "(PNG frames).")
 @_show
-@_size_opt
+@_size_render
 @click.option("--fps", type=click.FloatRange(min=0.1), default=None,
               help="Frames per second, each saved frame shown once (another rate than the "
                    "run's plays slower or faster, said; default: real time; a run saved "
-                   "faster than 60 frames/s, 50 for a GIF, shows every k-th frame; at least 5).")
+                   "faster than 60 frames/s, 50 for a GIF, shows every k-th frame; a run "
+                   "saved slower than 5 frames/s plays at 5).")
 @_color
 @_opacity
 @_floor
@@ -387,7 +390,8 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
 
             with staged_output(output, ["frame_[0-9]*.png"]) as stage:
                 render_trajectory(traj, stage, options, fps=fps, frames=frames,
-                                  progress=not quiet, beside=runs[1:], labels=labels)
+                                  progress=not quiet, beside=runs[1:], labels=labels,
+                                  name=Path(output).name)  # (not the staging folder's)
             path = Path(output)
         else:  # (one file: written to a temporary name, then renamed)
             path = render_trajectory(traj, output, options, fps=fps, frames=frames,

@@ -249,7 +249,7 @@ def load_mesh(path, *, weld_tol: float = WELD_REL) -> Mesh:
             f"{name}: unsupported file type {suffix!r} "
             f"(supported: {', '.join(sorted(_TRIMESH_SUFFIXES | _MESHIO_SUFFIXES))})"
         )
-    return _clean(v, polys, name, p, weld_tol)
+    return _clean(v, polys, name, Path(name), weld_tol)  # (path: as given, jellysim:NAME)
 
 
 # --------------------------------------------------------------------------- readers

@@ -15,7 +15,8 @@ __all__ = ["default_fps", "render_trajectory", "output_kind"]
 
 
 def output_kind(path) -> str:
-    """``"mp4"``, ``"gif"``, ``"png"`` (one picture) or ``"pngdir"`` (a folder of frames)."""
+    """``"mp4"``, ``"gif"``, ``"png"`` or ``"jpg"`` (one picture) or ``"pngdir"`` (a folder
+    of frames)."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in (".mp4", ".m4v", ".mov"):
@@ -24,10 +25,12 @@ def output_kind(path) -> str:
         return "gif"
     if suffix == ".png":
         return "png"
+    if suffix in (".jpg", ".jpeg"):
+        return "jpg"
     if suffix == "":
         return "pngdir"
     raise JellysimError(f"{path}: unknown picture/video type '{suffix}'; use .mp4, .gif, "
-                        ".png (one frame) or a folder name (PNG frames)")
+                        ".png or .jpg (one frame) or a folder name (PNG frames)")
 
 
 class _SideBySide:
@@ -86,7 +89,7 @@ def _gif_delays(times, frames, fps: float, real_time: bool) -> list[float]:
 
 def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
                       fps: float | None = None, frames=None, progress: bool = False,
-                      beside=(), labels=None) -> Path:
+                      beside=(), labels=None, name: str | None = None) -> Path:
     """Render a loaded trajectory to ``path``.
 
     Parameters
@@ -103,6 +106,8 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
         time to ``traj``'s (its last once it has ended), all panels framed by one camera at
         one scale (side by side: soft vs firm, damped vs not).
     labels: a caption per panel (``traj``'s first), or ``None``.
+    name: what the progress bar says is rendered (default: ``path``'s name; a staging
+        folder's caller gives the output's).
     """
     path = Path(path)
     kind = output_kind(path)
@@ -133,7 +138,7 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
             warnings.warn(f"{path}: each saved frame is shown once at fps = {fps:g}: the run "
                           f"(a frame every {step:.4g} s) plays at {fps * step:.3g}x real time; "
                           "leave out --fps for real time", UserWarning, stacklevel=2)
-    if kind == "png":
+    if kind in ("png", "jpg"):
         frames = frames[-1:]
     if options.background == "transparent" and kind not in ("png", "pngdir"):
         raise JellysimError(f"{path}: a transparent background needs PNG output (a .png or a "
@@ -145,7 +150,8 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
             t, options, frame_with=[u for u in runs if u is not t] if beside else (),
             label=labels[k])) for k, t in enumerate(runs)]
         r = renderers[0] if not beside else _SideBySide(renderers)
-        images = _frames_with_progress(r, frames, progress, f"rendering {path.name}")
+        images = _frames_with_progress(r, frames, progress,
+                                       f"rendering {name or path.name}")
         if kind == "mp4":
             import imageio.v2 as iio
 
@@ -166,11 +172,12 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
             with atomic_path(path) as tmp:
                 iio.imwrite(tmp, stack, extension=".gif", loop=0,
                             duration=_gif_delays(traj.times, frames, fps, real_time))
-        elif kind == "png":
+        elif kind in ("png", "jpg"):
             import imageio.v3 as iio
 
             with atomic_path(path) as tmp:
-                iio.imwrite(tmp, next(iter(images)), extension=".png")
+                iio.imwrite(tmp, next(iter(images)), extension=f".{kind}",
+                            **({"quality": 95} if kind == "jpg" else {}))
         else:
             import imageio.v3 as iio
 
