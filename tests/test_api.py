@@ -421,6 +421,11 @@ def test_a_body_with_values_no_step_could_use_is_refused_where_it_is_made():
     ok = jellysim.Body(points=x, springs=[[0, 1], [1, 2]], masses=[1e-3] * 3,
                        stiffness=[5.0, 0.0], rest_length=[0.01, 0.02])
     assert ok.springs.shape == (2, 2)
+    given = np.array([[1, 0], [1, 2]])           # (j, i) is the spring (i, j): turned, the
+    turned = jellysim.Body(points=x, springs=given)  # caller's array left as it was
+    assert turned.springs.tolist() == [[0, 1], [1, 2]] and given.tolist() == [[1, 0], [1, 2]]
+    assert repr(jellysim.finalize(turned, stiffness=1.0, point_mass=1e-3)) == (
+        "Model(3 points, 2 springs, springs only, 0.003 kg)")
     for kw, says in (
             (dict(points=[*x[:2], [float("nan"), 0.0, 0.0]]), r"points\[2\] is \[nan"),
             (dict(springs=[[0, 1], [1, 3]]), r"springs\[1\] = \[1, 3\].*in \[0, 2\]"),
@@ -431,7 +436,14 @@ def test_a_body_with_values_no_step_could_use_is_refused_where_it_is_made():
             (dict(rest_length=[0.01]), r"rest_length must have shape \(2,\)"),
             (dict(rest_length=[0.01, -1.0]), r"rest_length\[1\] is -1.0"),
             (dict(tets=[[0, 1, 2, 3]]), r"tets\[0\] = \[0, 1, 2, 3\]"),
-            (dict(triangles=[[0, 1, 2], [0, 1, 9]]), r"triangles\[1\] = \[0, 1, 9\]")):
+            (dict(triangles=[[0, 1, 2], [0, 1, 9]]), r"triangles\[1\] = \[0, 1, 9\]"),
+            # session 21's trial: the same spring twice, no points, points that are not
+            # real numbers
+            (dict(springs=[[0, 1], [1, 0]]), r"springs\[0\] and springs\[1\] both join "
+                                             r"points \[0, 1\]"),
+            (dict(points=np.zeros((0, 3)), springs=np.zeros((0, 2), int)), r"n >= 1"),
+            (dict(points=np.ones((3, 3), bool)), r"real coordinates .* of bool"),
+            (dict(points=np.ones((3, 3)) * 1j), r"real coordinates .* of complex128")):
         args = dict(points=x, springs=[[0, 1], [1, 2]]) | kw
         with pytest.raises(ParameterError, match=says):
             jellysim.Body(**args)

@@ -340,6 +340,15 @@ def test_the_clock_and_a_moving_pin_do_not_depend_on_how_the_run_is_cut():
     sim.state.t = 10.0  # moved in time by hand: later times count from there
     sim.advance(3)
     assert sim.state.t == pytest.approx(10.0 + 3 / 60, abs=1e-15) and sim.state.step == 153
+    # and so does a timed push (session 21's trial: `until` was read as if the clock had
+    # started at zero, so a 0.5 s push from t = 5 s lasted the whole run)
+    free = physical_model(body, gelatin(), gravity=(0.0, 0.0, 0.0))
+    sim = Simulator(free, dt=1 / 60)
+    sim.state.t = 5.0
+    sim.apply_force(np.arange(free.point_count), [0.1, 0.0, 0.0], until=5.5)
+    sim.advance(60)
+    momentum = free.point_mass @ sim.state.v
+    assert momentum[0] == pytest.approx(0.1 * 0.5, rel=1e-9)
 
 
 def test_a_path_starting_later_ramps_from_rest_and_a_jump_is_refused():

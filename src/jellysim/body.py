@@ -30,7 +30,8 @@ _OWN = ("points", "connect", "seed", "density")
 def _check_values(pts: np.ndarray, springs: np.ndarray, body) -> None:
     """Refuse, naming the first bad row, what no later step could use: a point that is not
     finite, a spring or a tet / triangle corner that is not a point, a spring from a point to
-    itself, and ``rest_length`` of the wrong shape (masses and stiffness: checked next)."""
+    itself or given twice, and ``rest_length`` of the wrong shape (masses and stiffness:
+    checked next)."""
     n = len(pts)
     bad = ~np.all(np.isfinite(pts), axis=1)
     if bad.any():
@@ -55,6 +56,13 @@ def _check_values(pts: np.ndarray, springs: np.ndarray, body) -> None:
             i = int(np.flatnonzero(loop)[0])
             raise ParameterError(f"Body: springs[{i}] = {springs[i].tolist()} joins a point to "
                                  "itself")
+        key = springs[:, 0].astype(np.int64) * n + springs[:, 1]
+        order = np.argsort(key, kind="stable")
+        twice = np.flatnonzero(key[order][1:] == key[order][:-1])
+        if len(twice):
+            a, b = sorted((int(order[twice[0]]), int(order[twice[0] + 1])))
+            raise ParameterError(f"Body: springs[{a}] and springs[{b}] both join points "
+                                 f"{springs[a].tolist()}: give each spring once")
     if body.rest_length is not None and np.shape(body.rest_length) != (len(springs),):
         raise ParameterError(f"Body: rest_length must have shape ({len(springs)},) [m], one per "
                              f"spring, got shape {np.shape(body.rest_length)} (or None: the "
@@ -110,13 +118,18 @@ class Body:
 
     def __post_init__(self):  # a list or a (3,) array for points was an error much later
         try:
-            pts = np.asarray(self.points, dtype=np.float64)
+            raw = np.asarray(self.points)
+            pts = raw.astype(np.float64) if raw.dtype.kind in "iuf" else None
             springs = np.asarray(self.springs)
         except (TypeError, ValueError):
             raise ParameterError("Body: points must be an (n, 3) array of positions [m] and springs "
                              "a (k, 2) array of point indices") from None
-        if pts.ndim != 2 or pts.shape[1] != 3:
-            raise ParameterError(f"Body: points must have shape (n, 3) [m], got {pts.shape}")
+        if pts is None:  # (bool, complex, text: not coordinates)
+            raise ParameterError(f"Body: points must be real coordinates [m], shape (n, 3), "
+                                 f"got an array of {raw.dtype}")
+        if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) == 0:
+            raise ParameterError(f"Body: points must have shape (n, 3) [m] with n >= 1, got "
+                                 f"{pts.shape}")
         if springs.size == 0:
             springs = springs.reshape(0, 2).astype(np.int64)
         if springs.ndim != 2 or springs.shape[1] != 2 or springs.dtype.kind not in "iu":
@@ -125,6 +138,8 @@ class Body:
         if self.volume is not None and not (np.isfinite(self.volume) and self.volume > 0):
             raise ParameterError(f"Body: volume must be > 0 [m^3] (or None: unknown), got "
                              f"{self.volume!r}")
+        if len(springs) and np.any(springs[:, 0] > springs[:, 1]):  # (j, i): the spring
+            springs = np.sort(springs, axis=1)                     # (i, j), as docs say
         self.points, self.springs = pts, springs
         _check_values(pts, springs, self)
         for name, shape, unit in (("masses", (len(pts),), "kg"),

@@ -407,7 +407,8 @@ class HandleMethods:
                              f"points) or False (each point gets it), got {total!r}")
         idx = self._point_indices(indices, "apply_force")
         f = _vec3(force, "apply_force: force [N]")
-        release = None if until is None else release_step(until, self.dt, self.state.step)
+        release = None if until is None else release_step(until, self.dt, self.state.step,
+                                                          self.state.t)
         drop_releases(self, idx)  # a force replaced on these points keeps no earlier release
         if release is not None:
             self.__dict__.setdefault("_releases", []).append((release, idx))
@@ -546,13 +547,15 @@ def drag_damping(stiffness: float, mass: float, damping_ratio: float) -> float:
     return 2.0 * damping_ratio * float(np.sqrt(stiffness * mass))
 
 
-def release_step(until, dt: float, step: int) -> int:
-    """The step at which a force applied now (at ``step``) with ``until`` [s] is released:
-    the step nearest to that time; a :class:`SceneError` when it is not a later step."""
+def release_step(until, dt: float, step: int, t: float = 0.0) -> int:
+    """The step at which a force applied now (at ``step``, time ``t`` [s]) with ``until`` [s]
+    is released: the step nearest to that time (a clock set by hand counts from there); a
+    :class:`SceneError` when it is not a later step."""
     if isinstance(until, bool) or not isinstance(until, (int, float, np.number)) or not (
             np.isfinite(until) and until > 0):
         raise SceneError(f"apply_force: until must be a time > 0 [s], got {until!r}")
-    release = int(round(float(until) / dt))
+    release = int(round(float(until) / dt)) if t == step * dt else step + int(
+        round((float(until) - float(t)) / dt))
     if release <= step:
         raise SceneError(f"apply_force: until = {until:g} s falls on step {release} (dt = "
                          f"{dt:g} s, the nearest step), not after the present step {step}: the "

@@ -69,6 +69,12 @@ class Model:
     """:class:`~jellysim.physics.fem.FemArrays` of the physical material (tet elasticity and
     damping), or ``None`` for a springs-only body."""
 
+    def __repr__(self) -> str:  # (the dataclass's printed every array)
+        tets = getattr(self.fem, "tet_count", None)
+        return (f"Model({self.point_count} points, {self.spring_count} springs"
+                + (f", {tets} FEM tets" if tets is not None else ", springs only")
+                + f", {self.total_mass:.6g} kg)")
+
     @property
     def point_count(self) -> int:
         return int(self.point_x0.shape[0])

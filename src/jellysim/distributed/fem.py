@@ -323,7 +323,7 @@ class PhysicalMethods(PhysicalStepping):
         self._require_physical("point forces")
         rows, count = self._local_rows(indices)
         f = np.asarray(force, dtype=np.float64).reshape(3)
-        release = None if until is None else release_step(until, self.dt, self.step)
+        release = None if until is None else release_step(until, self.dt, self.step, self.t)
         drop_releases(self, rows)  # a force replaced on these points keeps no earlier release
         if release is not None:
             self.__dict__.setdefault("_releases", []).append((release, rows))
