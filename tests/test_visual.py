@@ -1215,3 +1215,23 @@ def test_a_jpeg_still_is_the_png_picture(traj, tmp_path):
     with pytest.raises(JellysimError, match="no alpha channel"):
         render_trajectory(traj, tmp_path / "t.jpg", RenderOptions(size=(160, 96),
                                                                    background="transparent"))
+
+
+def test_a_transparent_picture_with_a_floor_fades_the_floor_out(traj):
+    """Session 21's trial: with `--background transparent` the floor faded into opaque white
+    and ended in a hard slanted edge (alpha 0 -> 255 within five rows): a white band on a dark
+    slide.  Its opacity now fades out towards the horizon instead: nothing above it (alpha 0
+    along the top rows), opaque floor in front of the body, and along a column beside the body
+    the alpha only grows from the horizon down, through the fade's middle values."""
+    from jellysim.render.offscreen import Renderer, RenderOptions
+
+    img = Renderer(traj, RenderOptions(size=(320, 180), background="transparent")).render(
+        traj.frame_count - 1).astype(int)
+    assert img.shape == (180, 320, 4)
+    alpha = img[..., 3]
+    assert alpha[:3].max() <= 3 and alpha[-3:].min() >= 250
+    column = alpha[:, 8]                                   # the floor's left edge, no body
+    assert np.all(np.diff(column) >= -2)                   # only grows, top to bottom
+    assert np.sum((column > 30) & (column < 225)) >= 6     # a fade, not a hard edge
+    red = (img[..., 0] > img[..., 1] + 60) & (alpha > 0)
+    assert red.sum() > 100                                 # the body is drawn

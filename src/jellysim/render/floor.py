@@ -50,7 +50,8 @@ class Floor:
     """A floor patch [m] at height ``y`` centred near ``centre`` (x, z) and a shadow patch.
 
     ``extent``: the motion's size [m] (sets the patch and fade); ``body_size`` [m]: sets the
-    tile and the shadow's softness; ``background``: the colour the floor fades into;
+    tile and the shadow's softness; ``background``: the colour the floor fades into
+    (``None``: a transparent picture's floor fades out, its texture's alpha);
     ``plate``: (centre x, z, radius) [m] of a white plate painted on the floor, or ``None``;
     ``shadow_span`` [m]: the body's largest horizontal size in any frame; ``spacing`` [m]: its
     typical distance between neighbouring points.
@@ -65,7 +66,7 @@ class Floor:
         # metres under a fixed camera: 5 cm tiles over 4 m of floor were a moire)
         self.tile = round_tile(max(float(body_size), float(extent) / 4.0))
         self.body_size = max(float(body_size), 1e-6)
-        self.background = _hex_rgb(background)
+        self.background = None if background is None else _hex_rgb(background)
         self.plate = plate
         half = 0.5 * PATCH_EXTENTS * max(float(extent), 1e-3)
         tiles = 2 * int(np.ceil(half / self.tile))                 # across the patch, even
@@ -152,8 +153,18 @@ class Floor:
         r = np.hypot(t[None, :] - half, t[:, None] - half) / half  # 0 at the centre
         s = np.clip((r - FADE_START) / (1.0 - FADE_START), 0.0, 1.0)
         fade = (s * s * (3.0 - 2.0 * s))[..., None]               # smoothstep to the edge
-        img = (1.0 - fade) * img + fade * self.background
+        if self.background is None:  # a transparent picture: the tiles, and their opacity
+            self.opacity = np.repeat(255.0 * (1.0 - fade), 3, axis=2)  # (Renderer.render)
+        else:
+            img = (1.0 - fade) * img + fade * self.background
         return np.clip(np.round(img), 0, 255).astype(np.uint8)
+
+    def opacity_texture(self):
+        """A transparent picture's floor opacity as a grey texture (white: opaque), laid as
+        the tiles are (:meth:`image` first)."""
+        tex = self.pv.Texture(np.clip(np.round(self.opacity), 0, 255).astype(np.uint8))
+        tex.repeat, tex.interpolate, tex.mipmap = False, True, False
+        return tex
 
     def _texture(self):
         tex = self.pv.Texture(self.image())

@@ -242,7 +242,7 @@ class Renderer:
             # plane z-fights it (a saw-toothed contact patch through the translucent jello,
             # session 14's trial)
             self._floor = Floor(pv, p, floor_y - FLOOR_BELOW * ext, (c[0], c[2]), ext, body,
-                                "white" if self._transparent else o.background, plate=plate,
+                                None if self._transparent else o.background, plate=plate,
                                 shadow_span=span, spacing=_spacing(traj.positions[0]))
             self.floor, self.shadow = self._floor.mesh, self._floor.shadow
             if not o.shadow:
@@ -359,12 +359,50 @@ class Renderer:
     def render(self, f: int) -> np.ndarray:
         """Image of frame ``f``, shape (height, width, 3), uint8."""
         self.set_frame(f)
+        if self._transparent and self._floor is not None:
+            return self._fading_out()
         self.plotter.render()
         img = self.plotter.screenshot(return_img=True,
                                       transparent_background=self._transparent)
         if self._transparent:  # (height, width, 4): the alpha channel kept
             return np.ascontiguousarray(img)
         return np.ascontiguousarray(img[..., :3])
+
+    def _fading_out(self) -> np.ndarray:
+        """A transparent picture with a floor, (height, width, 4): the picture as drawn, its
+        alpha the drawn body's (the floor hidden) over the floor's opacity (a render of the
+        floor alone, its tiles replaced by their opacity), ``a + m (1 - a)``: the floor fades
+        out towards its horizon instead of into a white band (session 21's trial)."""
+        p, fl = self.plotter, self._floor
+
+        def shot():
+            p.render()
+            return p.screenshot(return_img=True, transparent_background=True).astype(float)
+
+        full = shot()
+        own = [fl.actor] + ([fl.shadow_actor] if self.shadow is not None else [])
+        others = [a for a in p.actors.values() if all(a is not b for b in own)]
+        shown = {id(a): a.GetVisibility() for a in others}
+        tiles = fl.actor.texture
+        try:
+            for a in own:
+                a.SetVisibility(False)
+            body = shot()[..., 3] / 255.0
+            for a in others:
+                a.SetVisibility(False)
+            fl.actor.SetVisibility(True)
+            fl.actor.texture = fl.opacity_texture()
+            p.set_background("black")  # (a pixel the floor's edge half covers: half grey)
+            m = shot()[..., 0] / 255.0
+        finally:
+            p.set_background("white")
+            fl.actor.texture = tiles
+            for a in own:
+                a.SetVisibility(True)
+            for a in others:
+                a.SetVisibility(shown[id(a)])
+        full[..., 3] = 255.0 * (body + m * (1.0 - body))
+        return np.ascontiguousarray(np.clip(np.round(full), 0, 255).astype(np.uint8))
 
     def close(self) -> None:
         self.plotter.close()
