@@ -27,7 +27,7 @@ PATCH_EXTENTS = 16.0
 edge (from :data:`FADE_START` of its half-width on)."""
 FADE_START = 0.2
 
-MAX_TEXELS = 4096
+MAX_TEXELS = 2048
 """The floor texture's side at most [texels]; each tile spans a whole number of them."""
 
 
@@ -127,6 +127,10 @@ class Floor:
             self.actor.texture = self._texture()
             self.shadow_actor.texture = self.actor.texture
 
+    def _parity(self) -> int:
+        """Which of the two checkers the patch shows (its corner's tile, odd or even)."""
+        return int(round(self.origin[0] / self.tile) + round(self.origin[1] / self.tile)) % 2
+
     def _uv(self, pts) -> np.ndarray:
         return ((pts[:, [0, 2]] - np.asarray(self.origin)) / self.side).astype(np.float32)
 
@@ -135,29 +139,31 @@ class Floor:
         texels (VTK puts an image's first row at v = 0), column j along x."""
         n = self.n_tiles * self.texels_per_tile
         texel = self.side / n
-        t = (np.arange(n) + 0.5) * texel                          # [m] from the corner
-        ix = np.floor(t / self.tile + 1e-9).astype(np.int64)       # tile index along x, z
+        t = ((np.arange(n) + 0.5) * texel).astype(np.float32)     # [m] from the corner
+        ix = np.floor(t / self.tile + 1e-6).astype(np.int64)       # tile index along x, z
         ox, oz = (int(np.round(o / self.tile)) for o in self.origin)
         checker = ((ix[None, :] + ox) + (ix[:, None] + oz)) % 2 == 0
-        img = np.where(checker[..., None], TILE_LIGHT, TILE_DARK)
-        x = self.origin[0] + t[None, :]
-        z = self.origin[1] + t[:, None]
+        img = np.where(checker[..., None], TILE_LIGHT.astype(np.float32),
+                       TILE_DARK.astype(np.float32))              # (n, n, 3), float32
         if self.plate is not None:
             px, pz, radius = self.plate
-            d = (np.hypot(x - px, z - pz) - radius) / texel   # [texels] out of its edge
+            x = (self.origin[0] - px) + t[None, :]
+            z = (self.origin[1] - pz) + t[:, None]
+            d = (np.hypot(x, z) - radius) / texel             # [texels] out of its edge
             inside = np.clip(0.5 - d, 0.0, 1.0)[..., None]       # its edge anti-aliased
             rim = np.clip(0.5 - np.abs(d + 0.03 * radius / texel) + 0.03 * radius / texel,
                           0.0, 1.0)[..., None]                    # the outer 6 % of it
             img = (1.0 - inside) * img + inside * ((1.0 - rim) * PLATE + rim * PLATE_RIM)
-        half = 0.5 * self.side
+        half = np.float32(0.5 * self.side)
         r = np.hypot(t[None, :] - half, t[:, None] - half) / half  # 0 at the centre
         s = np.clip((r - FADE_START) / (1.0 - FADE_START), 0.0, 1.0)
         fade = (s * s * (3.0 - 2.0 * s))[..., None]               # smoothstep to the edge
         if self.background is None:  # a transparent picture: the tiles, and their opacity
             self.opacity = np.repeat(255.0 * (1.0 - fade), 3, axis=2)  # (Renderer.render)
         else:
-            img = (1.0 - fade) * img + fade * self.background
-        return np.clip(np.round(img), 0, 255).astype(np.uint8)
+            img += fade * (self.background.astype(np.float32) - img)
+        np.round(img, out=img)
+        return np.clip(img, 0, 255, out=img).astype(np.uint8)
 
     def opacity_texture(self):
         """A transparent picture's floor opacity as a grey texture (white: opaque), laid as
@@ -167,6 +173,20 @@ class Floor:
         return tex
 
     def _texture(self):
+        """The texture of the patch where it is: without a plate one of two, painted once
+        each (the patch moves by whole tiles: only the checker's parity changes; a following
+        camera re-painted 1,728^2 texels a frame, 0.7 s), with a plate painted afresh."""
+        cache = self.__dict__.setdefault("_textures", {})
+        key = self._parity() if self.plate is None else None
+        if key is not None and key in cache:
+            self.opacity = cache[key][1]
+            return cache[key][0]
+        tex = self._paint()
+        if key is not None:
+            cache[key] = (tex, getattr(self, "opacity", None))
+        return tex
+
+    def _paint(self):
         tex = self.pv.Texture(self.image())
         tex.repeat = False
         tex.interpolate = True   # (tile edges soft over one texel, not jagged)
