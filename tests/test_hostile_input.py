@@ -1084,6 +1084,22 @@ def test_handle_tables_that_overlap_or_push_pinned_points_are_said():
     with pytest.warns(UserWarning, match=r"#2 scales gravity on 16 pinned point\(s\)"):
         Scene.from_text(base + pin + every.format(kind="gravity", value="scale = 0.5"),
                         name="h.toml").simulator()
+    # session 20's trial: the same from Python said nothing; it says so too (and a scene
+    # says it once, by its tables' names)
+    import warnings
+
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        Scene.from_text(base + pin + every.format(kind="force", value="force = [1, 0, 0]"),
+                        name="h.toml").simulator()
+    assert len([w for w in said if "follows its pin" in str(w.message)]) == 1
+    sim = Scene.from_text(base, name="h.toml").simulator()
+    sim.pin([0, 1])
+    with pytest.warns(UserWarning, match=r"apply_force: 1 of the points are pinned \(point 1\)"
+                                         r".*the force does nothing there"):
+        sim.apply_force([1, 2], [0.0, 0.1, 0.0])
+    with pytest.warns(UserWarning, match=r"set_gravity_scale: 2 of the points are pinned"):
+        sim.set_gravity_scale([0, 1, 2], 0.5)
     with pytest.raises(SceneError, match=r"indices must be point numbers, not true/false"):
         Scene.from_text(base + '[[handle]]\nkind = "pin"\nindices = [true, 2]\n',
                         name="h.toml").simulator()

@@ -30,7 +30,7 @@ from .scene_spec import (Spec, as_toml, check_backend, check_body_file, check_gi
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
 from .scene_doc import schema_markdown as make
-from .handles import apply_handle_tables, validate_handle_tables
+from .scene_handles import apply_handle_tables, validate_handle_tables
 from .resources import check_body_memory
 from .body import LARGE_BODY, Body
 from .model import finalize

@@ -25,7 +25,7 @@ from ..io.lock import claim
 from ..io.trajectory import Recorder, skin_bounds
 from ..io.vtk import PVDSeries
 from .simulator import AllStopped, DistributedSimulator, on_root, world
-from ..handles import apply_handle_tables
+from ..scene_handles import apply_handle_tables
 from ..skin import default_skin
 
 __all__ = ["run_scene_distributed", "cli_run", "StoppedTogether"]
