@@ -345,6 +345,11 @@ def test_an_interrupted_mpi_run_ends_every_rank_and_keeps_its_frames(tmp_path):
     assert resume.returncode != 0
     assert "interrupted under mpiexec at step 30" in resume.stderr
     assert "--overwrite" in resume.stderr and "older jellysim" not in resume.stderr
+    again = subprocess.run([sys.executable, "-m", "jellysim.cli", "run", str(scene), "--out",
+                            str(out)], capture_output=True, text=True, timeout=60)
+    assert again.returncode != 0 and "pass --overwrite" in again.stderr
+    assert "a run interrupted under mpiexec at step 30 (no checkpoint: it cannot be " \
+        "resumed)" in again.stderr
     # a second Ctrl-C does not wait for the frame: the job is aborted, the frames still kept
     out2 = tmp_path / "out2"
     proc, seconds = _mpirun(2, str(DATA / "fail_rank.py"), "interrupt-twice", str(scene),

@@ -83,6 +83,10 @@ def prepare_out_dir(out_dir, *, overwrite: bool = False, owned=RUN_FILES,
                                 f"{option}")
         more = (f"; --resume {quoted} --steps N extends it"
                 if (out_dir / FINAL_CHECKPOINT).exists() else "")
+        status = _status(out_dir / "trajectory.npz")
+        if status.startswith("interrupted") and "mpiexec" in status:
+            more = ("; it holds a run interrupted under mpiexec at step "
+                    f"{status.split()[3]} (no checkpoint: it cannot be resumed)")
         raise JellysimError(f"{option} {out_dir}: the folder is not empty ({len(present)} "
                             f"entries: {names}); pass --overwrite to replace the run there, "
                             f"or choose another {option}{more}")
@@ -135,6 +139,11 @@ def refuse_earlier_run(out_dir: Path, overwrite: bool, option: str = "overwrite=
     earlier = _earlier_run(out_dir)
     if earlier and not overwrite:
         names = ", ".join(earlier[:3]) + (", ..." if len(earlier) > 3 else "")
+        status = _status(out_dir / "trajectory.npz") if "trajectory.npz" in earlier else ""
+        if status.startswith("interrupted") and "mpiexec" in status:
+            raise OutputError(f"{out_dir}: holds a run interrupted under mpiexec at step "
+                              f"{status.split()[3]} (no checkpoint: it cannot be resumed); "
+                              f"pass {option} to run it afresh, or choose another folder")
         raise OutputError(f"{out_dir}: holds an earlier run ({names}); pass {option} to "
                           "replace it" + (", resume=True to continue it" if option ==
                                           "overwrite=True" else "") + ", or choose another "
