@@ -270,6 +270,7 @@ def test_ctrl_c_in_a_command_that_writes_nothing_is_one_line_and_exit_130(tmp_pa
         res = runner.invoke(cli, args)
         assert res.exit_code == 130, res.output
         assert f"interrupted: {args[0]} stopped" in res.output and "Aborted" not in res.output
+        assert args[0] != "run" or "before its first step; nothing was written" in res.output
     assert not (tmp_path / "o").exists()
 
 

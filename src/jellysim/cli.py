@@ -229,8 +229,11 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     except (JellysimError, KeyboardInterrupt) as exc:
         if fresh and out.is_dir() and not any(out.iterdir()):
             out.rmdir()  # refused (or stopped) before anything was written: no empty folder
-        if isinstance(exc, KeyboardInterrupt):
-            raise  # (said by the command group: "interrupted: run stopped", exit 130)
+        if isinstance(exc, KeyboardInterrupt):  # (while the body was built: the stepping
+            click.secho("interrupted: run stopped before its first step; nothing was written"
+                        + ("" if fresh else " (what the folder held is as it was)"),
+                        fg="yellow", err=True)   # says its own, with a checkpoint)
+            sys.exit(130)
         for w in getattr(exc, "run_warnings", ()):
             say(w)
         _fail(str(exc))
