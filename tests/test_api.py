@@ -458,6 +458,9 @@ def test_a_body_with_values_no_step_could_use_is_refused_where_it_is_made():
     body = jellysim.Body.from_mesh(sphere, size=0.04, points=np.int64(200), base=(0, 0, 0),
                                    connect="radius", sampling="uniform")
     assert float(body.points[:, 1].min()) >= 0.0 and len(body.points) >= 200
+    again = jellysim.Body.from_mesh(sphere, size=0.04, points=2e2, base=(0, 0, 0),
+                                    connect="radius", sampling="uniform")  # (a whole number)
+    assert np.array_equal(again.points, body.points)
 
 
 def test_the_force_gauges_refuse_a_springs_model_alike():

@@ -272,6 +272,20 @@ def test_ctrl_c_in_a_command_that_writes_nothing_is_one_line_and_exit_130(tmp_pa
         assert f"interrupted: {args[0]} stopped" in res.output and "Aborted" not in res.output
         assert args[0] != "run" or "before its first step; nothing was written" in res.output
     assert not (tmp_path / "o").exists()
+    # a second Ctrl-C stops the stepping at once, after frames and a checkpoint were written
+    # (the review of session 21: the line said "nothing was written")
+    import jellysim.cli as jcli
+
+    def stopped_at_once(scene, out, **kw):
+        (Path(out) / "checkpoint.npz").write_bytes(b"x")
+        raise KeyboardInterrupt
+
+    monkeypatch.undo()
+    monkeypatch.setattr(jcli, "run_scene", stopped_at_once)
+    res = runner.invoke(cli, ["run", str(scene), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 130 and "nothing was written" not in res.output
+    assert f"continue with: jellysim run {scene} --resume {tmp_path / 'o'}" in \
+        res.output.replace("\n", "")
 
 
 def test_render_and_export_with_overwrite_stopped_half_way_keep_the_earlier_output(

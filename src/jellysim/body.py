@@ -62,7 +62,9 @@ def _check_values(pts: np.ndarray, springs: np.ndarray, body) -> None:
         if len(twice):
             a, b = sorted((int(order[twice[0]]), int(order[twice[0] + 1])))
             raise ParameterError(f"Body: springs[{a}] and springs[{b}] both join points "
-                                 f"{springs[a].tolist()}: give each spring once")
+                                 f"{springs[a].tolist()} ((j, i) is the spring (i, j)): give "
+                                 "each spring once, e.g. np.unique(np.sort(springs, axis=1), "
+                                 "axis=0)")
     if body.rest_length is not None and np.shape(body.rest_length) != (len(springs),):
         raise ParameterError(f"Body: rest_length must have shape ({len(springs)},) [m], one per "
                              f"spring, got shape {np.shape(body.rest_length)} (or None: the "
@@ -78,8 +80,8 @@ class Body:
     points:
         Rest positions [m], shape (n, 3), float64.
     springs:
-        Spring end-point indices, shape (k, 2), int64, each row ``i < j``, rows unique and
-        sorted lexicographically.
+        Spring end-point indices, shape (k, 2), integers, each row ``i < j`` (a row given as
+        ``(j, i)`` is turned), rows unique (:func:`~jellysim.model.finalize` sorts them).
     rest_length:
         Spring rest lengths [m], shape (k,), float64, or ``None`` for "the distance between the
         end points in ``points``".
@@ -119,7 +121,7 @@ class Body:
     def __post_init__(self):  # a list or a (3,) array for points was an error much later
         try:
             raw = np.asarray(self.points)
-            pts = raw.astype(np.float64) if raw.dtype.kind in "iuf" else None
+            pts = raw.astype(np.float64) if raw.dtype.kind in "iufO" else None
             springs = np.asarray(self.springs)
         except (TypeError, ValueError):
             raise ParameterError("Body: points must be an (n, 3) array of positions [m] and springs "
@@ -208,6 +210,8 @@ class Body:
             raise ParameterError(f"Body.from_mesh: unknown keyword {unknown[0]!r}; it takes "
                                  "size, points, connect, seed, density, base, up and "
                                  f"build_body's {', '.join(sorted(takes - set(_OWN)))}")
+        if isinstance(points, (float, np.floating)) and float(points).is_integer():
+            points = int(points)  # (3e3: a whole number of points)
         if isinstance(points, bool) or not isinstance(points, (int, np.integer)):
             raise ParameterError(f"Body.from_mesh: points must be a whole number of points "
                                  f"(>= 4), got {points!r}")

@@ -56,8 +56,8 @@ class _Group(click.Group):
             _fail(str(exc))
         except KeyboardInterrupt:
             if ctx.invoked_subcommand not in _WRITERS:  # (was click's bare "Aborted!", exit 1)
-                click.secho(f"interrupted: {ctx.invoked_subcommand} stopped", fg="yellow",
-                            err=True)
+                click.secho(f"interrupted: {ctx.invoked_subcommand or 'jellysim'} stopped",
+                            fg="yellow", err=True)
                 sys.exit(130)
             # their outputs go to a temporary name (or a staging folder) and are renamed
             # only when complete: an interrupted one leaves what was there before
@@ -229,10 +229,19 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     except (JellysimError, KeyboardInterrupt) as exc:
         if fresh and out.is_dir() and not any(out.iterdir()):
             out.rmdir()  # refused (or stopped) before anything was written: no empty folder
-        if isinstance(exc, KeyboardInterrupt):  # (while the body was built: the stepping
-            click.secho("interrupted: run stopped before its first step; nothing was written"
-                        + ("" if fresh else " (what the folder held is as it was)"),
-                        fg="yellow", err=True)   # says its own, with a checkpoint)
+        if isinstance(exc, KeyboardInterrupt):  # while the body was built, or a second
+            import shlex                         # Ctrl-C that stopped the stepping at once
+
+            from .runner import holds_unfinished_run
+
+            if out is not None and out.is_dir() and holds_unfinished_run(out):
+                click.secho(f"interrupted: run stopped at once; its frames so far are in {out}"
+                            f"; continue with: jellysim run {shlex.quote(str(scene_file))} "
+                            f"--resume {shlex.quote(str(out))}", fg="yellow", err=True)
+            else:
+                click.secho("interrupted: run stopped before its first step; nothing was "
+                            "written" + ("" if fresh else " (what the folder held is as it "
+                                                          "was)"), fg="yellow", err=True)
             sys.exit(130)
         for w in getattr(exc, "run_warnings", ()):
             say(w)
@@ -373,6 +382,18 @@ def _rate(r: float) -> str:
     return f"{r:,.0f}" if r >= 100 or r != r or r == float("inf") else f"{r:.3g}"
 
 
+def _built(body) -> str:
+    """``inspect``'s skin note for a body of points and springs alone: what a run builds."""
+    from .skin import outer_skin
+
+    skin = outer_skin(body)
+    if skin is None:
+        return (" (and a run builds none: its points enclose nothing, flat or fewer than 4, "
+                "or no springs; it is drawn as points)")
+    return (f" (a run builds one: the outer faces of the cells its springs hold, "
+            f"{len(skin.faces)} triangles)")
+
+
 def _skin_row(body) -> str:
     """``inspect``'s skin row for a body file: the mesh it was built from, and the skin a run
     carries when that mesh is coarser than the points (subdivided: its vertices first)."""
@@ -434,8 +455,7 @@ def inspect(path, settings=()) -> None:
             click.echo(f"{path}: body")
             skin = ("none in the file" + (
                 " (a run shows the surface triangles)" if st["triangles"] else
-                " (a run shows the outer faces of its tets)" if st["tets"] else
-                " (a run builds one: the outer faces of the cells its springs hold)")
+                " (a run shows the outer faces of its tets)" if st["tets"] else _built(body))
                     if body.skin_vertices is None else _skin_row(body))
             rows = [
                 ("points", st["points"]), ("springs", st["springs"]), ("tets", st["tets"]),

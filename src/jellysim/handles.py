@@ -283,9 +283,9 @@ class HandleMethods:
                              f"points) or False (each point gets it), got {total!r}")
         idx = self._point_indices(indices, "apply_force")
         f = _vec3(force, "apply_force: force [N]")
-        self._say_pinned(idx, "apply_force", "force")
         release = None if until is None else release_step(until, self.dt, self.state.step,
                                                           self.state.t)
+        self._say_pinned(idx, "apply_force", "force")  # (once the call is known to stand)
         drop_releases(self, idx)  # a force replaced on these points keeps no earlier release
         if release is not None:
             self.__dict__.setdefault("_releases", []).append((release, idx))

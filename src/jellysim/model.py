@@ -114,9 +114,11 @@ def finalize(
         (k,), one per row of ``body.springs`` (e.g. from
         :func:`jellysim.physics.material.calibrate_springs`).  Needed unless
         ``body.stiffness`` is set; giving both is an error when they differ.
-    density: [kg/m^3] (default :data:`~jellysim.params.REPORT_DENSITY`), used when neither
-        ``body.masses`` nor ``point_mass`` is given: total mass = density x volume
-        (``volume`` argument, else ``body.volume``), split evenly.  When ``body.masses`` is
+    density: [kg/m^3] (default: the density the body was built at, ``body.meta["density"]``,
+        else :data:`~jellysim.params.REPORT_DENSITY`), used when neither ``body.masses`` nor
+        ``point_mass`` is given: total mass = density x volume (``volume`` argument, else
+        ``body.volume``), split evenly; another density than the body was built at is used,
+        with a warning.  When ``body.masses`` is
         already set (tet bodies from :func:`jellysim.build.build_body` lump density x volume
         at build time, at the size they were built) a ``density`` other than the one the body
         was built with (``body.meta["density"]``) is an error, never silently ignored: build

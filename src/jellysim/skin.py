@@ -429,6 +429,9 @@ def outer_skin(body) -> Skin | None:
     if n < 4 or springs.size == 0 or not np.all(np.isfinite(points)):
         return None
     size = float(np.max(np.ptp(points, axis=0)))
+    if np.linalg.svd(points - points.mean(axis=0), compute_uv=False)[-1] <= 1e-6 * size * (
+            len(points) ** 0.5):  # in one plane (or a line): nothing to enclose (the jitter
+        return None           # below would lift slivers off the plane)
     jitter = np.random.default_rng(0).uniform(-1.0, 1.0, points.shape) * 1e-7 * size
     try:
         cells = Delaunay(points + jitter).simplices.astype(np.int64)

@@ -8,7 +8,8 @@ same files as a serial run; fine while one frame of the whole body fits in rank 
 Rank 0 prints progress.  An error on one rank only is printed with the rank's number and the
 whole job is aborted (``MPI_Abort``), so the other ranks do not wait for it.  A Ctrl-C or
 SIGTERM while the ranks step stops them all at the next frame (:class:`StoppedTogether`: the
-frames so far saved, exit 130, no abort); a second one, or one while the body is built,
+frames so far saved, exit 130, no abort); one while rank 0 builds the body reaches every rank
+through :func:`~.simulator.on_root` (:class:`~.simulator.AllStopped`, exit 130); a second one
 aborts the job.
 """
 from __future__ import annotations
@@ -285,8 +286,9 @@ def prepare(scene, sim) -> None:
 
 def _leave_signals_to_root() -> None:
     """On a rank other than 0: ignore SIGINT and SIGTERM.  A terminal's Ctrl-C reaches every
-    rank; rank 0, blocked in a collective until the others reach it, takes its interrupt once
-    they do, saves the frames so far and aborts the job (which ends this rank too)."""
+    rank; rank 0 acts on it and tells the others (at the next frame, or through
+    :func:`~.simulator.on_root` while it builds), so every rank ends together; a second one
+    makes rank 0 save the frames so far and abort the job (which ends this rank too)."""
     import signal
     import threading
 

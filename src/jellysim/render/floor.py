@@ -71,8 +71,10 @@ class Floor:
         half = 0.5 * PATCH_EXTENTS * max(float(extent), 1e-3)
         tiles = 2 * int(np.ceil(half / self.tile))                 # across the patch, even
         self.texels_per_tile = int(max(1, min(32, MAX_TEXELS // tiles)))
-        if tiles * self.texels_per_tile > MAX_TEXELS:  # a very small tile: fewer, larger
-            self.tile *= np.ceil(tiles / MAX_TEXELS)   # texels' worth (still round on screen)
+        if tiles * self.texels_per_tile > MAX_TEXELS:  # a very small tile: a larger round
+            least = 2.0 * (half + 1e-12) / (MAX_TEXELS - 2)  # one, a texel or more
+            k = 10.0 ** np.floor(np.log10(least))
+            self.tile = float(next(c * k for c in (1.0, 2.0, 5.0, 10.0) if c * k >= least))
             tiles = 2 * int(np.ceil(half / self.tile))
         self.n_tiles = tiles
         self.side = tiles * self.tile                              # [m] the patch's side
