@@ -223,8 +223,8 @@ def _stiffness(body: Body, stiffness, k: int) -> np.ndarray:
 
 def _masses(body: Body, n: int, density, volume, point_mass) -> np.ndarray:
     """Point masses [kg], shape (n,)."""
+    built = body.meta.get("density") if isinstance(body.meta, dict) else None
     if body.masses is not None:
-        built = body.meta.get("density") if isinstance(body.meta, dict) else None
         if point_mass is not None:
             raise ParameterError("point_mass given, but body.masses is already set; drop one "
                              "(dataclasses.replace(body, masses=None) drops the body's)")
@@ -238,7 +238,6 @@ def _masses(body: Body, n: int, density, volume, point_mass) -> np.ndarray:
                 "its masses with dataclasses.replace(body, masses=None) to split density x "
                 "volume evenly")
         return np.asarray(body.masses, dtype=np.float64).reshape(n)
-    built = body.meta.get("density") if isinstance(body.meta, dict) else None
     if point_mass is None and density is not None and built is not None and float(built) != float(density):
         import warnings
 

@@ -8,6 +8,7 @@ import numpy as np
 
 from .errors import SceneError, did_you_mean
 from .handles import HANDLE_KINDS, PinPath, select_points
+from .scene_spec import table_list
 
 __all__ = ["apply_handle_tables", "validate_handle_tables"]
 
@@ -20,11 +21,7 @@ def validate_handle_tables(entries, name: str) -> list[dict]:
     r}``, ``indices = [...]``), and ``path`` (pin, optional: rows [t, dx, dy, dz]), ``force``
     ([fx, fy, fz] N, total; ``until``: its release time [s], optional), ``scale`` (gravity
     factor)."""
-    if isinstance(entries, dict):
-        entries = [entries]
-    if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
-        raise SceneError(f"{name}: handles are tables: write [[handle]] (double brackets) "
-                         "before each one")
+    entries = table_list(entries, name, "handle")
     out = []
     for k, entry in enumerate(entries, start=1):
         where = f"{name}: [[handle]] #{k}"

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from .errors import SceneError
 from .params import GroundParams
-from .scene_spec import REQUIRED, Spec
+from .scene_spec import REQUIRED, Spec, table_list
 from .scene_spec import check_table as _table
 from .physics.contact import Box, Plane, Sphere
 
@@ -39,11 +39,7 @@ OBSTACLE_KEYS = {"plane": ("point", "normal"), "sphere": ("center", "radius"),
 
 
 def validate_obstacles(entries, name: str) -> list[dict]:
-    if isinstance(entries, dict):
-        entries = [entries]
-    if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
-        raise SceneError(f"{name}: obstacles are tables: write [[obstacle]] (double "
-                         "brackets) before each one")
+    entries = table_list(entries, name, "obstacle")
     out = []
     for k, entry in enumerate(entries, start=1):
         where = f"[[obstacle]] #{k}"

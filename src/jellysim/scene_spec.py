@@ -105,6 +105,17 @@ def _other_section(key: str, label: str) -> str:
     return f" (it is a key of {' and '.join(homes)})" if homes else ""
 
 
+def table_list(entries, name: str, what: str) -> list[dict]:
+    """A scene's array of tables ``[[what]]`` as a list of dicts (one table given as
+    ``[what]`` is taken as a list of one); anything else is a :class:`SceneError`."""
+    if isinstance(entries, dict):
+        entries = [entries]
+    if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+        raise SceneError(f"{name}: {what}s are tables: write [[{what}]] (double brackets) "
+                         "before each one")
+    return entries
+
+
 def check_table(name: str, label: str, given: dict, keys: dict[str, Spec]) -> dict:
     """One table checked against ``keys``: unknown keys, missing required values and each
     value (:func:`check_value`); defaults filled in.  ``label`` names it (``[section]``)."""

@@ -161,17 +161,20 @@ def body_tets(points: np.ndarray, springs: np.ndarray | None = None,
     cells = cells[vol > 1e-14 * max(np.ptp(points, axis=0).max(), 1e-300) ** 3]
     if springs is None or len(springs) == 0 or len(cells) == 0:
         return cells
-    n = len(points)
-    s = np.sort(np.asarray(springs, dtype=np.int64), axis=1)
+    keep = _held_by_springs(cells, springs, len(points))
+    return cells[keep] if np.any(keep) else cells
+
+
+def _held_by_springs(cells: np.ndarray, springs, n: int) -> np.ndarray:
+    """Whether each tet of ``cells`` (t, 4) has all six edges among ``springs`` (k, 2), (t,)."""
+    s = np.sort(np.asarray(springs, dtype=np.int64).reshape(-1, 2), axis=1)
     keys = np.sort(s[:, 0] * n + s[:, 1])
     keep = np.ones(len(cells), dtype=bool)
     for i, j in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)):
-        lo = np.minimum(cells[:, i], cells[:, j])
-        hi = np.maximum(cells[:, i], cells[:, j])
-        k = lo * n + hi
+        k = np.minimum(cells[:, i], cells[:, j]) * n + np.maximum(cells[:, i], cells[:, j])
         pos = np.clip(np.searchsorted(keys, k), 0, len(keys) - 1)
         keep &= keys[pos] == k
-    return cells[keep] if np.any(keep) else cells
+    return keep
 
 
 def bind_skin(points: np.ndarray, tets: np.ndarray, vertices: np.ndarray,
@@ -414,7 +417,7 @@ def outer_skin(body) -> Skin | None:
     whichever of its diagonals are springs), so a gap of two spacings or more between the
     points stays open.  ``None`` for fewer than four points, or
     points in one plane (nothing to enclose)."""
-    from scipy.spatial import Delaunay, QhullError
+    from scipy.spatial import Delaunay, QhullError, cKDTree
 
     from .geometry.tetra import boundary_faces, orient_tets
 
@@ -437,18 +440,9 @@ def outer_skin(body) -> Skin | None:
         cells = Delaunay(points + jitter).simplices.astype(np.int64)
     except QhullError:
         return None
-    springs = springs.reshape(-1, 2)
-    s = np.sort(springs, axis=1)
-    keys = np.sort(s[:, 0] * n + s[:, 1])
-    edged = np.ones(len(cells), dtype=bool)
-    for i, j in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)):
-        k = np.minimum(cells[:, i], cells[:, j]) * n + np.maximum(cells[:, i], cells[:, j])
-        pos = np.clip(np.searchsorted(keys, k), 0, len(keys) - 1)
-        edged &= keys[pos] == k
-    from scipy.spatial import cKDTree
-
     spacing = float(np.median(cKDTree(points).query(points, k=2)[0][:, 1]))
-    keep = edged | (_circumradius(points + jitter, cells) < 0.95 * spacing)
+    keep = _held_by_springs(cells, springs, n) | (
+        _circumradius(points + jitter, cells) < 0.95 * spacing)
     if not keep.any():
         return None
     cells = orient_tets(points + jitter, cells[keep])

@@ -231,10 +231,8 @@ class Floor:
         return 1.0 - (1.0 - SHADOW_DARKEST) * np.clip(blurred[at[:, 1], at[:, 0]] * 1.6,
                                                        0.0, 1.0)
 
-    def update(self, points, centre=None) -> None:
-        """Put the shadow under ``points`` [m] (k, 3) (and the patch near ``centre``)."""
-        if centre is not None:
-            self.move_to(centre)
+    def update(self, points) -> None:
+        """Put the shadow under ``points`` [m] (k, 3)."""
         f = self.shade(points)
         self.shadow.point_data["shade"][:] = np.round(255.0 * f).astype(np.uint8)[:, None]
         self.shadow.Modified()
