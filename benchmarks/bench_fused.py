@@ -1,4 +1,4 @@
-r"""The fused explicit step against the previous kernels, alternating in one process.
+r"""The explicit step against the kernels of an earlier commit, alternating in one process.
 
 Times ``run_steps`` (the report's integrator, one Jacobi Provot pass over the springs, the
 report's ground: the case ``bench_step`` times) three ways on the same scene, one after the
@@ -6,15 +6,19 @@ other in each repeat so that the shared machine's load hits all alike:
 
 * ``old``: the kernels of an earlier commit, imported as a package ``oldk`` (a copy of that
   commit's ``src/jellysim/kernels``);
-* ``new``: this tree's kernels, float64 (the fused one-region step);
+* ``new``: this tree's kernels, float64;
 * ``new_f32``: the same with the state in float32 (``precision = "float32"``).
 
-Make the old package once (``35b3a87``: the last commit before the fused step)::
+Make the old package once (``7f4645f``: the last commit before the gather step, where each
+spring was computed once and its scalars gathered through slots; ``35b3a87``: the last before
+the fused step)::
 
-    rm -rf /tmp/k11old && mkdir -p /tmp/k11old && git archive 35b3a87 src/jellysim/kernels \
-        | tar -x -C /tmp/k11old && mv /tmp/k11old/src/jellysim/kernels /tmp/k11old/oldk
+    rm -rf /tmp/k12old && mkdir -p /tmp/k12old && git archive 7f4645f src/jellysim/kernels \
+        | tar -x -C /tmp/k12old && mv /tmp/k12old/src/jellysim/kernels /tmp/k12old/oldk
+    sed -i 's/from \.\.errors/from jellysim.errors/; s/from \.\._numba_cache/from jellysim._numba_cache/' \
+        /tmp/k12old/oldk/__init__.py /tmp/k12old/oldk/_numba_opts.py /tmp/k12old/oldk/warp_backend.py
 
-Run:  PYTHONPATH=src:/tmp/k11old python -m benchmarks.bench_fused [--sizes 600,100000]
+Run:  PYTHONPATH=src:/tmp/k12old python -m benchmarks.bench_fused [--sizes 600,100000]
 Prints JSON: per size and thread count the median steps/s and spring-updates/s of each variant,
 the ratios, the same from the process's CPU time (``cpu_*``: steps per CPU-second of all its
 threads, less sensitive to other processes taking the cores; on 2 threads it also counts the

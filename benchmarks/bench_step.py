@@ -19,11 +19,13 @@ and each step must read and write the point state, x and v read and written, a w
 ``MIN_BYTES = 20 + 120 n / k`` bytes per spring-update (n points, k springs; about 24 bytes at
 33 springs per point), independent of any layout, and no implementation on this machine
 exceeds B / MIN_BYTES spring-updates/s; the script prints the achieved fraction of that bound.
-For comparison, the fused step (``kernels/steps_fused_numba.py``, two parallel regions per
-step) moves per spring: the other end's index 4 (first sweep) and 4 (second sweep), rest 8,
-stiffness 8, the second-list slot 4, the force and Provot scalars written into the slot (16,
-plus the lines' read for ownership, 16) and read back (16) = ``LAYOUT_BYTES`` = 76 (plus the
-point arrays).
+For comparison, the numba step (``kernels/spring_sums_numba.py``: each point visits all its
+springs, each spring seen from both ends) reads per spring, from each end, the other end's
+index (4), the rest length (8) and the stiffness (8; the second end's from the slot-ordered
+copies ``second_rest``/``second_stiff``) = ``LAYOUT_BYTES`` = 40, and writes nothing per
+spring (plus the point arrays).  (The scheme before 2026-12-07 computed each spring once and
+moved 76 bytes: the two indices, rest, stiffness, the slot index, and the force and Provot
+scalars written into the second point's slot, 16 + 16 read for ownership, and read back, 16.)
 
 The numba backend is timed in float64 and float32 (``precision = "float32"``: the state stored
 in float32, the arithmetic in float64), on 1 and 2 threads (``numba_1t``, ``numba_2t``,
@@ -56,8 +58,8 @@ import time
 
 import numpy as np
 
-LAYOUT_BYTES = 76
-"""Bytes per spring the fused step moves (see the docstring)."""
+LAYOUT_BYTES = 40
+"""Bytes per spring the numba step moves (see the docstring)."""
 SPRING_MIN_BYTES = 20
 POINT_MIN_BYTES = 120
 

@@ -1,9 +1,10 @@
 """The fused explicit step (kernels/steps_fused_numba.py) and the float32 state option.
 
-The fused step (the report's integrator, one Jacobi Provot pass over the springs) runs in three
-parallel regions per step instead of five (with the Jacobi momentum shift); it must give
-bitwise the results of the five-region kernels it replaces (the same formulas, the same summation order), for any thread count, and
-leave the state after a failing step as they do.  ``precision = "float32"`` stores
+The fused step (the report's integrator, one Jacobi Provot pass over the springs) runs in two
+parallel regions per step (with the Jacobi momentum shift between them); it must give bitwise
+the results of the general path's kernels (drift, forces with the first Provot pass, finish:
+the same per-point sums, the same strict finish), for any thread count, and leave the state
+after a failing step as they do.  ``precision = "float32"`` stores
 the state in float32: its error against float64 is bounded by :data:`FLOAT32_BOUNDS_M`
 (docs/architecture.md).
 """
@@ -36,8 +37,8 @@ the others' rounding)."""
 
 def _drive(m, steps, *, fused, velocity_update=False, dt=0.002, dtype=np.float64,
            start=None, threads=1):
-    """``run_steps`` with one Provot pass: the fused step, or (``fused=False``) the two-sweep
-    kernels (two passes allowed, the second skipped by a tolerance no move exceeds: the same
+    """``run_steps`` with one Provot pass: the fused step, or (``fused=False``) the general
+    path's kernels (two passes allowed, the second skipped by a tolerance no move exceeds: the same
     arithmetic as one pass); returns (done, status, x, v, a, each point's last Provot move)."""
     x = (m.point_x0 if start is None else start).astype(dtype)
     v, a = np.zeros_like(x), np.zeros_like(x)

@@ -16,7 +16,8 @@ def accelerations(x, v, points, springs, spring_scalar, a_out):
 
     For spring s = (i, j), ``d = x_j - x_i``; the force ``k (|d| - L0) d / |d|`` acts on i and
     its opposite on j.  A spring of zero current length exerts no force (direction undefined).
-    The per-spring scalar ``k (|d| - L0) / |d|`` is left in ``spring_scalar`` [N/m], shape (k,).
+    The per-spring scalar ``k (|d| - L0) / |d|`` is left in ``spring_scalar`` [N/m], shape (k,)
+    (scratch: the numba twin leaves it untouched).
     Writes ``a_out`` [m/s^2], shape (n, 3).  ``points``: :class:`~.records.PointArrays`,
     ``springs``: :class:`~.records.SpringArrays`.
     """

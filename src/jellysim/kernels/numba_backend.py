@@ -7,12 +7,12 @@ This module gathers the backend's public functions from its parts (one module pe
 (the explicit drivers); their arguments are the records of :mod:`.records`.
 
 Parallel loops run over *points*, never over springs with a scatter-add (that would race):
-a spring's scalar is computed once, by the thread that owns its first point, while that thread
-sums the spring's force on the first point, and written into the spring's slot of its second
-point's list (``second_slot``: each slot has exactly one writer); a second pass gathers each
-point's forces from its own contiguous slots.  Reading the scalars sequentially instead of
-through an index halves the time of large bodies (BENCHMARKS.md).  Each point's sum is taken in
-a fixed order, so the result is bitwise identical for any number of threads.  Floating-point
+each point sums the forces and Provot requests of all its springs, each computed from its own
+end (:mod:`.spring_sums_numba`: the springs it is the first point of, in spring order, then
+the ones it is the second point of, in its second-list slots, whose rest lengths and
+stiffnesses are stored in slot order so both loops read contiguously and vectorise).  Nothing
+is written per spring.  Each point's sum is taken in an order fixed by the compiled code, so
+the result is bitwise identical for any number of threads.  Floating-point
 reductions across threads (like the largest Provot correction) are taken from per-point arrays
 in a serial loop, also order-fixed.  ``cache=True``: a second process loads the compiled code.
 """

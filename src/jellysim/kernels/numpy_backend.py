@@ -7,8 +7,8 @@ module per concern (:mod:`.forces_numpy`, :mod:`.provot_numpy`, :mod:`.contact_n
 follow the Model's conventions: positions ``x`` [m] (n, 3), velocities ``v`` [m/s] (n, 3),
 accelerations ``a`` [m/s^2] (n, 3), springs ``springs.ij`` (k, 2) with i < j.  The CSR fields
 of :class:`~.records.SpringArrays` are unused here; the numba kernels gather through them.
-``spring_scalar`` is scratch whose layout is backend-specific (numpy: spring order; numba:
-second-list slot order).
+``spring_scalar`` is scratch whose use is backend-specific (numpy: the per-spring scalars in
+spring order; numba: untouched, each point computes its springs from its own end).
 """
 from __future__ import annotations
 

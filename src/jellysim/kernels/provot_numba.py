@@ -6,6 +6,7 @@ from numba import njit, prange
 
 from ._numba_opts import OPTS as _opts
 from .provot_numpy import NOISE
+from .spring_sums_numba import FAST_OPTS, point_provot
 
 
 @njit(cache=True, inline="always")
@@ -52,61 +53,45 @@ def _momentum_shift(mass, dx):
     return sx / total, sy / total, sz / total
 
 
-@njit(**_opts)
-def _provot_jacobi_springs(x, mass, springs, tau, spring_scalar, dx, count, max_corr):
-    n = x.shape[0]
-    rest = springs.rest
-    first_ptr, second_ptr = springs.first_ptr, springs.second_ptr
-    second_slot, second_other = springs.second_slot, springs.second_other
-    first_other = springs.first_other
-    for p in prange(n):
-        sx = 0.0
-        sy = 0.0
-        sz = 0.0
-        cnt = 0
-        px, py, pz = np.float64(x[p, 0]), np.float64(x[p, 1]), np.float64(x[p, 2])
-        for s in range(first_ptr[p], first_ptr[p + 1]):
-            q = first_other[s]
-            ex = x[q, 0] - px
-            ey = x[q, 1] - py
-            ez = x[q, 2] - pz
-            length = np.sqrt(ex * ex + ey * ey + ez * ez)
-            c = _provot_c_inv(length, 1.0 / length if length > 0.0 else 0.0, rest[s], tau)
-            spring_scalar[second_slot[s]] = c
-            sx += c * ex
-            sy += c * ey
-            sz += c * ez
-            cnt += c != 0.0
-        dx[p, 0] = sx
-        dx[p, 1] = sy
-        dx[p, 2] = sz
-        count[p] = cnt
-    for q in prange(n):
-        sx = dx[q, 0]
-        sy = dx[q, 1]
-        sz = dx[q, 2]
-        cnt = count[q]
-        qx, qy, qz = np.float64(x[q, 0]), np.float64(x[q, 1]), np.float64(x[q, 2])
-        for t in range(second_ptr[q], second_ptr[q + 1]):
-            c = spring_scalar[t]
-            i = second_other[t]
-            sx -= c * (qx - x[i, 0])
-            sy -= c * (qy - x[i, 1])
-            sz -= c * (qz - x[i, 2])
-            cnt += c != 0.0
+@njit(**FAST_OPTS)
+def _provot_requests(x, springs, tau, dx, max_corr):
+    """Each point's mean Provot request over its springs [m] into ``dx`` (n, 3) and its length
+    into ``max_corr`` (:mod:`.spring_sums_numba`)."""
+    for p in prange(x.shape[0]):
+        sx, sy, sz, cnt = point_provot(p, x, springs, tau)
         if cnt > 0:
             sx /= cnt
             sy /= cnt
             sz /= cnt
-        dx[q, 0] = sx
-        dx[q, 1] = sy
-        dx[q, 2] = sz
-        max_corr[q] = np.sqrt(sx * sx + sy * sy + sz * sz)
-    sx, sy, sz = _momentum_shift(mass, dx)
-    for p in prange(n):
-        x[p, 0] += dx[p, 0] - sx
-        x[p, 1] += dx[p, 1] - sy
-        x[p, 2] += dx[p, 2] - sz
+        dx[p, 0] = sx
+        dx[p, 1] = sy
+        dx[p, 2] = sz
+        max_corr[p] = np.sqrt(sx * sx + sy * sy + sz * sz)
+
+
+@njit(**_opts)
+def shift_moves(x, dx, mass, apply):
+    """Jacobi's moves ``dx`` (n, 3) [m] less their mass-weighted mean (momentum conserved,
+    :func:`_momentum_shift`), in place; with ``apply`` also ``x += dx``.  Strict arithmetic
+    (no fast-math), so every path that moves points this way rounds alike."""
+    mx, my, mz = _momentum_shift(mass, dx)
+    for p in prange(x.shape[0]):
+        dx[p, 0] -= mx
+        dx[p, 1] -= my
+        dx[p, 2] -= mz
+        if apply:
+            x[p, 0] += dx[p, 0]
+            x[p, 1] += dx[p, 1]
+            x[p, 2] += dx[p, 2]
+
+
+@njit(cache=True)
+def _provot_jacobi_springs(x, mass, springs, tau, dx, max_corr):
+    """One Jacobi pass over the springs: each point's mean request into ``dx`` and its length
+    into ``max_corr`` [m], then every point moved by its request less the requests'
+    mass-weighted mean."""
+    _provot_requests(x, springs, tau, dx, max_corr)
+    shift_moves(x, dx, mass, True)
 
 
 @njit(**_opts)
@@ -196,8 +181,7 @@ def _serial_max(values):
 def provot(x, points, springs, tau, loops, tolerance, all_pairs, gauss_seidel, scratch):
     """Same contract as :func:`jellysim.kernels.provot_numpy.provot` (the spec)."""
     x0, mass = points.x0, points.mass
-    spring_scalar, dx, count, max_corr = (scratch.spring_scalar, scratch.dx, scratch.count,
-                                          scratch.max_corr)
+    dx, max_corr = scratch.dx, scratch.max_corr
     passes = 0
     largest = 0.0
     for _ in range(loops):
@@ -208,7 +192,7 @@ def provot(x, points, springs, tau, loops, tolerance, all_pairs, gauss_seidel, s
             _provot_jacobi_all(x, x0, mass, tau, dx, max_corr)
             largest = _serial_max(max_corr)
         else:
-            _provot_jacobi_springs(x, mass, springs, tau, spring_scalar, dx, count, max_corr)
+            _provot_jacobi_springs(x, mass, springs, tau, dx, max_corr)
             largest = _serial_max(max_corr)
         if largest <= tolerance:
             break

@@ -20,6 +20,7 @@ typed tuples (no speed loss measured, BENCHMARKS.md), numpy reads their fields b
 """
 from __future__ import annotations
 
+import weakref
 from collections import namedtuple
 
 import numpy as np
@@ -31,13 +32,16 @@ __all__ = ["OBSTACLE_E", "OBSTACLE_MU_S", "OBSTACLE_MU_K", "OBSTACLE_SLIP", "OBS
            "explicit_scratch", "implicit_options", "implicit_scratch"]
 
 SpringArrays = namedtuple("SpringArrays", "ij rest stiff first_ptr second_ptr second_slot "
-                                          "second_other first_other")
+                                          "second_other first_other second_rest second_stiff")
 """The springs (k of them, sorted by (i, j), i < j): ``ij`` (k, 2) int64, ``rest`` [m] (k,),
 ``stiff`` [N/m] (k,); the CSR adjacency: ``first_ptr`` (n + 1,) (springs whose first point is
 p are ``first_ptr[p]:first_ptr[p+1]``), ``second_ptr`` (n + 1,) into the second-point list,
 ``second_slot`` (k,) int32 (spring -> its slot in that list), ``second_other`` (k,) int32
 (slot -> the spring's first point), ``first_other`` (k,) int32 (spring -> its second point:
-``ij[:, 1]`` in 4 bytes, what the per-point sweeps read).  See :class:`jellysim.model.Model`."""
+``ij[:, 1]`` in 4 bytes, what the per-point sweeps read); ``second_rest`` [m] and
+``second_stiff`` [N/m] (k,) float64: ``rest`` and ``stiff`` in second-list slot order (slot t
+holds spring ``model.point_second_spring[t]``), so that a point reads the springs it is the
+second point of contiguously (:mod:`.spring_sums_numba`).  See :class:`jellysim.model.Model`."""
 
 PointArrays = namedtuple("PointArrays", "x0 mass inv_mass damping gravity")
 """Rest positions ``x0`` [m] (n, 3), ``mass`` [kg] (n,), ``inv_mass`` [1/kg] (n,), the damping
@@ -88,12 +92,36 @@ ImplicitScratch = namedtuple("ImplicitScratch", "spring_scalar frame spring_vec 
 kinetic friction impulse the sliding contact points get inside the solve."""
 
 
+_SPRING_ARRAYS = weakref.WeakKeyDictionary()
+"""Model -> its SpringArrays (built once: the slot-ordered copies cost two gathers over the
+springs, 0.6 s at 73 M springs)."""
+
+
 def spring_arrays(model) -> SpringArrays:
+    """The springs record of ``model`` (built once per Model, then reused)."""
     m = model
-    return SpringArrays(m.spring_ij, m.spring_rest_length, m.spring_stiffness,
-                        m.point_first_ptr, m.point_second_ptr, m.spring_second_slot,
-                        m.point_second_other,
-                        np.ascontiguousarray(m.spring_ij[:, 1], dtype=np.int32))
+    try:
+        return _SPRING_ARRAYS[m]
+    except (KeyError, TypeError):
+        pass
+    slot_spring = np.asarray(m.point_second_spring)
+    rec = SpringArrays(m.spring_ij, m.spring_rest_length, m.spring_stiffness,
+                       m.point_first_ptr, m.point_second_ptr, m.spring_second_slot,
+                       m.point_second_other,
+                       np.ascontiguousarray(m.spring_ij[:, 1], dtype=np.int32),
+                       _read_only(np.asarray(m.spring_rest_length, np.float64)[slot_spring]),
+                       _read_only(np.asarray(m.spring_stiffness, np.float64)[slot_spring]))
+    try:
+        _SPRING_ARRAYS[m] = rec
+    except TypeError:  # not weak-referenceable: built each time
+        pass
+    return rec
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a = np.ascontiguousarray(a)
+    a.setflags(write=False)
+    return a
 
 
 def point_arrays(model) -> PointArrays:

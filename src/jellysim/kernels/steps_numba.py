@@ -7,7 +7,7 @@ from numba import njit, prange
 from ._numba_opts import OPTS as _opts
 from . import STATUS_OK
 from .contact_numba import _ground_and_check, _status, contact, finish_step
-from .forces_numba import _accelerations_provot_fused, accelerations
+from .forces_numba import _accelerations_provot_fused, accelerations, accelerations_ordered
 from .provot_numba import _serial_max, provot
 from .steps_fused_numba import paper_springs_steps
 
@@ -68,7 +68,7 @@ def run_steps(nsteps, dt, integrator, x, v, a, springs, points, provot_opts, gro
     save = loops > 0 and provot_opts.velocity_update
     g = ground
     if fuse and loops == 1 and not has_obstacles:
-        # one parallel region per step, bitwise the same results (steps_fused_numba)
+        # two parallel regions per step, bitwise the same results (steps_fused_numba)
         return paper_springs_steps(nsteps, dt, x, v, a, springs, points, tau, save, g, scratch)
     for step in range(nsteps):
         pending = False  # a Provot correction in dx still to be applied by the finishing pass
@@ -78,16 +78,21 @@ def run_steps(nsteps, dt, integrator, x, v, a, springs, points, provot_opts, gro
                 # the report's order evaluates forces and then corrects the same positions:
                 # one pass serves both (identical results to the separate kernels)
                 last = loops == 1 and not has_obstacles
-                _accelerations_provot_fused(x, v, points, springs, tau, scratch.spring_scalar,
-                                            scratch.provot_scalar, a, dx, max_corr, not last)
+                _accelerations_provot_fused(x, v, points, springs, tau, a, dx, max_corr,
+                                            not last)
                 pending = last
                 if loops > 1 and _serial_max(max_corr) > tolerance:
                     provot(x, points, springs, tau, loops - 1, tolerance, all_pairs, gauss_seidel,
                            scratch)
+            elif gauss_seidel:  # the report's sequential step: its sums' order too
+                accelerations_ordered(x, v, points, springs, scratch.spring_scalar, a)
             else:
                 accelerations(x, v, points, springs, scratch.spring_scalar, a)
         else:
-            accelerations(x, v, points, springs, scratch.spring_scalar, a)
+            if gauss_seidel:
+                accelerations_ordered(x, v, points, springs, scratch.spring_scalar, a)
+            else:
+                accelerations(x, v, points, springs, scratch.spring_scalar, a)
             _drift(x, v, a, dt, False, x_pre, save)
         if loops > 0 and not fuse:
             provot(x, points, springs, tau, loops, tolerance, all_pairs, gauss_seidel, scratch)
