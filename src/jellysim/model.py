@@ -28,13 +28,14 @@ class Model:
     """Read-only description of a mass-spring body (SI units).
 
     The spring adjacency is stored twice so that per-point sums are race-free gathers
-    (each spring's force is computed once, then every point reads the springs it belongs to):
+    (every point reads the springs it belongs to, :mod:`jellysim.kernels.spring_sums_numba`):
     springs are sorted by their first point ``i``, so the springs whose first point is ``p`` are
     ``spring_ij[point_first_ptr[p]:point_first_ptr[p+1]]``.  The springs whose *second* point is
     ``q`` occupy the "second-list slots" ``point_second_ptr[q]:point_second_ptr[q+1]``; slot t
     holds spring ``point_second_spring[t]`` whose first point is ``point_second_other[t]``, and
-    spring s sits in slot ``spring_second_slot[s]``.  The numba kernels write each spring's
-    scalar straight into its slot, so the second pass reads them sequentially.
+    spring s sits in slot ``spring_second_slot[s]``.  The report's sequential (Gauss-Seidel)
+    step computes each spring once and writes its scalar into that slot, so a second pass reads
+    them sequentially; the Jacobi paths compute each spring from both ends.
     """
 
     point_x0: np.ndarray
