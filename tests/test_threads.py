@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from click.testing import CliRunner
 
 from jellysim.cli import cli
@@ -125,3 +126,69 @@ def test_more_threads_than_numba_has_are_capped_and_said():
     many.advance(20)
     pool.advance(20)
     assert np.array_equal(many.state.x, pool.state.x)
+
+
+def test_thread_choice_keeps_the_faster_count_and_tries_the_other_again():
+    """The chooser (threads = None on the physical path) runs its first frame on each count
+    untimed, interleaves four timed frames of each, keeps the faster by more than MARGIN,
+    and tries the other count again every PROBE_EVERY frames: here 2 threads are faster at
+    first (300 vs 400 us a substep), then slower (the machine got busy: 800 us)."""
+    from jellysim.thread_choice import MARGIN, PROBE_EVERY, ThreadChoice
+
+    cost = {1: 400e-6, 2: 300e-6}
+    ch = ThreadChoice(start=1, most=2)
+    frames = []
+    for _ in range(2 * PROBE_EVERY + 20):
+        count, timed = ch.next_frame()
+        frames.append((count, timed))
+        if timed:
+            ch.record(count, cost[count] * 40, 40)
+        if len(frames) == PROBE_EVERY:
+            cost[2] = 800e-6  # from here on the second thread costs more
+    assert frames[:10] == [(1, False), (2, False)] + [(1, True), (2, True)] * 4
+    retry = 10 + PROBE_EVERY  # the first try's 10 frames, then PROBE_EVERY on the choice
+    assert all(c == 2 for c, _ in frames[10:retry])  # 300 < (1 - MARGIN) 400: switched to 2
+    assert frames[retry:retry + 2] == [(1, True), (1, True)]  # 1 tried again: 400 < 800
+    assert all(c == 1 for c, _ in frames[retry + 2:retry + 2 + PROBE_EVERY])  # kept
+    assert [c for c, _ in frames[retry + 2 + PROBE_EVERY:]] == [2, 2] + [1] * 6  # 2 tried
+    # a count within MARGIN of the current one does not take over
+    ch = ThreadChoice(start=1, most=2)
+    for _ in range(40):
+        count, timed = ch.next_frame()
+        if timed:
+            ch.record(count, (1.0 - 0.5 * MARGIN if count == 2 else 1.0) * 1e-2, 40)
+    assert ch.current == 1
+
+
+def test_threads_chosen_by_timing_change_nothing_in_the_results():
+    """A physical body big enough for the chooser (threads = None) runs its first frames on
+    1 and on all of numba's threads, and its trajectory is bitwise the one-thread run's."""
+    import numba
+
+    from jellysim.body import Body
+    from jellysim.geometry.lattice import grid_points, grid_tets
+    from jellysim.params import GroundModel, GroundParams
+    from jellysim.physics.policy import physical_model
+    from jellysim.presets import gelatin
+    from jellysim.simulator import Simulator
+    from jellysim.thread_choice import ADAPTIVE_MIN_TETS
+
+    most = numba.config.NUMBA_NUM_THREADS
+    if most < 2:
+        pytest.skip("numba has one thread here (NUMBA_NUM_THREADS): there is nothing to choose")
+    pts = grid_points(13**3, [0.0, 0.01, 0.0], [0.08, 0.09, 0.08])
+    model = physical_model(Body(points=pts, springs=np.zeros((0, 2), dtype=np.int64),
+                                volume=0.08**3, tets=grid_tets(pts),
+                                meta={"distribution": "grid"}), gelatin())
+    assert model.fem.tet_count >= ADAPTIVE_MIN_TETS
+    ground = GroundParams(model=GroundModel.CONTACT)
+    auto = Simulator(model, dt=1 / 60, ground=ground)
+    one = Simulator(model, dt=1 / 60, ground=ground, threads=1)
+    used = set()
+    for _ in range(12):
+        auto.advance(1)
+        one.advance(1)
+        used.add(auto.threads)
+    assert used == {1, most}
+    assert np.array_equal(auto.state.x, one.state.x) and np.array_equal(auto.state.v, one.state.v)
+    assert auto.state.x[:, 1].min() < 0.005  # it fell onto the ground: contact was in play

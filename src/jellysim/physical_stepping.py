@@ -4,6 +4,7 @@ kernel call per frame, and the frames retaken at half the substep (a strong comp
 with doubled substeps (a blow-up).  See docs/physics.md section 0."""
 from __future__ import annotations
 
+import time
 import warnings
 
 import numpy as np
@@ -327,6 +328,7 @@ class PhysicalStepping:
             hd.targets(t0, hd.pin_from)
             hd.targets(t0 + self.dt, hd.pin_to)
             saved = (s.x.copy(), s.v.copy(), s.a.copy(), self._q.copy(), self._slip.copy())
+            timed, ran, started = self._frame_threads(), 0, time.perf_counter()
             running_min_j = float(self._min_j[0])
             squeezed = bool(self._squeezed[0])
             self.travelled = False
@@ -334,6 +336,7 @@ class PhysicalStepping:
                 sub = self.substeps * (2 if squeezed else 1)
                 self._min_j[0] = 1.0  # this frame's smallest J
                 k, status = self._physical_chunk(sub, self.dt / sub)
+                ran += k
                 self._min_j[0] = self._agreed_min_j(self._min_j[0])
                 compressed = status == STATUS_OK and self._min_j[0] < self.RETAKE_BELOW_J
                 if (status == STATUS_OK and (squeezed or not compressed)) or (
@@ -356,6 +359,8 @@ class PhysicalStepping:
             elif self._squeezed[0] > 0:
                 self._squeezed[0] -= 1
             self._min_j[0] = min(running_min_j, float(self._min_j[0]))
+            if timed:
+                self._thread_choice.record(self.threads, time.perf_counter() - started, ran)
             self.substeps_taken = sub
             self._relax_substeps(status)
             done += 1 if status == STATUS_OK else (k + sub - 1) // sub
@@ -371,6 +376,17 @@ class PhysicalStepping:
                 "(connect='marching', or 'delaunay' with its relaxed points), a stiffer "
                 "material or a gentler drag or handle help.  (Said once per run.)")
         return done, status
+
+    def _frame_threads(self) -> bool:
+        """With a thread chooser (``threads = None``: :mod:`jellysim.thread_choice`), set the
+        next frame's thread count (``self.threads`` and numba's); whether to time the frame."""
+        if not getattr(self, "_thread_choice", None):
+            return False
+        import numba
+
+        self.threads, timed = self._thread_choice.next_frame()
+        numba.set_num_threads(self.threads)
+        return timed
 
     def _physical_chunk(self, nsteps, dt):
         """``nsteps`` substeps of ``dt`` [s] by the backend's kernel: ``(done, status)``."""

@@ -26,6 +26,7 @@ from .physics.contact import start_checks
 from .stability import (MAX_AUTO_SUBSTEPS, StabilityEstimate, estimate_stability,  # noqa: F401
                         implicit_accuracy, springs_auto_substeps)
 from .state import check_state, clock
+from . import thread_choice
 
 __all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads",
            "springs_auto_substeps"]
@@ -43,12 +44,10 @@ two threads lose badly, so :func:`auto_threads` also counts the free cores."""
 
 
 PHYSICAL_PARALLEL_MIN_TETS = 24_000
-"""Below this many tets the physical path runs on one thread (whose tet pass also sums the
-corner forces at once): it takes 4 parallel regions per substep and 100+ substeps per frame,
-so synchronising threads costs more than it saves on a small body (and far more when another
-process competes for the cores).  Measured (session 7, quiet machine, `bench_physical.py
---cells 14 15 18 21 --seconds 0.25 --no-drops --threads 1|2`), real-time factor 2 threads /
-1: 20,250 tets 0.86-1.01, 24,576 1.18-1.19, 41,154 1.38-1.43, 63,888 1.36 (was 50,000)."""
+"""Below this many tets the physical path STARTS on one thread (whose tet pass also sums the
+corner forces at once), then keeps the faster of 1 and all threads by timing frames
+(:mod:`jellysim.thread_choice`: where a second thread pays depends on the machine, from
+24,000 tets on the AVX-512 VM of session 7 to 4,000 on the AVX2 VM of 2026-12-07)."""
 
 
 CG_ERROR_RESIDUAL = 0.1
@@ -131,8 +130,10 @@ class Simulator(HandleMethods, PhysicalStepping):
         ``"cuda"``, ``"cuda:N"``.
     precision: ``"float64"`` or ``"float32"`` (Warp; numba's explicit step: x, v, a stored in
         float32, sums in float64, ``state`` float64 holding float32 values; docs/architecture.md).
-    threads: numba threads (default: :func:`auto_threads`; capped, with a warning, at numba's
-        pool, ``NUMBA_NUM_THREADS``).  Results do not depend on it.
+    threads: numba threads (default: :func:`auto_threads`; on the physical path the faster of
+        1 and all, found by timing frames, :mod:`jellysim.thread_choice`; capped, with a
+        warning, at numba's pool, ``NUMBA_NUM_THREADS``).  Results do not depend on it;
+        ``sim.threads`` is what the last frame ran on.
     runaway_distance: a point farther than this [m] from the body's starting centre stops the
         run (default: 100 x the body's bounding-box diagonal, at least 100 m).
     check_stability: estimate the stable dt now and warn (:class:`StabilityWarning`) if
@@ -276,11 +277,12 @@ class Simulator(HandleMethods, PhysicalStepping):
             raise SceneError(
                 f"provot pairs = 'all' is O(n^2) and limited to {MAX_ALL_PAIRS_POINTS} points; "
                 f"this body has {n}. Use pairs = 'springs' (and a stiffer material) instead.")
-        if threads is None and self.physical and model.fem.tet_count < PHYSICAL_PARALLEL_MIN_TETS:
-            threads = 1  # a substep's work is too small to pay for thread synchronisation
-        if threads is None:  # (the physical path's work is its tets, counted above)
-            threads = auto_threads(n, None if self.physical else model.spring_count)
+        choose = threads is None and self.physical and self.backend is Backend.NUMBA
+        if threads is None:  # (the physical path's work is its tets; then timed frames)
+            threads = (1 if self.physical and model.fem.tet_count < PHYSICAL_PARALLEL_MIN_TETS
+                       else auto_threads(n, None if self.physical else model.spring_count))
         self.threads = _usable_threads(threads, self.backend)
+        self._thread_choice = choose and thread_choice.for_physical(self.threads, model)
         self.state = model.state() if state is None else check_state(state, n, "Simulator(state=)")
         x0 = model.point_x0
         self.center = np.ascontiguousarray(x0.mean(axis=0))
