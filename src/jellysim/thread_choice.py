@@ -2,15 +2,15 @@
 
 Whether a second thread pays on the physical path depends on the machine as much as on the
 body: a substep's tet pass must outweigh the cost of waking the other thread at each of its
-parallel regions.  Measured with ``benchmarks/bench_physical.py --threads 1|2`` (real-time
-factor 2 threads / 1): on the AVX-512 VM of 2026-11-30 (session 7) 0.86-1.01 at 20,250 tets
-and 1.18 from 24,576; on the AVX2 VM of 2026-12-07, whose tet pass costs twice as much, 1.12 at
-4,374 tets, 1.34 at 7,986, 1.30 at 13,182 and 1.46 at 29,478 (BENCHMARKS.md, "Threads chosen
-by timing").  No fixed size threshold is right on both, so when the user gives no thread
-count the Simulator starts with the size rule
-(:data:`jellysim.simulator.PHYSICAL_PARALLEL_MIN_TETS`), runs two frames on the other count
-early on, keeps whichever ran a substep faster (by more than :data:`MARGIN`), and tries the
-other again every :data:`PROBE_EVERY` frames (a machine's load changes).  Results do not
+parallel regions.  Measured (real-time factor 2 threads / 1; BENCHMARKS.md "Threads and body
+size" and "Threads chosen by timing"): on the AVX-512 VM of 2026-11-30 (session 7) 0.86-1.01 at
+20,250 tets and 1.18 from 24,576; on the AVX2 VM of 2026-12-07, whose tet pass costs twice as
+much, 0.69 at 4,374 tets, 1.0-1.42 at 7,986, 1.08-1.26 at 13,182 and 1.26-1.50 at 29,478 (its
+frame times scatter by 10-30 %).  No fixed size threshold is right on both, so when the
+user gives no thread count the Simulator starts with the size rule
+(:data:`jellysim.simulator.PHYSICAL_PARALLEL_MIN_TETS`), times its first frames on both counts
+(:class:`ThreadChoice`), keeps whichever ran a substep faster by more than :data:`MARGIN`, and
+tries the other again every :data:`PROBE_EVERY` frames (a machine's load changes).  Results do not
 depend on the thread count (every per-point sum has a fixed order, tested), so switching
 changes only the speed.
 
