@@ -44,10 +44,10 @@ two threads lose badly, so :func:`auto_threads` also counts the free cores."""
 
 
 PHYSICAL_PARALLEL_MIN_TETS = 24_000
-"""Below this many tets the physical path STARTS on one thread (whose tet pass also sums the
+"""Below this many tets the physical path STARTS on one thread (its tet pass also sums the
 corner forces at once), then keeps the faster of 1 and all threads by timing frames
-(:mod:`jellysim.thread_choice`: where a second thread pays depends on the machine, from
-24,000 tets on the AVX-512 VM of session 7 to 4,000 on the AVX2 VM of 2026-12-07)."""
+(:mod:`jellysim.thread_choice`: a second thread paid from 24,000 tets on the AVX-512 VM of
+session 7, from about 8,000-13,000 on the AVX2 VM of 2026-12-07)."""
 
 
 CG_ERROR_RESIDUAL = 0.1

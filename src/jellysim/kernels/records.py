@@ -99,6 +99,8 @@ springs, 0.6 s at 73 M springs)."""
 
 def spring_arrays(model) -> SpringArrays:
     """The springs record of ``model`` (built once per Model, then reused)."""
+    from ..model import _frozen  # (model -> state -> records: imported when called)
+
     m = model
     try:
         return _SPRING_ARRAYS[m]
@@ -109,19 +111,13 @@ def spring_arrays(model) -> SpringArrays:
                        m.point_first_ptr, m.point_second_ptr, m.spring_second_slot,
                        m.point_second_other,
                        np.ascontiguousarray(m.spring_ij[:, 1], dtype=np.int32),
-                       _read_only(np.asarray(m.spring_rest_length, np.float64)[slot_spring]),
-                       _read_only(np.asarray(m.spring_stiffness, np.float64)[slot_spring]))
+                       _frozen(np.asarray(m.spring_rest_length)[slot_spring], np.float64),
+                       _frozen(np.asarray(m.spring_stiffness)[slot_spring], np.float64))
     try:
         _SPRING_ARRAYS[m] = rec
     except TypeError:  # not weak-referenceable: built each time
         pass
     return rec
-
-
-def _read_only(a: np.ndarray) -> np.ndarray:
-    a = np.ascontiguousarray(a)
-    a.setflags(write=False)
-    return a
 
 
 def point_arrays(model) -> PointArrays:

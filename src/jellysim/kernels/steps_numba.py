@@ -56,6 +56,16 @@ def _add_velocity(v, x, x_pre, dt):
             v[p, c] += (x[p, c] - x_pre[p, c]) * inv
 
 
+@njit(cache=True, inline="always")
+def _forces(x, v, points, springs, scratch, ordered, a):
+    """Accelerations into ``a``: with ``ordered`` (Gauss-Seidel Provot, the report's sequential
+    step) in the report's summation order, else the vectorised per-point sums."""
+    if ordered:
+        accelerations_ordered(x, v, points, springs, scratch.spring_scalar, a)
+    else:
+        accelerations(x, v, points, springs, scratch.spring_scalar, a)
+
+
 @njit(cache=True)
 def run_steps(nsteps, dt, integrator, x, v, a, springs, points, provot_opts, ground,
               obstacles, scratch):
@@ -84,15 +94,10 @@ def run_steps(nsteps, dt, integrator, x, v, a, springs, points, provot_opts, gro
                 if loops > 1 and _serial_max(max_corr) > tolerance:
                     provot(x, points, springs, tau, loops - 1, tolerance, all_pairs, gauss_seidel,
                            scratch)
-            elif gauss_seidel:  # the report's sequential step: its sums' order too
-                accelerations_ordered(x, v, points, springs, scratch.spring_scalar, a)
             else:
-                accelerations(x, v, points, springs, scratch.spring_scalar, a)
+                _forces(x, v, points, springs, scratch, gauss_seidel, a)
         else:
-            if gauss_seidel:
-                accelerations_ordered(x, v, points, springs, scratch.spring_scalar, a)
-            else:
-                accelerations(x, v, points, springs, scratch.spring_scalar, a)
+            _forces(x, v, points, springs, scratch, gauss_seidel, a)
             _drift(x, v, a, dt, False, x_pre, save)
         if loops > 0 and not fuse:
             provot(x, points, springs, tau, loops, tolerance, all_pairs, gauss_seidel, scratch)
