@@ -130,6 +130,47 @@ def test_an_interrupted_demo_resumes_by_the_command_it_prints_to_the_uninterrupt
         demo.run_demo(out, resume=True, **opts)
 
 
+def test_a_demo_stopped_while_rendering_is_finished_by_the_command_it_prints(tmp_path,
+                                                                            monkeypatch):
+    """A new user's Ctrl-C during the demo's rendering said only "interrupted: demo stopped";
+    --resume then refused ("no interrupted demo") and a plain rerun refused the folder, so
+    only --overwrite (simulating again) was left.  Now the stop prints the demo's --resume
+    command, an earlier demo's video and USD go, and --resume renders the saved run without
+    simulating it again."""
+    import shlex
+
+    import jellysim.demo as demo
+    from jellysim.errors import JellysimError, RunInterrupted
+
+    opts = dict(frames=6, size=(160, 90), points=300, progress=False)
+    out = tmp_path / "d"
+    demo.run_demo(out, **opts)                                   # an earlier, finished demo
+    real = demo.render_trajectory
+
+    def stop(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(demo, "render_trajectory", stop)
+    with pytest.raises(RunInterrupted) as stopped:
+        demo.run_demo(out, overwrite=True, **opts)
+    assert "while rendering" in str(stopped.value)
+    said = shlex.split(str(stopped.value).split("make the video with: ")[-1])
+    assert said == ["jellysim", "demo", "--out", str(out), "--points", "300", "--frames", "6",
+                    "--resume"]
+    assert not (out / "demo.mp4").exists() and not (out / "demo.usdc").exists()
+    saved = (out / "demo" / "trajectory.npz").read_bytes()
+    with pytest.raises(JellysimError, match="simulated but not rendered.*--resume"):
+        demo.run_demo(out, **opts)
+    with pytest.raises(JellysimError, match="other options"):
+        demo.run_demo(out, resume=True, **{**opts, "frames": 8})
+    monkeypatch.setattr(demo, "render_trajectory", real)
+    monkeypatch.setattr(demo, "run_scene", None)                 # (not simulated again)
+    done = demo.run_demo(out, resume=True, **opts)
+    assert done["reused"] and done["frames"] == 6
+    assert (out / "demo" / "trajectory.npz").read_bytes() == saved
+    assert (out / "demo.mp4").stat().st_size > 0 and (out / "demo.usdc").is_file()
+
+
 @pytest.fixture(scope="module")
 def traj_path(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("edge")

@@ -244,7 +244,8 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default="out",
               show_default=True, help="Output directory (writes demo.mp4, demo.usdc, demo/).")
 @click.option("--frames", type=click.IntRange(min=2), default=None,
-              help="Save only this many frames (a quick run, e.g. for CI).")
+              help="Simulate only the first this many frames (1/60 s each; the full demo "
+                   "has 181): a quick, shorter run, e.g. for CI.")
 @_size_opt
 @click.option("--no-usd", is_flag=True, help="Skip demo.usdc.")
 @click.option("--quiet", is_flag=True, help="No progress bars.")
@@ -296,9 +297,10 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
     except JellysimError as exc:
         _fail(str(exc))
     s = r["seconds"]
+    made = ("the earlier run's simulation reused" if r.get("reused") else
+            f"body built and simulated in {s['simulate']:.1f} s")
     click.echo(f"{r['points']} points, {r['springs']} springs, {r['frames']} frames: "
-               f"simulated in {s['simulate']:.1f} s, rendered in {s['render']:.1f} s, "
-               f"total {s['total']:.1f} s")
+               f"{made}, rendered in {s['render']:.1f} s, total {s['total']:.1f} s")
     if s.get("startup", 0.0) > 1.0:
         click.echo(f"  ({s['startup']:.1f} s of the simulating were the first steps' start-up: "
                    "loading the compiled kernels, or compiling them on a first run)")

@@ -156,6 +156,21 @@ def demo_command(out_dir, scene, mesh, up, points, frames, usd, backend=None, de
             + ("" if usd else " --no-usd") + " --resume")
 
 
+def _rendering_left(run_dir: Path, scene, steps: int, again: str):
+    """The finished run of a demo stopped while rendering, as :func:`run_scene` returns one,
+    when it is this demo's (same scene and length); else a :class:`JellysimError`."""
+    from .runner import RunResult, _asked_text
+
+    path = run_dir / "trajectory.npz"
+    traj = load_trajectory(path, mmap=True)
+    done = int(traj.steps[-1])
+    if traj.scene_toml != _asked_text(scene, steps) or done != steps:
+        raise JellysimError(f"--resume: {run_dir} holds a demo made with other options (scene "
+                            "or --frames); give the options it was made with, or --overwrite")
+    return RunResult(out_dir=run_dir, trajectory=path, pvd=None, frames=traj.frame_count,
+                     steps=done, seconds=0.0, resumed_from=done)
+
+
 def _drop_stale(old, run_dir: Path) -> None:
     """An earlier demo's video and USD go once a new demo's run has started in ``run_dir``
     (they no longer match the run beside them); kept when it never started."""
@@ -173,7 +188,7 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     """Simulate a demo scene (``"jelly"``: a fluted gelatin mould slid onto a plate at 0.7 m/s
     from 1 cm; ``"cow"``: Spot, in firm gelatin, set down on it) and write ``<out_dir>/demo.mp4`` (+
     ``demo.usdc``; the cow: ``demo_cow.*``); the run itself goes to ``<out_dir>/demo/``
-    (``demo_cow/``).  ``frames`` limits the number of saved frames (CI).
+    (``demo_cow/``).  ``frames``: simulate only the first ``frames`` frames (a quick run, CI).
     ``backend``/``device``/``precision`` override the scene's (refused with a
     :class:`~jellysim.errors.SceneError` where the backend lacks the demo's physical path);
     ``threads``: numba threads (default: by problem size).  An earlier demo's outputs there
@@ -210,11 +225,18 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
                          usd, backend, device, precision)
     run_dir = out_dir / stem
     interrupted = holds_unfinished_run(run_dir)
+    # a demo stopped while rendering: its run is whole, its video (or USD) was never written
+    unrendered = (not interrupted and (run_dir / "trajectory.npz").is_file()
+                  and not (old[0].exists() and (old[1].exists() or not usd)))
     if resume and overwrite:
         raise JellysimError("--resume and --overwrite: give one (--overwrite starts afresh)")
-    if resume and not interrupted:
+    if resume and not interrupted and not unrendered:
         raise JellysimError(f"--resume: {run_dir} holds no interrupted demo to continue (no "
-                            f"{CHECKPOINT}); run it without --resume")
+                            f"{CHECKPOINT}, and its video is there); run it without --resume")
+    if not resume and not overwrite and unrendered:
+        raise JellysimError(f"--out {out_dir}: holds a demo simulated but not rendered "
+                            f"({run_dir}: stopped while rendering?); finish it with: {again}, "
+                            "or pass --overwrite to start afresh, or choose another --out")
     if not resume and not overwrite and interrupted:
         raise JellysimError(f"--out {out_dir}: holds an interrupted demo ({run_dir}); continue "
                             f"it with: {again}, or pass --overwrite to start afresh (its "
@@ -248,8 +270,9 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
         prepare_out_dir(run_dir, overwrite=overwrite, delete=False)
     steps = sc.steps if frames is None else max(1, int(frames) - 1) * sc.frame_every
     try:
-        result = run_scene(sc, run_dir, progress=progress, vtu=vtu, steps=steps,
-                           skin=skin, body=body, overwrite=overwrite, resume=resume)
+        result = (_rendering_left(run_dir, sc, steps, again) if unrendered and resume else
+                  run_scene(sc, run_dir, progress=progress, vtu=vtu, steps=steps,
+                            skin=skin, body=body, overwrite=overwrite, resume=resume))
     except RunInterrupted as exc:
         _drop_stale(old, run_dir)
         said = str(exc).split("; continue with: ")[0]
@@ -261,18 +284,29 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
         raise
     t_sim = time.perf_counter()
     traj = load_trajectory(result.trajectory)
-    video = render_trajectory(traj, out_dir / f"{stem}.mp4",
-                              RenderOptions(size=size, plate=True, opacity=0.85),
-                              progress=progress)
-    t_render = time.perf_counter()
-    written = {"trajectory": result.trajectory, "video": video}
-    if usd:
-        written["usd"] = export_usd(traj, out_dir / f"{stem}.usdc", overwrite=True)
-    else:  # an earlier demo's USD would no longer match this one's video
+    written = {"trajectory": result.trajectory}
+    try:  # (each file goes to a temporary name first: a stopped one leaves none)
+        written["video"] = render_trajectory(traj, out_dir / f"{stem}.mp4",
+                                             RenderOptions(size=size, plate=True,
+                                                           opacity=0.85), progress=progress)
+        t_render = time.perf_counter()
+        if usd:
+            written["usd"] = export_usd(traj, out_dir / f"{stem}.usdc", overwrite=True)
+    except KeyboardInterrupt:
+        for path, key in zip(old, ("video", "usd")):  # an earlier demo's: they no longer
+            if key not in written:                    # match the run beside them
+                path.unlink(missing_ok=True)
+        import signal
+
+        raise RunInterrupted(f"interrupted while rendering: the simulation is complete in "
+                             f"{run_dir}; make the video with: {again}", step=int(traj.steps[-1]),
+                             signal=signal.SIGINT, out_dir=run_dir) from None
+    if not usd:  # an earlier demo's USD would no longer match this one's video
         old[1].unlink(missing_ok=True)
     written["seconds"] = {"simulate": t_sim - t0, "render": t_render - t_sim,
                           "total": time.perf_counter() - t0,
                           "startup": result.startup_seconds()}
+    written["reused"] = bool(unrendered and resume)  # (only the rendering was left)
     written["points"] = body.point_count
     written["springs"] = body.spring_count
     written["frames"] = traj.frame_count

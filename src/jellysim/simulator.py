@@ -22,6 +22,7 @@ from .params import (MAX_ALL_PAIRS_POINTS, GroundModel, GroundParams, ImplicitPa
                      ImplicitScheme, Integrator, ProvotOrder, ProvotPairs, ProvotParams)
 from .handles import HandleMethods
 from .physical_stepping import PhysicalStepping, blowup_error, travel_error
+from .sim_state import InternalState
 from .physics.contact import start_checks
 from .stability import (MAX_AUTO_SUBSTEPS, StabilityEstimate, estimate_stability,  # noqa: F401
                         implicit_accuracy, springs_auto_substeps)
@@ -109,7 +110,7 @@ def auto_threads(point_count: int, spring_count: int | None = None) -> int:
     return 1 if load > 2.0 * (os.cpu_count() or 1) else most
 
 
-class Simulator(HandleMethods, PhysicalStepping):
+class Simulator(HandleMethods, PhysicalStepping, InternalState):
     """Time-steps one :class:`~jellysim.model.Model`.
 
     Parameters
@@ -384,76 +385,6 @@ class Simulator(HandleMethods, PhysicalStepping):
                 f"{est.omega_max:.3g} rad/s by {est.method}){held}: {hint}",
                 StabilityWarning, stacklevel=2)
         return est
-
-    _COUNTERS = ("cg_iterations", "cg_worst_residual", "cg_unconverged", "substeps")
-    """Scalars carried between advance calls (substeps: the physical path may double them)."""
-
-    def internal_state(self) -> dict[str, np.ndarray]:
-        """Every private array the simulator keeps between :meth:`advance` calls, copied.
-
-        Collected generically: each ``numpy`` array attribute whose name starts with ``_``
-        (``_hist``, ``_fresh``, ``_contact_state``, ``_cg``'s warm start and scratch...), each
-        list/tuple of arrays as ``name.i`` (``_cg.0``), ``_last`` when set, and the CG counters.
-        A new private array is therefore checkpointed without touching this method.  With
-        :attr:`state` (x, v, a, t, step) it is everything a bitwise resume needs."""
-        out: dict[str, np.ndarray] = {}
-        for name, value in vars(self).items():
-            if not name.startswith("_"):
-                continue
-            if isinstance(value, np.ndarray):
-                if value.flags.writeable:  # read-only arrays are the Model's, not state
-                    out[name] = value.copy()
-            elif isinstance(value, (list, tuple)) and value and all(
-                    isinstance(v, np.ndarray) and v.flags.writeable for v in value):
-                for i, v in enumerate(value):
-                    out[f"{name}.{i}"] = v.copy()
-        for name in self._COUNTERS:
-            out[name] = np.array(getattr(self, name))
-        return out
-
-    def restore_internal_state(self, d) -> None:
-        """Inverse of :meth:`internal_state`: copy the arrays back in place.  Raises
-        :class:`SceneError` when ``d`` does not fit this simulator (another body or
-        integrator)."""
-        own = self.internal_state()
-        od = d.get("_obstacle_data")
-        if od is not None and np.ndim(od) == 2 and np.shape(od)[1] == 9:
-            # files of earlier versions: obstacle rows without the slip-weakening distance
-            # (the scene's own rows are kept; every point resumes stuck: _slip absent)
-            d = {k: val for k, val in d.items() if k != "_obstacle_data"}
-        # tolerated when absent (files of earlier versions): arrays added since, all of them
-        # rebuilt every step (_squeezed: a frame count; _scratch fields appended at the end)
-        missing = sorted(k for k in set(own) - set(d)
-                         - {"_last.0", "_last.1", "_squeezed", "_relax", "_slip",
-                            "_obstacle_data"}
-                         if not k.startswith("_scratch."))
-        extra = sorted(set(d) - set(own) - {"_last.0", "_last.1"})
-        if missing or extra:
-            raise SceneError(f"saved simulator state does not fit this simulator (missing "
-                             f"{missing}, unexpected {extra}): same scene and integrator?")
-        for key in own:
-            if key in self._COUNTERS:
-                continue
-            if key.startswith("_last.") or key not in d:  # (_squeezed: not in older files)
-                continue
-            if own[key].shape != np.shape(d[key]) or own[key].dtype != np.asarray(d[key]).dtype:
-                raise SceneError(f"saved simulator state '{key}' has shape "
-                                 f"{np.shape(d[key])}, expected {own[key].shape}")
-        for key in own:
-            if key in self._COUNTERS or key.startswith("_last.") or key not in d:
-                continue
-            name, _, i = key.partition(".")
-            target = getattr(self, name)[int(i)] if i else getattr(self, name)
-            np.copyto(target, d[key])
-        if "_last" in vars(self):
-            self._last = ((np.array(d["_last.0"]), np.array(d["_last.1"]))
-                          if "_last.0" in d else None)
-        self.cg_iterations = int(d["cg_iterations"])
-        self.cg_worst_residual = float(d["cg_worst_residual"])
-        self.cg_unconverged = int(d["cg_unconverged"])
-        if "substeps" in d:
-            self.substeps = int(d["substeps"])
-            self.dt_step = self.dt / self.substeps
 
     def advance(self, steps: int = 1) -> None:
         """Take ``steps`` time steps.  Raises :class:`SimulationError` on blow-up, leaving
