@@ -938,3 +938,63 @@ def test_scratch_carries_nothing_between_advance_calls(text, overrides):
     kept = sum(v.nbytes for v in inner.values())
     tets = 0 if model.fem is None else model.fem.tet_count
     assert kept <= 20 * state.x.nbytes + 48 * tets + 1024
+
+
+def test_a_resume_without_vtu_frames_says_the_paraview_series_stops(tmp_path):
+    """A new user resumed a run that wrote .vtu frames with --no-vtu: body.pvd listed 65 frames
+    and trajectory.npz 151, unsaid.  Now the resume says where the series ends; without
+    --no-vtu the series goes on to the last frame."""
+    import re
+
+    scene = Scene.from_text(EXPLICIT.replace("vtu = false", "vtu = true"), name="scene.toml")
+    for name, vtu in (("cut", False), ("whole", None)):
+        with pytest.raises(RunInterrupted):
+            run_scene(scene, tmp_path / name, progress=False, stop_after=100)
+        told = []
+        res = run_scene(scene, tmp_path / name, progress=False, resume=True, vtu=vtu,
+                        notify=told.append)
+        listed = len(re.findall(r"<DataSet ", (tmp_path / name / "body.pvd").read_text()))
+        frames = load_trajectory(res.trajectory).frame_count
+        if vtu is False:
+            assert listed < frames and any("body.pvd ends at t = 0.1 s" in m for m in told)
+        else:
+            assert listed == frames and not any("body.pvd" in m for m in told)
+
+
+def test_a_run_resumes_from_its_folder_alone(tmp_path, monkeypatch):
+    """A new user's `jellysim run --resume out/cube2` failed with "Missing argument
+    'SCENE_FILE'".  The checkpoint records the scene's resolved parameters and its file's
+    path, so `jellysim run --resume DIR` continues the run from another directory, with the
+    mesh the scene names by a relative path, bitwise as the uninterrupted run; a folder that
+    does not exist, or no scene and no --resume, get one line saying what to give."""
+    import shutil
+
+    from click.testing import CliRunner
+
+    from jellysim.cli import cli
+
+    home = tmp_path / "scenes"
+    home.mkdir()
+    shutil.copy(DATA / "torus.obj", home / "ring.obj")
+    (home / "ring.toml").write_text(
+        '[material]\npreset = "gelatin"\n[body]\ntype = "mesh"\npath = "ring.obj"\n'
+        'points = 300\nsize = 0.06\nbase = [0.0, 0.01, 0.0]\n'
+        '[integrator]\nsteps = 24\n[output]\nevery = 4\nvtu = false\n')
+    monkeypatch.chdir(home)
+    whole = run_scene(Scene.load("ring.toml", overrides=("integrator.steps=40",)),
+                      tmp_path / "whole", progress=False)
+    with pytest.raises(RunInterrupted, match=r"continue with: jellysim run ring.toml"):
+        run_scene(Scene.load("ring.toml", overrides=("integrator.steps=40",)),
+                  tmp_path / "cut", progress=False, stop_after=12)
+    monkeypatch.chdir(tmp_path)                                 # elsewhere: ring.obj is not here
+    runner = CliRunner()
+    res = runner.invoke(cli, ["run", "--resume", "cut", "--quiet"])
+    assert res.exit_code == 0, res.output
+    assert "resumed from the checkpoint at step 12" in res.output
+    _same(load_trajectory(tmp_path / "cut"), load_trajectory(whole.trajectory))
+    res = runner.invoke(cli, ["run", "--resume", "cut", "--steps", "48", "--quiet"])
+    assert res.exit_code == 0 and load_trajectory(tmp_path / "cut").steps[-1] == 48
+    res = runner.invoke(cli, ["run", "--resume", "nothing_here"])
+    assert res.exit_code == 2 and "no such folder" in res.output
+    res = runner.invoke(cli, ["run"])
+    assert res.exit_code == 2 and "give a scene" in res.output and "--resume DIR" in res.output

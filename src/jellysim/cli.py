@@ -96,7 +96,7 @@ def _terminate(signum, frame):
 
 
 @cli.command()
-@click.argument("scene_file", type=click.Path(dir_okay=False))
+@click.argument("scene_file", type=click.Path(dir_okay=False), required=False)
 @click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False), default=None,
               help="Output directory (default: out/<scene name>).")
 @click.option("--steps", type=click.IntRange(min=1), default=None,
@@ -142,7 +142,8 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         overwrite=False, settings=(), resume_dir=None, checkpoint_every=None,
         max_memory=None) -> None:
     """Simulate SCENE_FILE (TOML) and write trajectory.npz and body.pvd (under
-    'mpiexec -n N': on N ranks, docs/mpi.md).
+    'mpiexec -n N': on N ranks, docs/mpi.md).  `jellysim run --resume DIR` continues a run
+    without its scene file (the run's checkpoint records the scene).
 
     Frames are streamed to OUT/trajectory.stream while the run goes; Ctrl-C (SIGINT) or
     SIGTERM finishes the current frame, saves a checkpoint and says how to --resume."""
@@ -153,6 +154,9 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     for given, flag in ((out_dir, "--out"), (resume_dir, "--resume")):
         if given is not None and not str(given).strip():
             _fail(f"{flag} is empty: give a folder name (without {flag}: out/<scene name>)")
+    if scene_file is None and resume_dir is None:
+        _fail("missing SCENE_FILE: give a scene (TOML; `jellysim scene-help` lists its keys, "
+              "examples/ has some), or --resume DIR to continue a run")
     try:
         check_run_outputs(video=video, usd=usd, glb=glb, overwrite=overwrite)
     except JellysimError as exc:
@@ -167,7 +171,12 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         with warnings.catch_warnings(record=True) as caught:  # said once, as the run's are
             warnings.simplefilter("always")
             try:
-                scene = Scene.load(scene_file, overrides=settings)
+                if scene_file is None:  # (the run's checkpoint records its scene)
+                    from .io.checkpoint import scene_of_run
+
+                    scene = scene_of_run(resume_dir, overrides=settings)
+                else:
+                    scene = Scene.load(scene_file, overrides=settings)
             except JellysimError as exc:  # --steps stands for a missing [integrator] steps
                 if steps is None or "missing value 'steps'" not in str(exc):
                     raise
@@ -237,8 +246,9 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 
             if out is not None and out.is_dir() and holds_unfinished_run(out):
                 click.secho(f"interrupted: run stopped at once; its frames so far are in {out}"
-                            f"; continue with: jellysim run {shlex.quote(str(scene_file))} "
-                            f"--resume {shlex.quote(str(out))}", fg="yellow", err=True)
+                            "; continue with: jellysim run "
+                            + ("" if scene_file is None else f"{shlex.quote(str(scene_file))} ")
+                            + f"--resume {shlex.quote(str(out))}", fg="yellow", err=True)
             else:
                 click.secho("interrupted: run stopped before its first step; nothing was "
                             "written" + ("" if fresh else " (what the folder held is as it "

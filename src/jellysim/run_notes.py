@@ -33,6 +33,9 @@ def _say_if_slow(notify, sim, seconds: float, steps: int, left: int) -> bool:
 def _resume_command(scene, out_dir) -> str:
     """How to continue a run of ``scene`` in ``out_dir``: the command line for a scene file,
     the Python call for a scene made in Python without a name (no file to name)."""
+    if getattr(scene, "from_run", None) is not None:  # (resumed from the run's own record)
+        return (f"jellysim run --resume {shlex.quote(str(out_dir))}" + "".join(
+            f" --set {shlex.quote(item)}" for item in getattr(scene, "overrides", ())))
     if str(scene.name) != "<scene>":
         return (f"jellysim run {shlex.quote(str(scene.name))} --resume "
                 f"{shlex.quote(str(out_dir))}" + "".join(

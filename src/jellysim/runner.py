@@ -412,6 +412,11 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             every = ck.frame_every  # frames keep the run's schedule, whatever its new length
         if vtu is None and ck.vtu is not None:
             write_vtu = ck.vtu  # an extension keeps the run's --no-vtu
+        elif not write_vtu and ck.vtu:  # (asked: --no-vtu on a run that wrote its series)
+            told = (f"{out_dir}: resumed without .vtu frames (--no-vtu): its ParaView series "
+                    f"body.pvd ends at t = {ck.t:.6g} s while trajectory.npz goes on; "
+                    f"`jellysim export {out_dir} -o FILE.pvd` writes the whole series")
+            notify(told) if notify is not None else warnings.warn(told, stacklevel=3)
         if not stream_dir.exists():  # a finished run being extended: its frames back
             if not npz_path.exists():
                 raise CheckpointError(f"{out_dir}: the run's frames are gone (no {npz_path.name}"

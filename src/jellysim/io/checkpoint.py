@@ -17,7 +17,10 @@ Stored arrays:
                                    a longer or shorter run)
 ``vtu``                 () bool    whether the run writes its ParaView series (a resume or an
                                    extension keeps that choice)
-``scene_params``        str        those parameters as JSON (a refusal names what differs)
+``scene_params``        str        those parameters as JSON (a refusal names what differs;
+                                   ``jellysim run --resume DIR`` rebuilds the scene from them)
+``scene_path``          str        the scene file (absolute), against which its relative paths
+                                   resolve; ``<scene>`` for a scene made in Python
 ``scene_sha256``        str        hash of the scene's resolved parameters, all but the run's
                                    length (``[integrator] steps``), so a run can be extended
 ``model_sha256``        str        hash of the built body (rest positions, masses, springs)
@@ -130,6 +133,8 @@ class Checkpoint:
     """Whether the run writes its ParaView series."""
     scene_params: str = ""
     """The parameters it was written for (JSON, without the run's length)."""
+    scene_path: str = ""
+    """The scene file it was written for (absolute; empty in files of earlier versions)."""
 
 
 def write_checkpoint(path, sim, *, frames: int, scene, model, total: int | None = None,
@@ -141,7 +146,8 @@ def write_checkpoint(path, sim, *, frames: int, scene, model, total: int | None 
               "scene_sha256": np.array(scene_hash(scene)),
               "scene_params": np.array(_hashed_params(scene)),
               "model_sha256": np.array(model_hash(model)),
-              "version": np.array(_version())}
+              "version": np.array(_version()),
+              "scene_path": np.array(_scene_path(scene))}
     if total is not None:
         arrays["total_steps"] = np.array(int(total))
     if every is not None:
@@ -156,6 +162,49 @@ def write_checkpoint(path, sim, *, frames: int, scene, model, total: int | None 
     np.savez(buf, **arrays)
     write_replace(path, buf.getvalue())
     return Path(path)
+
+
+def _scene_path(scene) -> str:
+    name = str(getattr(scene, "name", "<scene>"))
+    return str(Path(name).resolve()) if Path(name).is_file() else name
+
+
+def scene_of_run(out_dir, *, overrides=()):
+    """The :class:`~jellysim.scene.Scene` a run in ``out_dir`` was made with, rebuilt from its
+    checkpoint (``jellysim run --resume DIR`` without the scene file): its resolved parameters,
+    ``overrides`` (``"section.key=value"``) applied over them, named after the scene file
+    so that relative paths resolve as they did.  Raises :class:`CheckpointError` when the
+    folder holds no checkpoint, or one of a version that did not record the parameters."""
+    from ..scene import Scene
+    from ..scene_spec import apply_override
+
+    out_dir = Path(out_dir)
+    if not out_dir.is_dir():
+        raise CheckpointError(f"--resume {out_dir}: no such folder; give the output folder of "
+                              "the run to continue (the one its interrupted run printed)")
+    path = next((out_dir / n for n in (CHECKPOINT, FINAL_CHECKPOINT)
+                 if (out_dir / n).is_file()), out_dir / CHECKPOINT)
+    ck = read_checkpoint(path)
+    if not ck.scene_params or ck.scene_steps is None:
+        raise CheckpointError(f"{path}: written by an earlier jellysim that did not record the "
+                              "scene: give the scene file too (jellysim run SCENE --resume "
+                              f"{out_dir})")
+    raw = json.loads(ck.scene_params)
+    raw["integrator"]["steps"] = ck.scene_steps
+    name = ck.scene_path or "<scene>"
+    for item in overrides:
+        apply_override(raw, item, name)
+    scene = Scene.from_dict(raw, name=name)
+    scene.overrides = tuple(overrides)
+    scene.from_run = out_dir  # (what a stop prints to continue: jellysim run --resume DIR)
+    try:
+        from .trajectory import load_trajectory
+
+        text = load_trajectory(out_dir, mmap=True).scene_toml  # (the file's own text)
+        scene.text = text.split("\n# run for ")[0].rstrip("\n") + "\n"
+    except Exception:  # noqa: BLE001  (the rebuilt text stands in)
+        pass
+    return scene
 
 
 def read_checkpoint(path, *, scene=None, model=None) -> Checkpoint:
@@ -178,7 +227,8 @@ def read_checkpoint(path, *, scene=None, model=None) -> Checkpoint:
             frame_every=int(d["frame_every"]) if "frame_every" in d else None,
             scene_steps=int(d["scene_steps"]) if "scene_steps" in d else None,
             vtu=bool(d["vtu"]) if "vtu" in d else None,
-            scene_params=str(d["scene_params"]) if "scene_params" in d else "")
+            scene_params=str(d["scene_params"]) if "scene_params" in d else "",
+            scene_path=str(d["scene_path"]) if "scene_path" in d else "")
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
         raise CheckpointError(f"{path}: damaged checkpoint ({exc}: cut short or overwritten?); "
                               "start the run afresh: without --resume, with --overwrite") from None
