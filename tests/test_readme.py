@@ -134,7 +134,7 @@ def test_every_readme_command_runs_on_a_clean_copy(tmp_path):
         else:
             sub = argv[1]
             argv = [sys.executable, "-m", "jellysim", *argv[1:], *SCALE.get(sub, [])]
-            if sub == "run" and _is_mesh_scene(tmp_path / argv[4]):
+            if sub == "run" and argv[4].endswith(".toml") and _is_mesh_scene(tmp_path / argv[4]):
                 argv += ["--set", "body.points=200"]
         if sub == "view":
             # an interactive window: with a display (xvfb-run) draw it once and save it;
