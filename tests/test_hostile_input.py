@@ -1257,3 +1257,43 @@ def test_gravity_that_does_not_meet_the_ground_is_said():
         warnings.simplefilter("error")
         js.Simulator(slope, dt=1 / 60, ground=ground)
         js.Simulator(sideways, dt=1 / 60, ground=js.GroundParams(enabled=False))
+
+
+def test_session_23_trial_mistakes_are_said(tmp_path):
+    """From session 23's new-user trial: an empty scene said only "missing section [body]"
+    (now: the smallest whole scene and where the keys are listed); a body file whose masses are
+    the material's own warned that they were "replaced" by the same 0.5182 kg (now quiet; a
+    different total still warns); a grid box's points below 8 said "at least 8 points" of a
+    value that counts cells."""
+    import warnings
+
+    from jellysim.body import Body
+    from jellysim.errors import ParameterError
+    from jellysim.geometry.jellyfile import write_body
+
+    (tmp_path / "empty.toml").write_text("")
+    with pytest.raises(SceneError, match=r"missing section \[body\].*preset = 'gelatin'.*"
+                                         r"scene-help"):
+        Scene.load(tmp_path / "empty.toml")
+    (tmp_path / "no_int.toml").write_text("[body]\npoints = 10\n[springs]\nstiffness = 1.0\n"
+                                          "radius = 0.5\n")
+    with pytest.raises(SceneError, match=r"missing section \[integrator\] \(at least dt"):
+        Scene.load(tmp_path / "no_int.toml")
+    with pytest.raises(ParameterError, match=r"counts the cells"):
+        Body.box(points=1)
+    scene = ('[material]\npreset = "gelatin"\n[body]\ntype = "file"\npath = "b.jello"\n'
+             '[integrator]\nsteps = 1\n')
+    (tmp_path / "s.toml").write_text(scene)
+    body = Body.box(upper=(0.03, 0.03, 0.03), points=27)
+    write_body(tmp_path / "b.jello", body)                      # without masses
+    body.masses = Scene.load(tmp_path / "s.toml").build_model().point_mass.copy()
+    (tmp_path / "b.jello").unlink()
+    write_body(tmp_path / "b.jello", body)                      # with the material's own
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Scene.load(tmp_path / "s.toml").build_model()           # the same masses: quiet
+    body.masses = 2.0 * body.masses
+    (tmp_path / "b.jello").unlink()
+    write_body(tmp_path / "b.jello", body)
+    with pytest.warns(UserWarning, match=r"own masses .* replaced by the material"):
+        Scene.load(tmp_path / "s.toml").build_model()

@@ -309,6 +309,8 @@ class Body:
         lo, hi = self.points.min(axis=0), self.points.max(axis=0)
         size = " x ".join(f"{e:.4g}" for e in hi - lo)
         how = self.meta.get("connect") or self.meta.get("builder") or ""
+        if self.meta.get("distribution") == "grid":  # (its tets are the grid's own)
+            how = f"grid box, {how} springs"
         volume = "unknown" if self.volume is None else f"{self.volume:.4g} m^3"
         return (f"Body({self.point_count} points, {len(self.springs)} springs, {tets} tets, "
                 f"{size} m, volume {volume}" + (f", {how}" if how else "") + ")")

@@ -367,7 +367,8 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
         frames = window[::every]
         if frame is not None:
             if not -traj.frame_count <= frame < traj.frame_count:
-                raise JellysimError(f"--frame {frame} is outside [0, {traj.frame_count - 1}]")
+                raise JellysimError(f"--frame {frame} is outside [0, {traj.frame_count - 1}] "
+                                    f"(or -1 .. -{traj.frame_count} from the end)")
             frames = np.array([frame % traj.frame_count])
         options = dataclasses.replace(_options(size, color, opacity, show, no_floor,
                                                (azimuth, elevation, zoom)), camera=camera_mode,

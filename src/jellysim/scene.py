@@ -172,7 +172,12 @@ class Scene:
                 raise SceneError(f"{name}: '{section}' must be a [{section}] table")
         for section in REQUIRED_SECTIONS:
             if section not in raw:
-                raise SceneError(f"{name}: missing section [{section}]")
+                what = {"body": " (where the jello comes from: type = 'box', 'mesh' or 'file')",
+                        "integrator": " (at least dt [s] and steps)"}.get(section, "")
+                raise SceneError(f"{name}: missing section [{section}]{what}; the smallest "
+                                 "whole scene is [material] preset = 'gelatin' (a 10 cm gelatin "
+                                 "cube); `jellysim scene-help` lists every key, examples/ has "
+                                 "whole scenes")
         for section, keys in SCHEMA.items():
             out[section] = _table(name, f"[{section}]", raw.get(section, {}), keys)
         mat, spr = out["material"], out["springs"]
@@ -396,8 +401,10 @@ class Scene:
             model = self._material_model(body)
             if model is not None:
                 refuse_point_mass(self.name, self.given, m["point_mass"], density, model)
-                if self.params["body"]["type"] == "file" and body.masses is not None:
-                    own, new = body.masses.sum(), model.point_mass.sum()
+                own = None if body.masses is None else body.masses.sum()
+                new = model.point_mass.sum()
+                if (self.params["body"]["type"] == "file" and own is not None
+                        and abs(own - new) > 1e-6 * new):  # (the same total: nothing to say)
                     warnings.warn(f"{self.name}: the body file's own masses ({own:.4g} kg) "
                                   f"are replaced by the material's: density x the tets' "
                                   f"volume ({new:.4g} kg)", UserWarning, stacklevel=2)

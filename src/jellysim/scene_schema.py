@@ -23,8 +23,11 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "path": Spec("str", None, "Mesh or body file (type 'mesh' / 'file'), relative to the "
                      "scene file.", allowed="a file name"),
         "points": Spec("int", None, "Number of points: of the random field (type 'box', "
-                       "required) or sampled inside the mesh (type 'mesh', default 2000).",
-                       lambda v: v >= 2, "an integer >= 2"),
+                       "required) or sampled inside the mesh (type 'mesh', default 2000).  "
+                       "A grid (distribution 'grid', the gelatin preset's box; connect "
+                       "'marching' in a mesh) has about that many cells, so more points: "
+                       "(N^(1/3) + 1)^3 for a box (1000: 1331).",
+                       lambda v: v >= 2, "an integer >= 2 (>= 8 for a grid box)"),
         "sampling": Spec("str", "uniform", "Type 'mesh': how points are placed inside.",
                          choices=("uniform", "edge", "grid", "poisson")),
         "surface_samples": Spec("bool", None, "Type 'mesh', connect 'delaunay' or 'radius': "

@@ -24,7 +24,8 @@ def grid_points(count: int, lower, upper) -> np.ndarray:
     lower = np.asarray(lower, dtype=np.float64).reshape(3)
     upper = np.asarray(upper, dtype=np.float64).reshape(3)
     if count < 8:
-        raise ParameterError(f"a grid needs at least 8 points, got {count}")
+        raise ParameterError(f"a grid box needs points >= 8, got {count} (for a grid, points "
+                             "counts the cells: N cells give about (N^(1/3) + 1)^3 points)")
     if not np.all(upper > lower):
         raise ParameterError(f"box upper corner {upper.tolist()} must exceed lower {lower.tolist()}")
     size = upper - lower
