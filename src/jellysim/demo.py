@@ -156,7 +156,7 @@ def demo_command(out_dir, scene, mesh, up, points, frames, usd, backend=None, de
             + ("" if usd else " --no-usd") + " --resume")
 
 
-def _rendering_left(run_dir: Path, scene, steps: int, again: str):
+def _rendering_left(run_dir: Path, scene, steps: int):
     """The finished run of a demo stopped while rendering, as :func:`run_scene` returns one,
     when it is this demo's (same scene and length); else a :class:`JellysimError`."""
     from .runner import RunResult, _asked_text
@@ -270,7 +270,7 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
         prepare_out_dir(run_dir, overwrite=overwrite, delete=False)
     steps = sc.steps if frames is None else max(1, int(frames) - 1) * sc.frame_every
     try:
-        result = (_rendering_left(run_dir, sc, steps, again) if unrendered and resume else
+        result = (_rendering_left(run_dir, sc, steps) if unrendered and resume else
                   run_scene(sc, run_dir, progress=progress, vtu=vtu, steps=steps,
                             skin=skin, body=body, overwrite=overwrite, resume=resume))
     except RunInterrupted as exc:
