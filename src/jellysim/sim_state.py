@@ -27,7 +27,7 @@ class InternalState:
         """Every private array the simulator keeps between :meth:`advance` calls, copied.
 
         Collected generically: each ``numpy`` array attribute whose name starts with ``_``
-        (``_hist``, ``_fresh``, ``_contact_state``, ``_cg``'s warm start and scratch...), each
+        (``_hist``, ``_fresh``, ``_contact_state``, ``_cg``'s warm start...), each
         list/tuple of arrays as ``name.i`` (``_cg.0``), ``_last`` when set, and the CG counters.
         A new private array is therefore checkpointed without touching this method, unless
         named in :attr:`_SCRATCH`.  With :attr:`state` (x, v, a, t, step) it is everything a
