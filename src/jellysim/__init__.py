@@ -4,7 +4,7 @@ Everything a scene file can do is reachable from here::
 
     import jellysim as js
 
-    body = js.Body.from_mesh("cow.obj", size=0.1, points=2000, connect="marching")  # [m]
+    body = js.Body.from_mesh("jellysim:spot.obj", size=0.1, points=2000)  # the shipped cow
     model = js.physical_model(body, js.material("gelatin"))  # FEM tets, E = 10 kPa, masses
     sim = js.Simulator(model, dt=1 / 60,                     # symplectic substeps (auto)
                        ground=js.GroundParams(model=js.GroundModel.CONTACT))
@@ -66,8 +66,11 @@ _LAZY = {
     "load_trajectory": ("io.trajectory", "load_trajectory"),
     "Trajectory": ("io.trajectory", "Trajectory"),
     "Skin": ("skin", "Skin"),
-    "JellysimError": ("errors", "JellysimError"),
-    "ParameterError": ("errors", "ParameterError"),
+    # errors and warnings (every error is a JellysimError; the input ones are ValueErrors too)
+    **{name: ("errors", name) for name in (
+        "JellysimError", "ParameterError", "SceneError", "SimulationError", "MeshError",
+        "BuildError", "JelloFileError", "RunInterrupted", "CheckpointError", "NothingToResume",
+        "OutputError", "ResourceError", "StabilityWarning", "SolverWarning")},
 }
 """Public name -> (module under ``jellysim``, attribute), imported on first access."""
 

@@ -183,6 +183,10 @@ class Body:
         origin; default 0.1 m, said in a warning whenever that changes the mesh's own extent);
         ``None`` keeps the mesh's coordinates, which are then read as metres
         (as ``build_body``, the CLI and scenes do).
+        Its defaults are for a jello body (``size=0.1``, ``connect="marching"``);
+        :func:`jellysim.build.build_body`'s are the report's (the mesh's own size,
+        ``connect="radius"``), so the same mesh gives another body there unless these are
+        given.
         ``points``: about this many points (``marching``: the grid warped onto the surface;
         ``radius``/``delaunay``: sampled inside, ``delaunay`` adding points on the surface).
         ``connect``: ``"marching"`` (default), ``"radius"``, ``"delaunay"`` or ``"tetgen"``.

@@ -227,7 +227,9 @@ def guard_output(path, overwrite: bool) -> None:
 _show = click.option("--show", multiple=True,
                      type=click.Choice(["skin", "points", "springs", "all"],
                                        case_sensitive=False),
-                     help="What to draw (repeatable; default: the skin). 'all' = everything.")
+                     help="What to draw, instead of the default (the skin alone); repeatable: "
+                          "'--show skin --show springs' draws both, '--show springs' only the "
+                          "springs, 'all' everything.")
 _size_opt = click.option("--size", default="960x540", show_default=True,
                          help="Image size WIDTHxHEIGHT in pixels.")
 _size_render = click.option("--size", default="960x540", show_default=True,

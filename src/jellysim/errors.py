@@ -3,7 +3,8 @@ from __future__ import annotations
 
 __all__ = ["JellysimError", "SceneError", "SimulationError", "MeshError", "BuildError",
            "JelloFileError", "RunInterrupted", "CheckpointError", "NothingToResume",
-           "ResourceError", "StabilityWarning", "SolverWarning", "did_you_mean"]
+           "OutputError", "ResourceError", "ParameterError", "StabilityWarning", "SolverWarning",
+           "did_you_mean"]
 
 
 def did_you_mean(word, choices, fmt: str = "'{}'") -> str:
@@ -20,7 +21,9 @@ class JellysimError(Exception):
 
 
 class SceneError(JellysimError, ValueError):
-    """A scene file or scene parameter is invalid."""
+    """A scene file or scene parameter is invalid; also what :class:`~jellysim.Simulator`, its
+    ``advance`` and its handles (``pin``, ``apply_force``, ``select_points``...) raise for a bad
+    argument (the scene reader adds the scene file's name to the same messages)."""
 
 
 class ParameterError(JellysimError, ValueError):

@@ -128,12 +128,21 @@ class PinPath:
             return PinPath(np.concatenate([[float(t0)], self.times]),
                            np.concatenate([np.zeros((1, 3)), self.offsets]))
         off = self.offset(t0)
+        past = (f" (times are absolute simulation times: the path's first keyframe, t = "
+                f"{self.times[0]:g} s, is before the pinning time)") if self.times[0] < t0 else ""
         if np.any(np.abs(off) > 1e-12):
             raise SceneError(
                 f"{what}: at t = {t0:g} s, when the points are pinned, it asks for an offset of "
-                f"{off.round(6).tolist()} m; the points would jump there in one substep.  "
+                f"{off.round(6).tolist()} m; the points would jump there in one substep{past}.  "
                 f"Offsets are from where the points are when pinned: start the path with "
                 f"[{t0:g}, 0, 0, 0] (or with a later time, then it ramps from zero)")
+        if past and self.times[-1] <= t0:
+            import warnings
+
+            warnings.warn(f"{what}: every keyframe (the last at t = {self.times[-1]:g} s) is "
+                          f"before the pinning time t = {t0:g} s (times are absolute simulation "
+                          "times): the points are held where they are", UserWarning,
+                          stacklevel=3)
         return self
 
     def offset(self, t: float) -> np.ndarray:
@@ -243,17 +252,22 @@ class HandleMethods:
     def pin(self, indices, path=None) -> None:
         """Pin points (indices into the body) where they are now; with ``path`` (rows
         ``[t, dx, dy, dz]``, s and m, or a :class:`~jellysim.handles.PinPath`) they follow
-        the offsets from there, linearly between keyframes (absolute simulation times)."""
+        the offsets from there, linearly between keyframes (absolute simulation times).
+        Pinning points that are already pinned replaces their earlier pin and path (the
+        last call wins; a scene's ``[[handle]]`` tables may not overlap instead).  A refused
+        call (a bad index or path) changes nothing."""
         self._require_physical("pinning points")
         idx = self._point_indices(indices, "pin")
+        if path is not None:  # checked before anything changes: a refused call pins nothing
+            path = path if isinstance(path, PinPath) else PinPath.of(path)
+            path = path.starting_at(float(self.state.t))
         hd = self.handles
         hd.pinned[idx] = 1
         hd.pin_anchor[idx] = self.state.x[idx]
         self.state.v[idx] = 0.0
         hd.paths = [(i, p) for i, p in hd.paths if not np.isin(i, idx).any()]
         if path is not None:
-            path = path if isinstance(path, PinPath) else PinPath.of(path)
-            hd.paths.append((idx, path.starting_at(float(self.state.t))))
+            hd.paths.append((idx, path))
             ground = getattr(self, "ground", None)
             low = float(self.state.x[idx, 1].min() + path.offsets[:, 1].min())
             if ground is not None and ground.enabled and low < float(ground.height) - 1e-9:

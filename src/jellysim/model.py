@@ -156,6 +156,8 @@ def finalize(
             raise ParameterError(f"body.rest_length must be >= 0 m and finite for every spring "
                                  f"(spring {bad}: {float(rest[bad])!r}); leave it None to take the "
                                  "springs' start lengths")
+    if body.rest_length is None and k and not np.all(rest > 0):
+        _say_coincident(springs, rest)
     stiff = _stiffness(body, stiffness, k)
     springs, rest, stiff = springs[order], rest[order], stiff[order]
     mass = _masses(body, n, density, volume, point_mass)
@@ -193,6 +195,20 @@ def finalize(
         gravity=_frozen(gravity, np.float64),
         body=body,
     )
+
+
+def _say_coincident(springs, rest) -> None:
+    """Warn of springs whose two points start at the same place (a body with duplicate
+    points): their rest length is 0, so they pull their points together, and strain limiting
+    (a tolerance times the rest length) cannot hold them."""
+    import warnings
+
+    zero = np.flatnonzero(rest == 0)
+    i = int(zero[0])
+    warnings.warn(f"{len(zero)} spring(s) join two points at the same position (the first: "
+                  f"springs[{i}] = {springs[i].tolist()}): their rest length is 0 m.  The body "
+                  "has duplicate points; remove them (e.g. np.unique(points, axis=0), then build "
+                  "the springs), or give body.rest_length", UserWarning, stacklevel=3)
 
 
 def _stiffness(body: Body, stiffness, k: int) -> np.ndarray:

@@ -278,6 +278,13 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState):
             raise SceneError(
                 f"provot pairs = 'all' is O(n^2) and limited to {MAX_ALL_PAIRS_POINTS} points; "
                 f"this body has {n}. Use pairs = 'springs' (and a stiffer material) instead.")
+        if not self.physical and not provot.enabled and n > 1 and not np.any(
+                model.spring_stiffness != 0):
+            warnings.warn("every spring has stiffness 0 N/m and strain limiting is off: nothing "
+                          "holds the body's shape, its points move independently (give "
+                          "finalize(body, stiffness=...) in N/m, or a material: "
+                          "js.physical_model(body, js.material('gelatin')))", UserWarning,
+                          stacklevel=2)
         choose = threads is None and self.physical and self.backend is Backend.NUMBA
         if threads is None:  # (the physical path's work is its tets; then timed frames)
             threads = (1 if self.physical and model.fem.tet_count < PHYSICAL_PARALLEL_MIN_TETS

@@ -1,0 +1,114 @@
+"""The Python API's answers to mistakes (session 24's new-user trial of the API): a refused
+call changes nothing, every error class is a top-level name, and what nothing stops but
+nothing can use (duplicate points, a shape held by nothing) is said."""
+from __future__ import annotations
+
+import re
+import warnings
+
+import numpy as np
+import pytest
+
+import jellysim as js
+from jellysim import errors
+
+
+def _gelatin_sim():
+    body = js.Body.box(upper=(0.03, 0.03, 0.03), points=27)
+    return js.Simulator(js.physical_model(body, js.material("gelatin")), dt=1 / 60)
+
+
+@pytest.mark.parametrize("path", [[[1.0, 0.0, 0.0]], [[0.0, 0.1, 0.0, 0.0]],
+                                  [[0.0, 0.0, 0.0, 0.0], [1.0, np.nan, 0.0, 0.0]],
+                                  [[0.0, 0.0, 0.0, 0.0], [2.0, 0.0, 0.1, 0.0],
+                                   [1.0, 0.0, 0.0, 0.0]]])
+def test_a_pin_refused_for_its_path_pins_nothing(path):
+    """A bad path (wrong row length, a jump at the pinning time, NaN, times going back) is
+    refused before any point is pinned, its anchor set or its velocity zeroed."""
+    sim = _gelatin_sim()
+    sim.state.v[:] = [0.0, -0.5, 0.0]
+    v = sim.state.v.copy()
+    with pytest.raises(js.SceneError, match=r"pin path"):
+        sim.pin([1, 2], path=path)
+    assert not np.any(sim.handles.pinned)
+    assert sim.handles.paths == []
+    np.testing.assert_array_equal(sim.state.v, v)
+    x = sim.state.x.copy()
+    sim.advance(2)  # and the points fall as free ones: no stray pin holds them
+    assert np.all(sim.state.x[[1, 2], 1] < x[[1, 2], 1])
+
+
+def test_a_pin_path_in_the_past_is_explained():
+    """Path times are absolute simulation times: a path asking for an offset at the pinning
+    time because its keyframes began earlier says so; one lying wholly before it warns that
+    the points are only held."""
+    sim = _gelatin_sim()
+    sim.advance(3)  # t = 0.05 s
+    with pytest.raises(js.SceneError, match=r"times are absolute simulation times: the path's "
+                                            r"first keyframe, t = -1 s, is before the pinning"):
+        sim.pin([0], path=[[-1.0, 0.01, 0.0, 0.0], [1.0, 0.02, 0.0, 0.0]])
+    with pytest.warns(UserWarning, match=r"every keyframe \(the last at t = 0.01 s\) is before "
+                                         r"the pinning time t = 0.05 s"):
+        sim.pin([0], path=[[-1.0, 0.0, 0.0, 0.0], [0.01, 0.0, 0.0, 0.0]])
+    x0 = sim.state.x[0].copy()
+    sim.advance(3)
+    np.testing.assert_array_equal(sim.state.x[0], x0)  # held where it was pinned
+
+
+def test_pinning_again_replaces_the_path():
+    """The last call wins: a plain pin after a pin along a path holds the points still."""
+    sim = _gelatin_sim()
+    sim.pin([0], path=[[0.0, 0.0, 0.0, 0.0], [1.0, 0.05, 0.0, 0.0]])
+    sim.pin([0])
+    x0 = sim.state.x[0].copy()
+    sim.advance(6)
+    np.testing.assert_array_equal(sim.state.x[0], x0)
+
+
+def test_every_error_and_warning_class_is_a_top_level_name():
+    """What a message's class says can be caught under that name: ``js.SceneError`` ..."""
+    names = [n for n in errors.__all__ if n != "did_you_mean"]
+    assert {"SceneError", "SimulationError", "ParameterError", "StabilityWarning"} <= set(names)
+    for name in names:
+        assert getattr(js, name) is getattr(errors, name)
+        assert name in dir(js)
+    declared = set(re.findall(r"^class (\w+)\(", open(errors.__file__).read(), re.M))
+    assert declared == set(names)  # a new class is exported too
+    with pytest.raises(js.SceneError):
+        js.Simulator(js.finalize(js.Body.box(points=27), stiffness=1.0), dt=-0.01)
+
+
+def test_duplicate_points_and_a_shape_held_by_nothing_are_said():
+    """Two points at one place give a spring of rest length 0 (strain limiting cannot hold
+    it): the warning names the spring; a springs body with every stiffness 0 and no strain
+    limiting holds no shape: the Simulator says so."""
+    from jellysim.geometry.connect import radius_springs
+
+    pts = np.random.default_rng(0).random((50, 3)) * 0.1
+    pts[7] = pts[3]
+    body = js.Body(points=pts, springs=radius_springs(pts, 0.04))
+    with pytest.warns(UserWarning, match=r"1 spring\(s\) join two points at the same position "
+                                         r"\(the first: springs\[\d+\] = \[3, 7\]\)"):
+        model = js.finalize(body, stiffness=10.0, point_mass=1e-3)
+    assert np.sum(model.spring_rest_length == 0.0) == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # distinct points, stiff springs: nothing to say
+        model = js.finalize(js.Body(points=pts[:7], springs=radius_springs(pts[:7], 0.1)),
+                            stiffness=10.0, point_mass=1e-3)
+        js.Simulator(model, dt=1e-3)
+    limp = js.finalize(js.Body(points=pts[:7], springs=radius_springs(pts[:7], 0.1)),
+                       stiffness=0.0, point_mass=1e-3)
+    with pytest.warns(UserWarning, match=r"every spring has stiffness 0 N/m and strain "
+                                         r"limiting is off: nothing holds the body's shape"):
+        js.Simulator(limp, dt=1e-3)
+
+
+def test_the_package_docstring_example_names_a_mesh_that_exists():
+    """``help(jellysim)`` opens with an example: the mesh it names loads."""
+    from jellysim.geometry import load_mesh
+
+    paths = re.findall(r'from_mesh\("([^"]+)"', js.__doc__)
+    assert paths
+    for path in paths:
+        mesh = load_mesh(path)
+        assert len(mesh.faces) > 100
