@@ -46,8 +46,11 @@ def test_radius_cube_sag_is_rho_g_l2_over_2e_at_two_resolutions():
 
 def _fem_rest_sag_ratio(points: int, frames: int) -> tuple[float, float, float]:
     """The same cube on the physical path: the radius body's own tets (Delaunay of its points,
-    carved) carry the Stable Neo-Hookean material; it settles on a frictionless ground
-    (heavily damped so it comes to rest in a few frames).  Returns the top's sag over the
+    carved) carry the Stable Neo-Hookean material; it settles on a frictionless ground.  To
+    come to rest in a few frames it is damped by the report's velocity damping delta [kg/s]
+    (zero at rest, so the rest is the same), at 0.75 of critical for the column's first mode
+    omega = (pi / 2) sqrt(E / rho) / L, rather than by the material's damping branch (whose
+    stiffness halved the substep at 0.3 of critical).  Returns the top's sag over the
     column's (relative to the lowest point, as ``bench_radius_sag``), the largest speed at
     the end [m/s] and the smallest tet volume ratio J over the run's frame ends."""
     from jellysim.geometry.tetra import tet_signed_volumes
@@ -57,8 +60,10 @@ def _fem_rest_sag_ratio(points: int, frames: int) -> tuple[float, float, float]:
     cube = load_mesh(DATA / "cube.obj")
     mesh = Mesh.from_arrays((cube.vertices + 1.0) * (L / 2), cube.faces, name="cube")
     body = build_body(mesh, points=points, connect="radius", seed=0)
+    omega = 0.5 * np.pi * np.sqrt(E / RHO) / L
     model = physical_model(body, Material(youngs_modulus=E, density=RHO, model="fem",
-                                          damping_ratio=0.3), gravity=(0.0, -G, 0.0))
+                                          damping_ratio=0.0), gravity=(0.0, -G, 0.0),
+                           damping=1.5 * omega * RHO * L**3 / points)
     ground = GroundParams(model=GroundModel.CONTACT, restitution=0.0, friction=0.0)
     sim = Simulator(model, dt=1 / 60, ground=ground)
     x0 = np.asarray(model.point_x0)
@@ -81,12 +86,12 @@ def test_radius_cube_on_its_tets_rests_at_rho_g_l2_over_2e_at_two_resolutions():
     settles within 10 % of rho g L^2 / (2E) at 2,000 and 16,000 points and within 10 % of
     itself across them (on springs the 16,000-point dynamic rest is 17 % over: the springs'
     geometric softening at 10 kPa, BENCHMARKS.md "Radius-builder sag")."""
-    coarse, v_coarse, j_coarse = _fem_rest_sag_ratio(2000, 30)
-    fine, v_fine, j_fine = _fem_rest_sag_ratio(16000, 15)
+    coarse, v_coarse, j_coarse = _fem_rest_sag_ratio(2000, 14)
+    fine, v_fine, j_fine = _fem_rest_sag_ratio(16000, 12)
     print(f"FEM rest sag / (rho g L^2 / 2E): 2,000 points {coarse:.3f} (end speed "
           f"{v_coarse:.1e} m/s, J {j_coarse:.2f}), 16,000 points {fine:.3f} ({v_fine:.1e}, "
           f"{j_fine:.2f})")
-    assert v_coarse < 0.02 and v_fine < 0.05  # come to rest: the sag is a resting one
+    assert max(v_coarse, v_fine) < 0.002  # come to rest: the sag is a resting one
     assert min(j_coarse, j_fine) > 0.5  # no tet squeezed, none inverted
     assert coarse == pytest.approx(1.0, abs=0.10)
     assert fine == pytest.approx(1.0, abs=0.10)
