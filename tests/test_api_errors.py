@@ -101,6 +101,9 @@ def test_duplicate_points_and_a_shape_held_by_nothing_are_said():
     with pytest.warns(UserWarning, match=r"every spring has stiffness 0 N/m and strain "
                                          r"limiting is off: nothing holds the body's shape"):
         js.Simulator(limp, dt=1e-3)
+    loose = js.finalize(js.Body(points=pts[:7], springs=np.zeros((0, 2), int)), point_mass=1e-3)
+    with pytest.warns(UserWarning, match=r"the body has no springs and strain limiting is off"):
+        js.Simulator(loose, dt=1e-3)
 
 
 def test_the_package_docstring_example_names_a_mesh_that_exists():

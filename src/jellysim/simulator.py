@@ -280,7 +280,9 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState):
                 f"this body has {n}. Use pairs = 'springs' (and a stiffer material) instead.")
         if not self.physical and not provot.enabled and n > 1 and not np.any(
                 model.spring_stiffness != 0):
-            warnings.warn("every spring has stiffness 0 N/m and strain limiting is off: nothing "
+            what = ("every spring has stiffness 0 N/m" if model.spring_count else
+                    "the body has no springs")
+            warnings.warn(f"{what} and strain limiting is off: nothing "
                           "holds the body's shape, its points move independently (give "
                           "finalize(body, stiffness=...) in N/m, or a material: "
                           "js.physical_model(body, js.material('gelatin')))", UserWarning,
