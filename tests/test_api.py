@@ -535,3 +535,30 @@ def test_finalize_says_when_a_radius_body_gets_another_density_than_it_was_built
         own = jellysim.finalize(body, stiffness=2.0)
         assert jellysim.finalize(body, stiffness=2.0, density=1141.0).total_mass == \
             own.total_mass == pytest.approx(1141.0 * body.volume, rel=1e-12)
+
+
+def test_from_mesh_radius_bodies_get_surface_points_build_body_keeps_the_reports_way():
+    """Session 24's API trial: a radius ball from ``Body.from_mesh`` (jello defaults) rested
+    and landed on its inside points, rough at the spacing, and rolled 71 mm off a 3 cm drop
+    (benchmarks/bench_drift.py).  ``from_mesh`` now puts points on the surface for radius
+    bodies (``surface_samples=True``, as a physical body wants); ``build_body``, the report's
+    builder, keeps exactly ``points`` points strictly inside."""
+    sphere = mesh_path("sphere.obj")
+    mesh = jellysim.load_mesh(sphere)
+    v = mesh.vertices[mesh.faces]  # a convex mesh: a point's distance to its surface is the
+    n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])  # smallest to a face's plane
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    n *= np.sign(np.einsum("ij,ij->i", n, v[:, 0] - mesh.vertices.mean(axis=0)))[:, None]
+
+    def depth(x):
+        return np.min(np.einsum("fj,fj->f", n, v[:, 0])[None, :] - x @ n.T, axis=1)
+
+    jelly = jellysim.Body.from_mesh(sphere, size=None, points=300, connect="radius")
+    report = jellysim.build_body(sphere, points=300, connect="radius")
+    on_jelly, on_report = np.abs(depth(jelly.points)), depth(report.points)
+    spacing = (report.volume / 300) ** (1 / 3)
+    assert np.sum(on_jelly < 1e-9 * spacing) >= 50  # a layer of points on the faces
+    assert len(report.points) == 300 and on_report.min() > 1e-9 * spacing  # all inside
+    inside_only = jellysim.Body.from_mesh(sphere, size=None, points=300, connect="radius",
+                                          surface_samples=False)
+    np.testing.assert_array_equal(inside_only.points, report.points)

@@ -183,10 +183,13 @@ class Body:
         origin; default 0.1 m, said in a warning whenever that changes the mesh's own extent);
         ``None`` keeps the mesh's coordinates, which are then read as metres
         (as ``build_body``, the CLI and scenes do).
-        Its defaults are for a jello body (``size=0.1``, ``connect="marching"``);
+        Its defaults are for a jello body (``size=0.1``, ``connect="marching"``, and with
+        ``connect="radius"`` points on the surface too, ``surface_samples=True``);
         :func:`jellysim.build.build_body`'s are the report's (the mesh's own size,
-        ``connect="radius"``), so the same mesh gives another body there unless these are
-        given.
+        ``connect="radius"``, points only inside), so the same mesh gives another body there
+        unless these are given.  Without surface points a radius body rests and lands on its
+        lowest inside points, rough at the spacing: a 10 cm gelatin ball of 800 points dropped
+        3 cm rolled 71 mm sideways within 1.5 s, 11 mm with them (marching: 0.0 mm).
         ``points``: about this many points (``marching``: the grid warped onto the surface;
         ``radius``/``delaunay``: sampled inside, ``delaunay`` adding points on the surface).
         ``connect``: ``"marching"`` (default), ``"radius"``, ``"delaunay"`` or ``"tetgen"``.
@@ -249,6 +252,8 @@ class Body:
             bottom = np.array([0.5 * (lo[0] + hi[0]), lo[1], 0.5 * (lo[2] + hi[2])])
             shift = np.asarray(base, dtype=np.float64).reshape(3) - bottom
             m = replace(m, vertices=m.vertices + shift)
+        if str(getattr(connect, "value", connect)).lower() == "radius":
+            options.setdefault("surface_samples", True)  # flat faces to rest on: a jello's
         body = build_body(m, points=points, connect=connect, seed=seed,
                           density=REPORT_DENSITY if density is None else density, **options)
         if size is not None:

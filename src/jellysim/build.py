@@ -188,8 +188,8 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     The defaults are the report's (the mesh's own size, ``connect="radius"``, uniform
     sampling), as a scene's ``[body]`` table has them without the gelatin preset;
     :meth:`jellysim.Body.from_mesh` defaults to a 0.1 m body on the ``"marching"`` grid (the
-    physical path's best tets), so the same mesh gives another body there unless ``size``
-    and ``connect`` are given.
+    physical path's best tets; with ``connect="radius"`` it adds ``surface_samples``), so the
+    same mesh gives another body there unless ``size`` and ``connect`` are given.
 
     The mesh's coordinates are read as metres.  ``size`` scales it first (about the origin)
     so that its largest bounding-box extent is ``size`` metres; masses (density x enclosed
