@@ -279,15 +279,21 @@ def test_cli_build_defaults_to_the_python_body(tmp_path):
     py_body = jellysim.Body.from_mesh(mesh_path("sphere.obj"), size=0.05, points=300)
     assert np.allclose(cli_body.points, py_body.points, rtol=0, atol=1e-12)
     assert np.array_equal(cli_body.tets, py_body.tets)
-    # a --radius alone still means the report's radius springs (older command lines); with
-    # another builder it is refused, not ignored
-    res = CliRunner().invoke(cli, ["build", str(mesh_path("sphere.obj")), "--size", "0.05",
-                                   "--points", "300", "--radius", "0.012", "-o",
-                                   str(tmp_path / "r.jello")])
-    assert res.exit_code == 0, res.output
-    r = read_body(tmp_path / "r.jello")
-    d = np.linalg.norm(r.points[r.springs[:, 0]] - r.points[r.springs[:, 1]], axis=1)
-    assert r.point_count == 300 and d.max() < 0.012
+    # a --radius alone still means radius springs (older command lines), with surface points
+    # as Body.from_mesh's radius bodies (--no-surface-samples: the report's 300 inside);
+    # with another builder it is refused, not ignored
+    for flag, kind in (([], "jello"), (["--no-surface-samples"], "report")):
+        res = CliRunner().invoke(cli, ["build", str(mesh_path("sphere.obj")), "--size", "0.05",
+                                       "--points", "300", "--radius", "0.012", "-o",
+                                       str(tmp_path / f"r{kind}.jello"), *flag])
+        assert res.exit_code == 0, res.output
+        r = read_body(tmp_path / f"r{kind}.jello")
+        d = np.linalg.norm(r.points[r.springs[:, 0]] - r.points[r.springs[:, 1]], axis=1)
+        py = jellysim.Body.from_mesh(mesh_path("sphere.obj"), size=0.05, points=300,
+                                     connect="radius", radius=0.012,
+                                     surface_samples=kind == "jello")
+        np.testing.assert_allclose(r.points, py.points, rtol=0, atol=1e-12)
+        assert d.max() < 0.012 and (r.point_count == 300) == (kind == "report")
     res = CliRunner().invoke(cli, ["build", str(mesh_path("sphere.obj")), "--connect",
                                    "marching", "--radius", "0.012", "-o",
                                    str(tmp_path / "m.jello")])

@@ -378,10 +378,12 @@ def test_a_block_tilted_slowly_holds_to_its_friction_angle_and_slips_past_it(mu_
             before = speed
         if theta == 30:
             assert moved > 5e-3 and speed > 0.05, (moved, speed)
-            if mu_k < 0.5:  # sliding, the kinetic coefficient rules: at mu_s = 0.5 it would
-                # gain 0.57 m/s^2 along x, at mu_k = 0.3 2.04 m/s^2 (measured: 2.35)
-                rate = (speed - before) / 0.1  # along x: the slope's direction times cos t
-                assert rate > 0.75 * G * (np.sin(t) - mu_k * np.cos(t)) * np.cos(t), rate
+            if mu_k < 0.5:  # sliding, the kinetic coefficient rules: x is the slope's
+                # direction (gravity is turned, the ground stays y = 0), so the block gains
+                # g (sin t - mu cos t) along x: 2.354 m/s^2 at mu_k = 0.3 (measured 2.356),
+                # 0.656 at mu_s = 0.5
+                rate = (speed - before) / 0.1
+                assert rate == pytest.approx(G * (np.sin(t) - mu_k * np.cos(t)), rel=0.05)
 
 
 def test_the_slip_state_is_checkpointed_and_resumes_bitwise():

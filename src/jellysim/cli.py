@@ -305,8 +305,10 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 @click.option("--surface-vertices/--no-surface-vertices", default=None,
               help="Add the mesh vertices to the points (default: on for delaunay).")
 @click.option("--surface-samples/--no-surface-samples", default=None,
-              help="delaunay: also sample the surface's sharp edges and faces at the point "
-                   "spacing (default: on; off is the report's way, mesh vertices only).")
+              help="delaunay and radius: also put points on the surface's sharp edges and "
+                   "faces at the point spacing, so the body has flat faces to rest on "
+                   "(default: on, as Body.from_mesh; off is the report's way: delaunay with "
+                   "mesh vertices only, radius with exactly --points points inside).")
 @click.option("--relax", type=click.IntRange(min=0), default=None,
               help="delaunay: Lloyd passes of the interior points before the "
                    "tetrahedralization (default: 10 with surface samples; 0 is the report's "
@@ -352,6 +354,8 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
             warnings.simplefilter("always")
             if connect is None:
                 connect = "radius" if radius is not None else "marching"
+            if connect == "radius" and surface_samples is None:
+                surface_samples = True  # jello defaults, as Body.from_mesh
             if epsilon is not None and connect != "delaunay":
                 raise JellysimError(f"--epsilon is the near-duplicate distance of --connect "
                                     f"delaunay; --connect {connect} does not use it")
