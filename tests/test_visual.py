@@ -1235,3 +1235,29 @@ def test_a_transparent_picture_with_a_floor_fades_the_floor_out(traj):
     assert np.sum((column > 30) & (column < 225)) >= 6     # a fade, not a hard edge
     red = (img[..., 0] > img[..., 1] + 60) & (alpha > 0)
     assert red.sum() > 100                                 # the body is drawn
+
+
+def test_multisampling_is_turned_off_only_where_it_changes_nothing(traj):
+    """Off-screen renders turn pyvista's 8x multisampling off on a software rasteriser (it
+    cost 1.7x the time there: BENCHMARKS.md "The demo", session 24).  Where that is done the
+    picture with multisampling must be the same (else the saving costs smooth edges); on a
+    GPU it stays on."""
+    import pyvista as pv
+
+    from jellysim.render import offscreen as off
+    from jellysim.render.offscreen import RenderOptions, Renderer
+
+    soft = off._software_gl(pv)
+    pictures = {}
+    try:
+        for asked in (True, False):
+            off._SOFTWARE_GL[:] = [asked]
+            with Renderer(traj, RenderOptions(size=(320, 180), plate=True)) as r:
+                samples = r.plotter.render_window.GetMultiSamples()
+                assert (samples == 0) == asked
+                pictures[asked] = r.render(traj.frame_count // 2).astype(int)
+    finally:
+        off._SOFTWARE_GL[:] = [soft]
+    if soft:
+        differ = np.abs(pictures[True] - pictures[False]).sum(axis=2) > 3
+        assert differ.mean() < 1e-3, differ.sum()
