@@ -265,6 +265,28 @@ def test_usd_has_one_time_sample_per_frame_equal_to_the_skin(traj, tmp_path):
         np.testing.assert_allclose(np.array(attr.Get(k)), traj.skin_positions(k), atol=1e-6)
     idx = np.array(meshes[0].GetFaceVertexIndicesAttr().Get()).reshape(-1, 3)
     np.testing.assert_array_equal(idx, traj.skin.faces)
+    # session 24's artist trial: no normals (Blender drew it faceted) and no material; now
+    # time-sampled vertex normals and a translucent preview material
+    from pxr import UsdShade
+
+    normals = meshes[0].GetNormalsAttr()
+    assert list(normals.GetTimeSamples()) == list(range(traj.frame_count))
+    assert meshes[0].GetNormalsInterpolation() == UsdGeom.Tokens.vertex
+    for k in range(traj.frame_count):
+        n = np.array(normals.Get(k), dtype=float)
+        np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-6)
+    rest, n0 = traj.skin_positions(0), np.array(normals.Get(0), dtype=float)
+    lo, hi = rest.min(axis=0), rest.max(axis=0)
+    assert np.all(np.einsum("ij,ij->i", rest - 0.5 * (lo + hi), n0) > 0)  # outward
+    on = (np.isclose(rest, lo, atol=1e-9) | np.isclose(rest, hi, atol=1e-9))
+    flat = on.sum(axis=1) == 1  # inside one face of the box (not on an edge): its normal
+    axis = np.where(np.isclose(rest, hi, atol=1e-9), 1.0, -1.0) * on   # is the face's
+    assert flat.sum() > 20
+    np.testing.assert_allclose(n0[flat], axis[flat], atol=1e-6)
+    material = UsdShade.MaterialBindingAPI(meshes[0].GetPrim()).ComputeBoundMaterial()[0]
+    shader = UsdShade.Shader(stage.GetPrimAtPath(material.GetPath().AppendChild("surface")))
+    assert shader.GetIdAttr().Get() == "UsdPreviewSurface"
+    assert shader.GetInput("opacity").Get() == pytest.approx(0.7)
 
 
 def test_glb_morph_targets_reproduce_each_frame(traj, tmp_path):

@@ -1,8 +1,11 @@
 """USD export: the skin as one mesh with time-sampled points (``.usdc`` / ``.usda``).
 
 The stage is Y-up, 1 unit = 1 m, ``timeCodesPerSecond`` = the chosen frame rate, one time code
-per trajectory frame (time code ``k`` = frame ``k``).  Opens in Blender, Houdini, usdview.
-Needs ``usd-core`` (``pip install 'jellysim[usd]'``).
+per trajectory frame (time code ``k`` = frame ``k``).  The mesh has time-sampled vertex
+normals (area-weighted: it shades smooth, as jellysim's own renders) and a
+``UsdPreviewSurface`` material of the renders' jello red, translucent (opacity 0.7), bound to
+it.  Opens in Blender, Houdini, usdview.  Needs ``usd-core`` (``pip install
+'jellysim[usd]'``).
 """
 from __future__ import annotations
 
@@ -14,7 +17,7 @@ from ..errors import JellysimError
 from .atomic import atomic_path
 from .timing import frame_rate
 
-__all__ = ["export_usd", "surface_of"]
+__all__ = ["export_usd", "surface_of", "vertex_normals"]
 
 
 class _Frames:
@@ -94,6 +97,36 @@ def _time_codes(times, count: int, fps: float) -> list[float]:
     return codes.tolist()
 
 
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Unit vertex normals, shape (m, 3): the area-weighted sum of the faces' normals
+    (counter-clockwise faces: outward on a closed skin); 0 for a vertex on no face."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    face_n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])  # |.| = 2 x area
+    n = np.zeros_like(v)
+    for c in range(3):
+        for k in range(3):
+            n[:, k] += np.bincount(f[:, c], face_n[:, k], minlength=len(v))
+    length = np.linalg.norm(n, axis=1)
+    return n / np.where(length > 0, length, 1.0)[:, None]
+
+
+def _preview_material(stage, mesh, name: str):
+    """A UsdPreviewSurface of the renders' jello red, translucent, bound to ``mesh``."""
+    from pxr import Gf, Sdf, UsdShade
+
+    material = UsdShade.Material.Define(stage, Sdf.Path(f"/{name}/jello_material"))
+    shader = UsdShade.Shader.Define(stage, Sdf.Path(f"/{name}/jello_material/surface"))
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(
+        Gf.Vec3f(0.85, 0.12, 0.24))
+    shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(0.7)
+    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.25)
+    shader.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.34)  # (mostly water)
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+
+
 def export_usd(traj, path, *, fps: float | None = None, name: str = "jello",
                overwrite: bool = False) -> Path:
     """Write the skin of a loaded trajectory as a USD stage with time-sampled points (an
@@ -130,11 +163,16 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello",
         mesh.CreateDoubleSidedAttr(True)  # as the glTF export: an open skin shows its inside
         mesh.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(0.85, 0.12, 0.24)]))
         mesh.CreateDisplayOpacityAttr(Vt.FloatArray([0.7]))
+        _preview_material(stage, mesh, name)
         points = mesh.CreatePointsAttr()
+        normals = mesh.CreateNormalsAttr()
+        mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
         extent = mesh.CreateExtentAttr()
         for k, verts in enumerate(frames):
             v = np.ascontiguousarray(verts, dtype=np.float32)
             points.Set(Vt.Vec3fArray.FromNumpy(v), Usd.TimeCode(codes[k]))
+            normals.Set(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(
+                vertex_normals(verts, faces), dtype=np.float32)), Usd.TimeCode(codes[k]))
             extent.Set(Vt.Vec3fArray.FromNumpy(np.stack([v.min(0), v.max(0)])),
                        Usd.TimeCode(codes[k]))
         stage.GetRootLayer().Save()
