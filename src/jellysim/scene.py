@@ -53,8 +53,11 @@ def schema_markdown() -> str:
     return make()
 
 
-MIN_FRAME_RATE = 30.0
-"""Frames per simulated second a run saves at least by default (``[output] every`` unset)."""
+MIN_FRAME_RATE = 60.0
+"""Frames per simulated second a run saves at least by default (``[output] every`` unset): a
+jello's ~10 Hz wobble shows 6 frames a period, and a run at the physical path's dt = 1/60 s
+saves every step whatever its length (at 30, a 1.5 s run saved 60 frames/s and a 2 s one
+30: session 24's artist trial)."""
 
 
 class Scene:

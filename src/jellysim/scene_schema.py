@@ -223,7 +223,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
     },
     "output": {
         "every": Spec("int", None, "Steps between saved frames (default: about 100 frames, "
-                      "and at least 30 per simulated second for a smooth video).",
+                      "and at least 60 per simulated second for a smooth video: every "
+                      "step at dt = 1/60 s).",
                       lambda v: v >= 1, "an integer >= 1"),
         "vtu": Spec("bool", True, "Write the ParaView series body.pvd + one .vtu per frame."),
         "checkpoint_every": Spec("int", None, "Steps between checkpoints (checkpoint.npz, for "
