@@ -1283,3 +1283,12 @@ def test_multisampling_is_turned_off_only_where_it_changes_nothing(traj):
     if soft:
         differ = np.abs(pictures[True] - pictures[False]).sum(axis=2) > 3
         assert differ.mean() < 1e-3, differ.sum()
+
+
+def test_an_odd_image_size_is_said_as_it_is_rounded(traj):
+    """The artist trial: --size 641x361 gave a 642x362 video without a word."""
+    from jellysim.render.offscreen import RenderOptions, Renderer
+
+    with pytest.warns(UserWarning, match=r"image size 161x97 rounded up to 162x98"):
+        with Renderer(traj, RenderOptions(size=(161, 97))) as r:
+            assert r.render(0).shape == (98, 162, 3)

@@ -66,6 +66,10 @@ class RenderOptions:
         w, h = (int(s) for s in self.size)
         if w < 16 or h < 16:
             raise JellysimError(f"image size must be at least 16 x 16 pixels, got {w} x {h}")
+        if w % 2 or h % 2:  # (H.264 wants even sides; said, not silently changed)
+            warnings.warn(f"image size {w}x{h} rounded up to {w + w % 2}x{h + h % 2}: "
+                          "pictures and videos are made with even sides", UserWarning,
+                          stacklevel=3)
         return w + (w % 2), h + (h % 2)
 
 
