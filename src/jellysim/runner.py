@@ -34,7 +34,7 @@ from .io.lock import claim, refuse_if_held
 from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream, reopen_stream
 from .io.trajectory import load_trajectory, skin_bounds, trajectory_meta
 from .run_notes import _resume_command, _say_if_slow
-from .io.vtk import PVDSeries
+from .io.vtk import FrameWriter, PVDSeries
 from .skin import default_skin
 
 __all__ = ["RUN_FILES", "RunResult", "prepare_out_dir", "run_scene",
@@ -464,17 +464,20 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
     # body's are its springs (and its tets, if it has some)
     lines = model.spring_ij[:0] if physical else model.spring_ij
 
+    writer = FrameWriter()  # the .vtu frames, written beside the run (io/vtk.py)
+
     def emit():
         stream.record(sim.state)
         if series is not None:
-            series.add(sim.state.t, sim.state.x, lines, velocities=sim.state.v,
-                       triangles=None if physical else body.triangles, tets=tets,
-                       rest=model.point_x0)
+            writer.submit(sim.state.step, series.add, sim.state.t, sim.state.x.copy(),
+                          lines, velocities=sim.state.v.copy(), rest=model.point_x0,
+                          tets=tets, triangles=None if physical else body.triangles)
         if skin_series is not None:
-            skin_series.add_surface(sim.state.t, skin.deform(sim.state.x, **bounds),
-                                    skin.faces)
+            writer.submit(sim.state.step, skin_series.add_surface, sim.state.t,
+                          skin.deform(sim.state.x, **bounds), skin.faces)
 
     def checkpoint():
+        writer.flush()  # (the checkpoint counts the series' frames: all on disk first)
         write_checkpoint(ckpt_path, sim, frames=stream.frames, scene=scene, model=model,
                          total=total, every=every, vtu=write_vtu)
 
@@ -546,7 +549,9 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                 if due:
                     checkpoint()
                     last_wall, last_step = time.monotonic(), done
+            writer.flush()
         except OSError as exc:  # a full disk, most likely: say where and how to go on
+            done = getattr(exc, "frame_tag", done)  # (a .vtu frame written behind the run)
             full = _disk_full(exc, out_dir, scene, f" at step {done} of {total}")
             if full is None:
                 raise
@@ -557,6 +562,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             raise full from None
         except SimulationError as exc:
             emit()
+            writer.flush()
             stream.close()
             finalize_stream(stream_dir, npz_path, status=f"failed: {exc}")
             # a failed run is not extended; a failed extension keeps the end state it started
@@ -568,6 +574,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             exc.run_warnings = messages + [str(w.message) for w in caught]
             raise
     finally:
+        writer.close()
         during.__exit__(None, None, None)
         messages += [str(w.message) for w in caught]
         for sig, handler in previous_handlers.items():

@@ -210,7 +210,7 @@ def constrain_start(dv, v, cnrm):
         dv[q, 2] = (dv[q, 2] - d * nz) * keep + t * nz - stick * (v[q, 2] - vn * nz)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def update_active_set(v, dv, b, ap, mass, cnrm, cobs, obstacle_data, contact_state, friction):
     """Same contract as :func:`jellysim.kernels.contact_numpy.update_active_set`."""
     changed = 0

@@ -262,7 +262,7 @@ def tet_forces(x, fem, g, decay, q, tet_force, tet_j):
             _scatter_block(s, t0, m, q, tet_force, tet_j, damped)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def tet_forces_summed(x, fem, g, decay, q, fsum, tet_j, min_j):
     """One thread: :func:`tet_forces` followed by :func:`.fem_numba.gather_tet_forces` and the
     smallest J, in one pass with no corner-force array: the tets are taken in order and each

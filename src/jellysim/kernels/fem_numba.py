@@ -141,7 +141,7 @@ def _integrate(x, v, a, fsum, model_arrays, handles, dt, frac, center, bound2):
     return nonfinite, runaway
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _serial_min(values, start):
     m = start
     for i in range(values.shape[0]):
@@ -166,7 +166,7 @@ def _substep_tail(s, nsteps, dt, x, v, a, fsum, model_arrays, handles, contact_a
     return _status(nonfinite, runaway)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _steps_summed(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arrays, scratch):
     """One thread: each corner force added to its point at once (no corner-force array, no
     gather pass: bitwise the same sums)."""
@@ -181,7 +181,7 @@ def _steps_summed(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_array
     return nsteps, STATUS_OK
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _steps_gathered(nsteps, dt, x, v, a, model_arrays, fem, handles, contact_arrays, scratch):
     """Threads: corner forces into rows (parallel over tets), then a gather per point."""
     g, decay, q, ptr, slot = fem[8], fem[9], fem[10], fem[11], fem[12]

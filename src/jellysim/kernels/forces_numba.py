@@ -57,7 +57,7 @@ def accel_and_requests(x, v, points, springs, tau, a_out, dx, max_corr):
         _accel_and_move(p, v, a_out, sums, inv_mass, gravity, damping, dx, max_corr)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _accelerations_provot_fused(x, v, points, springs, tau, a_out, dx, max_corr, apply):
     """``accelerations`` and the first Jacobi Provot pass over the springs
     (:func:`accel_and_requests`); ``dx`` receives the pass's moves (the mean requests less

@@ -83,7 +83,7 @@ def system_matvec(u, mass, shift, h2, springs, frame, spring_vec, out):
         out[q, 2] = w * u[q, 2] + h2 * sz
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def system_diagonal(mass, shift, h2, springs, frame, diag):
     # a serial pass in spring order (O(k), once per step): same sum order as numpy's bincount
     for p in range(mass.shape[0]):
@@ -92,7 +92,7 @@ def system_diagonal(mass, shift, h2, springs, frame, diag):
     _diag_gather(mass, shift, h2, springs.ij, frame, diag)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _diag_gather(mass, shift, h2, spring_ij, frame, diag):
     # serial: O(k), once per step; keeps the sum order fixed (spring index order)
     for s in range(spring_ij.shape[0]):
@@ -114,7 +114,7 @@ def _copy(dst, src):
             dst[p, c] = src[p, c]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _dot(a, b):
     s = 0.0
     for p in range(a.shape[0]):
@@ -244,7 +244,7 @@ def _bdf2_mark(fresh, cobs, x, v, x_int, v_int):
         fresh[q] = 1 if moved else 0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _serial_max_int(values):
     m = -1
     for i in range(values.shape[0]):
@@ -253,7 +253,7 @@ def _serial_max_int(values):
     return m
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _project_net_residual(dv, b, ap, mass, shift):
     """dv += sum(b - A dv) / sum(m + shift): serial sums, fixed order."""
     w = 0.0
@@ -278,7 +278,7 @@ def _add(out, u):
             out[q, c] += u[q, c]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def implicit_steps(nsteps, dt, x, v, a, springs, points, ground, obstacles, options, scratch):
     """Same contract as :func:`jellysim.kernels.implicit_numpy.implicit_steps` (the spec)."""
     theta, tol, max_iter, bdf2 = (options.theta, options.tolerance, options.max_iterations,

@@ -36,7 +36,7 @@ def _provot_c_inv(length, inv_length, rest, tau):
     return 0.5 * excess * inv_length
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _momentum_shift(mass, dx):
     """The numpy spec's ``momentum_shift``: ``sum_q m_q dx_q / sum_q m_q`` (serially, in point
     order: the same result for any thread count, bitwise the spec's)."""
@@ -85,7 +85,7 @@ def shift_moves(x, dx, mass, apply):
             x[p, 2] += dx[p, 2]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _provot_jacobi_springs(x, mass, springs, tau, dx, max_corr):
     """One Jacobi pass over the springs: each point's mean request into ``dx`` and its length
     into ``max_corr`` [m], then every point moved by its request less the requests'
@@ -133,7 +133,7 @@ def _provot_jacobi_all(x, x0, mass, tau, dx, max_corr):
         x[p, 2] += dx[p, 2] - sz
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _gs_pair(x, a, b, rest, tau):
     ex = np.float64(x[b, 0]) - x[a, 0]  # float64 arithmetic for a float32 state
     ey = np.float64(x[b, 1]) - x[a, 1]
@@ -150,7 +150,7 @@ def _gs_pair(x, a, b, rest, tau):
     return abs(c) * length
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _provot_gs(x, x0, spring_ij, rest, tau, all_pairs):
     largest = 0.0
     if all_pairs:
@@ -168,7 +168,7 @@ def _provot_gs(x, x0, spring_ij, rest, tau, all_pairs):
     return largest
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _serial_max(values):
     m = 0.0
     for i in range(values.shape[0]):
@@ -177,7 +177,7 @@ def _serial_max(values):
     return m
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def provot(x, points, springs, tau, loops, tolerance, all_pairs, gauss_seidel, scratch):
     """Same contract as :func:`jellysim.kernels.provot_numpy.provot` (the spec)."""
     x0, mass = points.x0, points.mass

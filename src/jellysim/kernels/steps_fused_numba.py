@@ -82,7 +82,7 @@ def _finish_points(xr, vr, xw, vw, a, dx, shift, center, consts):
     return _status(nonfinite, runaway)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def paper_region(xr, vr, xw, vw, a, springs, points, tau, g, ctl, scratch):
     """One step (see the module docstring): reads ``xr, vr``, writes ``xw, vw, a``."""
     dx, max_corr = scratch.dx, scratch.max_corr
@@ -107,7 +107,7 @@ def _copy_state(dst_x, dst_v, src_x, src_v):
             dst_v[p, c] = src_v[p, c]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def paper_springs_steps(nsteps, dt, x, v, a, springs, points, tau, velocity_update, ground,
                         scratch):
     """``nsteps`` report steps with one Jacobi Provot pass; (steps done, status).  Scratch:

@@ -66,7 +66,7 @@ def _forces(x, v, points, springs, scratch, ordered, a):
         accelerations(x, v, points, springs, scratch.spring_scalar, a)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def run_steps(nsteps, dt, integrator, x, v, a, springs, points, provot_opts, ground,
               obstacles, scratch):
     """Same contract as :func:`jellysim.kernels.steps_numpy.run_steps` (the spec)."""
