@@ -448,3 +448,26 @@ def test_output_piped_to_a_reader_that_has_gone_ends_quietly():
         err = p.stderr.read().decode()
         assert p.wait(timeout=60) == 141, err
         assert "error" not in err and "Traceback" not in err and "Exception" not in err, err
+
+
+def test_a_run_without_its_final_state_is_not_extended_in_silence(tmp_path):
+    """Session 24's researcher trial: an mpiexec run keeps no checkpoint and no final state.
+    Extending it (`--resume DIR --steps N`) printed "nothing to resume ... (it failed, or an
+    older jellysim wrote it)" and exited 0, so a pipeline took it for done; `run --resume
+    DIR` without the scene said "no checkpoint (a run leaves one when it is interrupted...)".
+    Both now name mpiexec, exit 2, and say how to go on; with no more steps asked it stays a
+    quiet no-op (exit 0).  (A finished serial run with its final state deleted stands in for
+    an mpiexec run: the same files.)"""
+    out = tmp_path / "run"
+    assert _run(tmp_path, out, 20).exit_code == 0
+    (out / "checkpoint.final.npz").unlink()
+    again = _run(tmp_path, out, 20, "--resume", str(out), "--steps", "40")
+    assert again.exit_code == 2, again.output
+    assert "cannot extend" in again.output and "mpiexec" in again.output
+    assert "--overwrite" in again.output
+    bare = CliRunner().invoke(cli, ["run", "--resume", str(out), "--steps", "40", "--quiet"])
+    assert bare.exit_code == 2, bare.output
+    assert "has finished and kept no checkpoint" in bare.output and "mpiexec" in bare.output
+    same = _run(tmp_path, out, 20, "--resume", str(out))
+    assert same.exit_code == 0 and "nothing to resume" in same.output
+    assert len(load_trajectory(out).times) == 5  # (steps 0-20, a frame every 5) untouched

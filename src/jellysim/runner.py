@@ -386,10 +386,13 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                     f"{out_dir}: cannot resume: the run was interrupted under mpiexec at "
                     f"step {status.split()[3]}, and mpiexec runs keep no checkpoint: run it "
                     "again with --overwrite to start afresh")
-            raise NothingToResume(f"{out_dir}: nothing to resume: the run has finished "
-                                  f"({npz_path}) and kept no final state to extend it from "
-                                  "(it failed, or an older jellysim wrote it); run without "
-                                  "--resume to start afresh")
+            extend = steps is not None or any(o.partition("=")[0].strip() == "integrator.steps"
+                                              for o in getattr(scene, "overrides", ()))
+            raise (CheckpointError if extend else NothingToResume)(  # (more asked: an error)
+                f"{out_dir}: {'cannot extend' if extend else 'nothing to resume'}: the run has "
+                f"finished ({npz_path}) and kept no final state to extend it from (it ran "
+                "under mpiexec, whose runs keep none, or it failed, or an older jellysim "
+                "wrote it); run it again with --overwrite (and the steps asked)")
         # an extension interrupted before its first checkpoint continues from the final state
         from_final = not ckpt_path.exists() and final_path.exists()
         ck = read_checkpoint(final_path if from_final else ckpt_path, scene=scene, model=model)

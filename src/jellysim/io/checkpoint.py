@@ -184,6 +184,20 @@ def scene_of_run(out_dir, *, overrides=()):
                               "the run to continue (the one its interrupted run printed)")
     path = next((out_dir / n for n in (CHECKPOINT, FINAL_CHECKPOINT)
                  if (out_dir / n).is_file()), out_dir / CHECKPOINT)
+    if not path.is_file():  # an mpiexec run keeps no checkpoint: say so, not "none found"
+        try:
+            from .trajectory import load_trajectory
+
+            status = str(load_trajectory(out_dir, mmap=True).status or "")
+        except Exception:  # noqa: BLE001  (no trajectory either: the plain message)
+            status = ""
+        if "mpiexec" in status or status == "complete":
+            raise CheckpointError(
+                f"--resume {out_dir}: the run " + (
+                    f"was interrupted under mpiexec at step {status.split()[3]}"
+                    if "mpiexec" in status else "has finished") + " and kept no checkpoint "
+                "to continue from (mpiexec runs keep none; a serial run that finished keeps "
+                "checkpoint.final.npz): run it again with the scene file and --overwrite")
     ck = read_checkpoint(path)
     if not ck.scene_params or ck.scene_steps is None:
         raise CheckpointError(f"{path}: written by an earlier jellysim that did not record the "
