@@ -110,6 +110,12 @@ def body_info(model, runaway_distance) -> types.SimpleNamespace:
         use_springs=bool(model.spring_count and np.any(model.spring_stiffness != 0)))
 
 
+_WHOLE_BODY = ("{} needs the whole body, which no rank holds under mpiexec: compute it from "
+               "the saved run (jellysim.plot.diagnostics(load_trajectory(OUT)), or jellysim "
+               "plot OUT), or run serially; sim.min_tet_volume_ratio, sim.pin_force() and "
+               "sim.drag_force() are agreed by every rank")
+
+
 class DistributedSimulator(PhysicalMethods):
     """Time-steps one global Model split among the ranks of ``comm``.
 
@@ -465,6 +471,15 @@ class DistributedSimulator(PhysicalMethods):
             MAX_SUBSTEP_DOUBLINGS=self.MAX_SUBSTEP_DOUBLINGS,
             travelled=getattr(self, "travelled", False))
         raise_agreed(self.comm, lambda: Simulator._raise(view, status))
+
+    def energy(self):
+        """Not under MPI: each rank holds part of the body (the serial method mixed the
+        global model with this rank's local state: a traceback, session 24's trial)."""
+        raise SceneError(_WHOLE_BODY.format("energy()"))
+
+    def volume_ratios(self):
+        """Not under MPI (see :meth:`energy`); ``min_tet_volume_ratio`` is agreed."""
+        raise SceneError(_WHOLE_BODY.format("volume_ratios()"))
 
     # -- output ---------------------------------------------------------------------------
     def gather(self, root: int = 0) -> State | None:
