@@ -471,3 +471,10 @@ def test_a_run_without_its_final_state_is_not_extended_in_silence(tmp_path):
     same = _run(tmp_path, out, 20, "--resume", str(out))
     assert same.exit_code == 0 and "nothing to resume" in same.output
     assert len(load_trajectory(out).times) == 5  # (steps 0-20, a frame every 5) untouched
+
+
+def test_a_serial_run_says_it_ignores_partition(tmp_path):
+    """The researcher trial: `run --partition metis` without mpiexec was accepted silently."""
+    res = _run(tmp_path, tmp_path / "p", 10, "--partition", "metis")
+    assert res.exit_code == 0, res.output
+    assert "--partition metis applies under mpiexec only" in res.output

@@ -205,6 +205,8 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
                        overwrite=overwrite, say=say, load=load_distributed)
 
     out, fresh = None, False
+    if partition != "morton":  # (the serial run has no ranks to split among)
+        say(f"--partition {partition} applies under mpiexec only: this serial run ignores it")
     try:
         scene = load()
         if resume_dir and out_dir and Path(out_dir) != Path(resume_dir):
