@@ -784,3 +784,28 @@ def test_docs_scene_md_is_what_scene_help_prints():
     doc = (Path(__file__).resolve().parents[1] / "docs" / "scene.md").read_text()
     assert doc.split("\n", 4)[4].strip() == schema_markdown().strip(), (
         "regenerate: (head -4 docs/scene.md; jellysim scene-help) > new.md")
+
+
+def test_inspect_a_physical_run_gives_its_tets_elastic_energy(tmp_path):
+    """The researcher trial: `inspect` showed no elastic energy for a tet body (`plot` did).
+    It now gives the tets' energy at the first frame (the rest shape: 0) and at the end,
+    equal to ``Simulator.energy()`` of a simulator set to the last frame's positions."""
+    text = ("[material]\npreset = 'gelatin'\n[body]\ntype = 'box'\npoints = 64\n"
+            "lower = [0, 0.01, 0]\nupper = [0.04, 0.05, 0.04]\n[integrator]\nsteps = 12\n")
+    p = tmp_path / "g.toml"
+    p.write_text(text)
+    out = tmp_path / "o"
+    assert CliRunner().invoke(cli, ["run", str(p), "--out", str(out), "--quiet",
+                                    "--no-vtu"]).exit_code == 0
+    res = CliRunner().invoke(cli, ["inspect", str(out)])
+    assert res.exit_code == 0, res.output
+    rows = {line[2:15].strip(): line[16:] for line in res.output.splitlines()[1:]}
+    words = rows["tets [J]"].replace(";", " ").split()
+    end, first = float(words[0]), float(words[words.index("frame") + 1])
+    from jellysim.io.trajectory import load_trajectory
+
+    scene = Scene.load(p)
+    sim = scene.simulator(scene.build_model())
+    sim.state.x[:] = load_trajectory(out).positions[-1]
+    assert abs(first) < 1e-12
+    assert end > 1e-6 and end == pytest.approx(sim.energy()["elastic"], rel=1e-6)

@@ -2,9 +2,10 @@
 
 Every figure is computed from the stored frames (SI units): the centre of mass [m], the
 kinetic energy ``sum m v^2 / 2`` [J], the gravity energy ``-M g . c`` [J] relative to the first
-frame, the springs' elastic energy ``sum k (|d| - L0)^2 / 2`` [J] (bodies on springs; a tet
-body's elastic energy needs its material: ``Simulator.energy()``), the smallest tet volume
-ratio ``J`` (a frame's signed volume over the rest volume; below 0: inside out).
+frame, the springs' elastic energy ``sum k (|d| - L0)^2 / 2`` [J] (bodies on springs), a
+physical run's tets' elastic energy [J] (as :func:`jellysim.plot.diagnostics` computes it),
+the smallest tet volume ratio ``J`` (a frame's signed volume over the rest volume; below 0:
+inside out).
 """
 from __future__ import annotations
 
@@ -62,6 +63,12 @@ def trajectory_rows(traj) -> list[tuple[str, str]]:
     if elastic is not None:
         rows.append(("springs [J]", f"{elastic:.6g} elastic at the end (first frame "
                                     f"{_springs(traj, 0):.6g})"))
+    if (traj.params or {}).get("fem") and len(traj.tets):  # (a physical run: its material)
+        from .plot import _tet_energy
+
+        first, end = _tet_energy(traj, np.asarray(traj.positions)[[0, frames - 1]])
+        rows.append(("tets [J]", f"{end:.6g} elastic at the end (first frame {first:.6g}; "
+                                 "Stable Neo-Hookean, from the run's material)"))
     if len(traj.tets):
         smallest = [float(_volume_ratios(traj, f).min()) for f in range(frames)]
         k = int(np.argmin(smallest))
