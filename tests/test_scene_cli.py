@@ -699,19 +699,25 @@ def test_steps_on_the_command_line_stands_for_a_missing_integrator_steps(tmp_pat
     assert r.exit_code != 0 and "missing value 'steps'" in r.output and "--steps N" in r.output
 
 
-def test_inspect_a_run_gives_its_free_fall_figures(tmp_path):
-    """`jellysim inspect OUT` of a free-falling body (BASE: weak springs, no ground, 20 steps
-    of 0.01 s): its centre falls by the symplectic steps' sum g dt^2 (1 + ... + 20), its
-    kinetic energy is M (g t)^2 / 2 and its gravity energy -M g^2 dt^2 210 (J), to 1e-6; it
-    keeps its shape (its tets' volume ratio 1)."""
+def _run_and_inspect(tmp_path, text):
+    """``jellysim run`` the scene ``text`` (as ``s.toml``), then ``jellysim inspect`` it:
+    the run's folder and the inspect rows by name."""
     p = tmp_path / "s.toml"
-    p.write_text(BASE)
+    p.write_text(text)
     out = tmp_path / "o"
     assert CliRunner().invoke(cli, ["run", str(p), "--out", str(out), "--quiet",
                                     "--no-vtu"]).exit_code == 0
     res = CliRunner().invoke(cli, ["inspect", str(out)])
     assert res.exit_code == 0, res.output
-    rows = {line[2:15].strip(): line[16:] for line in res.output.splitlines()[1:]}
+    return out, {line[2:15].strip(): line[16:] for line in res.output.splitlines()[1:]}
+
+
+def test_inspect_a_run_gives_its_free_fall_figures(tmp_path):
+    """`jellysim inspect OUT` of a free-falling body (BASE: weak springs, no ground, 20 steps
+    of 0.01 s): its centre falls by the symplectic steps' sum g dt^2 (1 + ... + 20), its
+    kinetic energy is M (g t)^2 / 2 and its gravity energy -M g^2 dt^2 210 (J), to 1e-6; it
+    keeps its shape (its tets' volume ratio 1)."""
+    out, rows = _run_and_inspect(tmp_path, BASE)
     from jellysim.io.trajectory import load_trajectory
 
     g = -float(load_trajectory(out).gravity[1])  # (the scene's default: 9.8 m/s^2)
@@ -792,19 +798,12 @@ def test_inspect_a_physical_run_gives_its_tets_elastic_energy(tmp_path):
     equal to ``Simulator.energy()`` of a simulator set to the last frame's positions."""
     text = ("[material]\npreset = 'gelatin'\n[body]\ntype = 'box'\npoints = 64\n"
             "lower = [0, 0.01, 0]\nupper = [0.04, 0.05, 0.04]\n[integrator]\nsteps = 12\n")
-    p = tmp_path / "g.toml"
-    p.write_text(text)
-    out = tmp_path / "o"
-    assert CliRunner().invoke(cli, ["run", str(p), "--out", str(out), "--quiet",
-                                    "--no-vtu"]).exit_code == 0
-    res = CliRunner().invoke(cli, ["inspect", str(out)])
-    assert res.exit_code == 0, res.output
-    rows = {line[2:15].strip(): line[16:] for line in res.output.splitlines()[1:]}
+    out, rows = _run_and_inspect(tmp_path, text)
     words = rows["tets [J]"].replace(";", " ").split()
     end, first = float(words[0]), float(words[words.index("frame") + 1])
     from jellysim.io.trajectory import load_trajectory
 
-    scene = Scene.load(p)
+    scene = Scene.load(tmp_path / "s.toml")
     sim = scene.simulator(scene.build_model())
     sim.state.x[:] = load_trajectory(out).positions[-1]
     assert abs(first) < 1e-12
