@@ -29,7 +29,8 @@ from pathlib import Path
 
 from .errors import (BuildError, CheckpointError, JellysimError, NothingToResume, OutputError,
                      ParameterError, ResourceError, RunInterrupted, SimulationError)
-from .io.checkpoint import CHECKPOINT, FINAL_CHECKPOINT, read_checkpoint, write_checkpoint
+from .io.checkpoint import (CHECKPOINT, FINAL_CHECKPOINT, mpiexec_interruption,
+                            read_checkpoint, write_checkpoint)
 from .io.lock import claim, refuse_if_held
 from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream, reopen_stream
 from .io.trajectory import load_trajectory, skin_bounds, trajectory_meta
@@ -380,12 +381,9 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
     if resume:
         finished = finished_run(out_dir)
         if finished and not final_path.exists():
-            status = _status(npz_path)
-            if status.startswith("interrupted") and "mpiexec" in status:
-                raise CheckpointError(  # (not finished: an error, as a lost checkpoint is)
-                    f"{out_dir}: cannot resume: the run was interrupted under mpiexec at "
-                    f"step {status.split()[3]}, and mpiexec runs keep no checkpoint: run it "
-                    "again with --overwrite to start afresh")
+            interrupted = mpiexec_interruption(out_dir, _status(npz_path))
+            if interrupted:  # (not finished: an error, as a lost checkpoint is)
+                raise CheckpointError(interrupted)
             extend = steps is not None or any(o.partition("=")[0].strip() == "integrator.steps"
                                               for o in getattr(scene, "overrides", ()))
             raise (CheckpointError if extend else NothingToResume)(  # (more asked: an error)

@@ -169,6 +169,26 @@ def _scene_path(scene) -> str:
     return str(Path(name).resolve()) if Path(name).is_file() else name
 
 
+def run_status(out_dir) -> str:
+    """The ``status`` the run's saved trajectory records ("" when there is none to read)."""
+    try:
+        from .trajectory import load_trajectory
+
+        return str(load_trajectory(Path(out_dir), mmap=True).status or "")
+    except Exception:  # noqa: BLE001  (no trajectory, or a damaged one: nothing known)
+        return ""
+
+
+def mpiexec_interruption(out_dir, status: str) -> str | None:
+    """The refusal to resume a run interrupted under mpiexec (which keeps no checkpoint),
+    or ``None`` when ``status`` is not such a run's."""
+    if not (status.startswith("interrupted") and "mpiexec" in status):
+        return None
+    return (f"{out_dir}: cannot resume: the run was interrupted under mpiexec at step "
+            f"{status.split()[3]}, and mpiexec runs keep no checkpoint: run it again with "
+            "--overwrite to start afresh")
+
+
 def scene_of_run(out_dir, *, overrides=()):
     """The :class:`~jellysim.scene.Scene` a run in ``out_dir`` was made with, rebuilt from its
     checkpoint (``jellysim run --resume DIR`` without the scene file): its resolved parameters,
@@ -185,18 +205,14 @@ def scene_of_run(out_dir, *, overrides=()):
     path = next((out_dir / n for n in (CHECKPOINT, FINAL_CHECKPOINT)
                  if (out_dir / n).is_file()), out_dir / CHECKPOINT)
     if not path.is_file():  # an mpiexec run keeps no checkpoint: say so, not "none found"
-        try:
-            from .trajectory import load_trajectory
-
-            status = str(load_trajectory(out_dir, mmap=True).status or "")
-        except Exception:  # noqa: BLE001  (no trajectory either: the plain message)
-            status = ""
-        if "mpiexec" in status or status == "complete":
+        status = run_status(out_dir)
+        interrupted = mpiexec_interruption(out_dir, status)
+        if interrupted:
+            raise CheckpointError(interrupted)
+        if status == "complete":
             raise CheckpointError(
-                f"--resume {out_dir}: the run " + (
-                    f"was interrupted under mpiexec at step {status.split()[3]}"
-                    if "mpiexec" in status else "has finished") + " and kept no checkpoint "
-                "to continue from (mpiexec runs keep none; a serial run that finished keeps "
+                f"--resume {out_dir}: the run has finished and kept no checkpoint to continue "
+                "from (mpiexec runs keep none; a serial run that finished keeps "
                 "checkpoint.final.npz): run it again with the scene file and --overwrite")
     ck = read_checkpoint(path)
     if not ck.scene_params or ck.scene_steps is None:
