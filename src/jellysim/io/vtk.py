@@ -106,10 +106,8 @@ class FrameWriter:
     def close(self) -> None:
         """Wait for the writes in flight and stop the thread; errors are not raised (a
         run that flushed has seen them; one already failing keeps its own error)."""
-        for _, f in self._pending:
-            f.exception()
         self._pending = []
-        if self._pool is not None:
+        if self._pool is not None:  # (shutdown waits for the writes in flight)
             self._pool.shutdown(wait=True)
             self._pool = None
 
