@@ -104,6 +104,10 @@ class Body:
     skin_faces:
         That mesh's triangles (indices into ``skin_vertices``), shape (f, 3), int64, or
         ``None`` (given together with ``skin_vertices``).
+    skin_uv:
+        The mesh file's texture coordinates [-] of each corner of ``skin_faces``, shape
+        (f, 3, 2), float64, or ``None`` (:mod:`jellysim.geometry.texcoords`): exports of the
+        run carry them.
     """
 
     points: np.ndarray
@@ -117,6 +121,7 @@ class Body:
     meta: dict = field(default_factory=dict)
     skin_vertices: np.ndarray | None = None
     skin_faces: np.ndarray | None = None
+    skin_uv: np.ndarray | None = None
 
     def __post_init__(self):  # a list or a (3,) array for points was an error much later
         try:

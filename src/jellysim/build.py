@@ -194,8 +194,8 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     The mesh's coordinates are read as metres.  ``size`` scales it first (about the origin)
     so that its largest bounding-box extent is ``size`` metres; masses (density x enclosed
     volume) are those of the scaled body.
-    The body keeps the (scaled) mesh as ``skin_vertices`` / ``skin_faces``: written into body
-    files, it is the smooth skin a run of the file carries.
+    The body keeps the (scaled) mesh as ``skin_vertices`` / ``skin_faces`` (and the file's
+    UVs as ``skin_uv``): written into body files, it is the smooth skin a run carries.
 
     Parameters
     ----------
@@ -253,7 +253,7 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     if "mesh" in keep:  # the (scaled) mesh the body fills: its skin in body files
         m = keep["mesh"]
         body.skin_vertices = np.array(m.vertices, dtype=np.float64).reshape(-1, 3)
-        body.skin_faces = np.array(m.faces, dtype=np.int64).reshape(-1, 3)
+        body.skin_faces, body.skin_uv = np.array(m.faces, dtype=np.int64).reshape(-1, 3), m.uv
     body.meta["density"] = float(density)
     if size is not None:
         body.meta["size"] = float(size)

@@ -417,8 +417,9 @@ def _skin_row(body) -> str:
     from .skin import _fine_enough, body_tets
 
     v, f = body.skin_vertices, body.skin_faces
-    row = f"{len(v)} vertices, {len(f)} faces (the mesh it was built from"
-    fine_v, fine_f = _fine_enough(v, f, body.points, body_tets(body.points, body.springs,
+    uv = ", with its texture coordinates" if body.skin_uv is not None else ""
+    row = f"{len(v)} vertices, {len(f)} faces{uv} (the mesh it was built from"
+    fine_v, fine_f, _ = _fine_enough(v, f, body.points, body_tets(body.points, body.springs,
                                                                   body.tets))
     if len(fine_v) == len(v):
         return row + ": a run's skin)"

@@ -278,8 +278,13 @@ class Scene:
     def surface(self):
         """The placed surface mesh of a type 'mesh' scene, or of a type 'file' body that
         carries one (vertices [m] (m, 3), faces (f, 3)), after :meth:`build_body`, else
-        ``None``: the skin to carry."""
+        ``None``: the skin to carry (:attr:`surface_uv`: its faces' texture coordinates)."""
         return getattr(self, "_surface", None)
+
+    @property
+    def surface_uv(self):
+        """The texture coordinates [-] (f, 3, 2) of :attr:`surface`'s faces, or ``None``."""
+        return getattr(self, "_surface_uv", None)
 
     def _place(self, points: np.ndarray) -> np.ndarray:
         b = self.params["body"]
@@ -335,7 +340,7 @@ class Scene:
             # placed by its skin (what is drawn), as a mesh body is; the points move with it
             skin = self._place(body.skin_vertices)
             placed = body.points + (skin[0] - body.skin_vertices[0])
-            self._surface = (skin, body.skin_faces)
+            self._surface, self._surface_uv = (skin, body.skin_faces), body.skin_uv
             return replace(body, points=placed, skin_vertices=skin)
         if b["type"] == "mesh":
             from dataclasses import replace
@@ -359,7 +364,7 @@ class Scene:
                 v = v * (b["size"] / float(np.ptp(v, axis=0).max()))
             v = self._place(v)
             placed = replace(Mesh.from_arrays(v, mesh.faces, name=str(path)), path=path)
-            self._surface = (v, np.asarray(mesh.faces))
+            self._surface, self._surface_uv = (v, np.asarray(mesh.faces)), mesh.uv
             mat = self.params["material"]
             density = mat["density"] if mat["density"] is not None else (
                 self.params["mass"]["density"])

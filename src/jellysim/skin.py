@@ -30,7 +30,7 @@ weight 1).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -60,12 +60,16 @@ class Skin:
     weights:
         Their weights [-], shape (m, 4), float64; each row sums to 1.  Barycentric coordinates
         of the vertex in the tet ``point_index[j]`` (negative entries: extrapolated vertex).
+    uv:
+        Texture coordinates [-] of each face corner, shape (f, 3, 2), float64, or ``None``
+        (the mesh file's, :mod:`jellysim.geometry.texcoords`).
     """
 
     rest_vertices: np.ndarray
     faces: np.ndarray
     point_index: np.ndarray
     weights: np.ndarray
+    uv: np.ndarray | None = None
 
     @property
     def vertex_count(self) -> int:
@@ -103,8 +107,11 @@ class Skin:
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The skin as named arrays (as stored in a trajectory ``.npz``)."""
-        return {"skin_rest_vertices": self.rest_vertices, "skin_faces": self.faces,
-                "skin_point_index": self.point_index, "skin_weights": self.weights}
+        out = {"skin_rest_vertices": self.rest_vertices, "skin_faces": self.faces,
+               "skin_point_index": self.point_index, "skin_weights": self.weights}
+        if self.uv is not None:
+            out["skin_uv"] = self.uv
+        return out
 
     @classmethod
     def from_arrays(cls, d) -> "Skin | None":
@@ -114,7 +121,9 @@ class Skin:
         return cls(rest_vertices=np.asarray(d["skin_rest_vertices"], dtype=np.float64),
                    faces=np.asarray(d["skin_faces"], dtype=np.int64).reshape(-1, 3),
                    point_index=np.asarray(d["skin_point_index"], dtype=np.int64),
-                   weights=np.asarray(d["skin_weights"], dtype=np.float64))
+                   weights=np.asarray(d["skin_weights"], dtype=np.float64),
+                   uv=np.asarray(d["skin_uv"], dtype=np.float64).reshape(-1, 3, 2)
+                   if "skin_uv" in d and len(d["skin_uv"]) else None)
 
 
 def _barycentric(points: np.ndarray, tets: np.ndarray, query: np.ndarray) -> np.ndarray:
@@ -282,52 +291,62 @@ def _places(x: np.ndarray, amp: np.ndarray, extent: float, spacing: float = 0.0,
     return "; ".join(parts) + (f"; and {count - most} more places" if count > most else "")
 
 
-def bind_body_skin(body, vertices: np.ndarray, faces: np.ndarray) -> Skin:
-    """Bind a surface (vertices [m] (m, 3), faces (f, 3)) to a :class:`~jellysim.body.Body`:
-    its tets when it has some, else the spring-spanned Delaunay cells of its points."""
+def bind_body_skin(body, vertices: np.ndarray, faces: np.ndarray, uv=None) -> Skin:
+    """Bind a surface (vertices [m] (m, 3), faces (f, 3), optional per-corner texture
+    coordinates ``uv`` (f, 3, 2)) to a :class:`~jellysim.body.Body`: its tets when it has
+    some, else the spring-spanned Delaunay cells of its points."""
     tets = body_tets(body.points, body.springs, body.tets)
-    vertices, faces = _fine_enough(np.asarray(vertices, dtype=np.float64).reshape(-1, 3),
-                                   np.asarray(faces, dtype=np.int64).reshape(-1, 3),
-                                   body.points, tets)
-    return bind_skin(body.points, tets, vertices, faces)
+    uv = None if uv is None else np.asarray(uv, dtype=np.float64).reshape(-1, 3, 2)
+    vertices, faces, uv = _fine_enough(np.asarray(vertices, dtype=np.float64).reshape(-1, 3),
+                                       np.asarray(faces, dtype=np.int64).reshape(-1, 3),
+                                       body.points, tets, uv)
+    skin = bind_skin(body.points, tets, vertices, faces)
+    return skin if uv is None else replace(skin, uv=uv)
 
 
 MAX_SKIN_FACES = 200_000
 """A coarse skin is subdivided to at most about this many triangles."""
 
 
-def _fine_enough(vertices, faces, points, tets):
+def _fine_enough(vertices, faces, points, tets, uv=None):
     """A skin whose edges are longer than twice the body's point spacing (a low-poly mesh: a
     cube of 12 triangles; the demo mould's flat base, a fan of 4 cm triangles) cannot bend
     with the body: it is subdivided to edges of one spacing (trimesh; the same surface, its
     original vertices first, in their order, so a point cache of the file still lines up).
-    The spacing is the median edge of the body's tets."""
+    The spacing is the median edge of the body's tets.  Per-corner texture coordinates ``uv``
+    are interpolated onto the fine faces (:func:`~jellysim.geometry.texcoords.subdivided`)."""
     if len(faces) == 0 or len(tets) == 0:
-        return vertices, faces
+        return vertices, faces, uv
     edges = points[tets[:, [0, 0, 0, 1, 1, 2]]] - points[tets[:, [1, 2, 3, 2, 3, 3]]]
     spacing = float(np.median(np.linalg.norm(edges, axis=2)))
     longest = float(np.linalg.norm(vertices[faces[:, [1, 2, 0]]] - vertices[faces],
                                    axis=2).max())
     if not (spacing > 0 and longest > 2.0 * spacing):
-        return vertices, faces
+        return vertices, faces, uv
     try:
         from ._interrupts import import_trimesh
 
         trimesh = import_trimesh()
     except ImportError:  # (the mesh extra): the skin stays as it is
-        return vertices, faces
+        return vertices, faces, uv
     tri = vertices[faces]
     area = 0.5 * float(np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
                                       axis=1).sum())
     edge = max(spacing, float(np.sqrt(area / (0.433 * MAX_SKIN_FACES))))
     try:  # each pass halves the longest edge
-        fine_v, fine_f = trimesh.remesh.subdivide_to_size(
-            vertices, faces, max_edge=edge, max_iter=int(np.ceil(np.log2(longest / edge))) + 2)
+        fine_v, fine_f, parent = trimesh.remesh.subdivide_to_size(
+            vertices, faces, max_edge=edge, max_iter=int(np.ceil(np.log2(longest / edge))) + 2,
+            return_index=True)
     except ValueError:  # (trimesh gave up: the skin is left as it is)
-        return vertices, faces
+        return vertices, faces, uv
     if len(fine_f) > 4 * MAX_SKIN_FACES:  # (a skin far larger than its body: a slip of units)
-        return vertices, faces
-    return np.asarray(fine_v, dtype=np.float64), np.asarray(fine_f, dtype=np.int64)
+        return vertices, faces, uv
+    fine_v, fine_f = np.asarray(fine_v, dtype=np.float64), np.asarray(fine_f, dtype=np.int64)
+    if uv is not None:
+        from .geometry.texcoords import subdivided
+
+        uv = subdivided(vertices, faces, uv, fine_v, fine_f, np.asarray(parent, np.int64))
+    return fine_v, fine_f, uv
 
 
 def identity_skin(points: np.ndarray, triangles: np.ndarray) -> Skin:
@@ -394,9 +413,9 @@ def default_skin(scene, body) -> Skin | None:
     b = scene.params.get("body", {}) if scene is not None else {}
     surface = getattr(scene, "surface", None)
     if surface is not None:  # a mesh scene carries its (placed) input mesh
-        return bind_body_skin(body, surface[0], surface[1])
+        return bind_body_skin(body, surface[0], surface[1], scene.surface_uv)
     if getattr(body, "skin_vertices", None) is not None:
-        return bind_body_skin(body, body.skin_vertices, body.skin_faces)
+        return bind_body_skin(body, body.skin_vertices, body.skin_faces, body.skin_uv)
     if b.get("type") == "box" and "lower" in b:
         return box_skin(body, b["lower"], b["upper"])
     if body.triangles is not None and len(body.triangles):

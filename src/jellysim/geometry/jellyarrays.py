@@ -14,7 +14,7 @@ __all__ = ["validate_arrays"]
 
 def validate_arrays(src: str, points, springs, rest_length=None, stiffness=None, masses=None,
                     tets=None, triangles=None, volume=None, skin_vertices=None,
-                    skin_faces=None) -> dict:
+                    skin_faces=None, skin_uv=None) -> dict:
     """Check body arrays; return them normalised (dtype, contiguous).  ``src`` names the file."""
 
     def err(array: str, msg: str) -> JelloFileError:
@@ -88,6 +88,7 @@ def validate_arrays(src: str, points, springs, rest_length=None, stiffness=None,
         "volume": None,
         "skin_vertices": None,
         "skin_faces": None,
+        "skin_uv": None,
     }
     if (skin_vertices is None) != (skin_faces is None):
         raise err("skin_faces" if skin_faces is None else "skin_vertices",
@@ -97,6 +98,11 @@ def validate_arrays(src: str, points, springs, rest_length=None, stiffness=None,
         if out["skin_vertices"].shape[0] < 3:
             raise err("skin_vertices", "fewer than 3 rows; a skin is a triangle mesh")
         out["skin_faces"] = ints("skin_faces", skin_faces, 3, out["skin_vertices"].shape[0])
+    if skin_uv is not None:
+        if skin_faces is None:
+            raise err("skin_uv", "given without a skin: texture coordinates belong to the "
+                      "faces of skin_faces")
+        out["skin_uv"] = floats("skin_uv", skin_uv, (out["skin_faces"].shape[0], 3, 2))
     if volume is not None:
         v = np.asarray(volume)
         if v.shape != () or v.dtype.kind not in "fiu" or not math.isfinite(float(v)) or v <= 0:

@@ -13,6 +13,7 @@ The text format is specified in ``docs/jello-format.md``; in short::
     triangles 0                      # optional: a b c
     skin_vertices 0                  # optional: x y z [m] of the skin (the built-from mesh)
     skin_faces 0                     # with it: a b c, indices into skin_vertices
+    skin_uv 0                        # optional: u0 v0 u1 v1 u2 v2, each skin face's UVs
     volume 0.125                     # optional: [m^3]
     meta {"builder": "delaunay"}     # optional: one line of JSON
     end
@@ -58,9 +59,10 @@ _SECTIONS = {
     "triangles": (("a", "b", "c"), ()),
     "skin_vertices": (("x", "y", "z"), ()),
     "skin_faces": (("a", "b", "c"), ()),
+    "skin_uv": (("u0", "v0", "u1", "v1", "u2", "v2"), ()),
 }
-_ORDER = ("points", "springs", "tets", "triangles", "skin_vertices", "skin_faces", "volume",
-          "meta")
+_ORDER = ("points", "springs", "tets", "triangles", "skin_vertices", "skin_faces", "skin_uv",
+          "volume", "meta")
 _POSITIVE = {"mass": "mass [kg]", "rest_length": "rest length [m]", "stiffness": "stiffness [N/m]"}
 
 
@@ -232,6 +234,9 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
         if word == "skin_faces" and "skin_vertices" not in seen:
             raise lines.error(no, col, "section 'skin_faces' before 'skin_vertices'; expected "
                               "the skin's vertices first (its faces index them)")
+        if word == "skin_uv" and "skin_faces" not in seen:
+            raise lines.error(no, col, "section 'skin_uv' before 'skin_faces'; expected the "
+                              "skin's faces first (it gives each face's corners' UVs)")
         seen[word] = no
         if word == "volume":
             if len(toks) != 2:
@@ -254,6 +259,9 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
         fixed, optional = _SECTIONS[word]
         count = _parse_count(lines, no, toks[1][0] if len(toks) > 1 else col + len(word) + 1,
                              toks[1][1] if len(toks) > 1 else None, word)
+        if word == "skin_uv" and count != len(data["skin_faces"][1]):
+            raise lines.error(no, toks[1][0], f"section 'skin_uv' has {count} rows; expected "
+                              f"one per skin face ({len(data['skin_faces'][1])})")
         cols = []
         for c, t in toks[2:]:
             if t not in optional:
@@ -281,8 +289,9 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
                             f"'{word} {count} {' '.join(cols + [extra[0]])}'")
                 raise lines.error(rno, c, f"{len(rtoks)} fields in section '{word}'; expected "
                                   f"{nf} ({what}){hint}")
-            if word in ("points", "skin_vertices"):
-                vals = [_parse_float(lines, rno, c, t, "coordinate [m]" if k < 3 else
+            if word in ("points", "skin_vertices", "skin_uv"):
+                vals = [_parse_float(lines, rno, c, t, "texture coordinate" if word == "skin_uv"
+                                     else "coordinate [m]" if k < 3 else
                                      _POSITIVE[cols[k - 3]]) for k, (c, t) in enumerate(rtoks)]
             else:
                 nidx = len(fixed)
@@ -364,6 +373,8 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
         skin_vertices=None if "skin_vertices" not in data else np.array(
             data["skin_vertices"][1], dtype=np.float64).reshape(-1, 3),
         skin_faces=_idx("skin_faces", 3),
+        skin_uv=None if "skin_uv" not in data else np.array(
+            data["skin_uv"][1], dtype=np.float64).reshape(-1, 3, 2),
     )
 
 
@@ -379,7 +390,7 @@ def _atomic_write(path: Path, write) -> None:
 def _body_arrays(path, body: Body) -> dict:
     return validate_arrays(f"{path} (writing)", body.points, body.springs, body.rest_length,
                            body.stiffness, body.masses, body.tets, body.triangles, body.volume,
-                           body.skin_vertices, body.skin_faces)
+                           body.skin_vertices, body.skin_faces, body.skin_uv)
 
 
 def write_jello(path, body: Body) -> None:
@@ -416,10 +427,10 @@ def write_jello(path, body: Body) -> None:
             for r, x in zip(rows, a[c].tolist()):
                 r.append(x)
         out.append(fmt(rows))
-        for sec in ("tets", "triangles", "skin_vertices", "skin_faces"):
+        for sec in ("tets", "triangles", "skin_vertices", "skin_faces", "skin_uv"):
             if a[sec] is not None:
                 out.append(f"{sec} {a[sec].shape[0]}\n")
-                out.append(fmt(a[sec].tolist()))
+                out.append(fmt(a[sec].reshape(a[sec].shape[0], -1).tolist()))
         if a["volume"] is not None:
             out.append(f"volume {a['volume']!r}\n")
         if body.meta:
@@ -481,7 +492,7 @@ def read_npz(path) -> Body:
         if req not in arrays:
             raise JelloFileError(f"{src}: array '{req}' is missing")
     known = {"points", "springs", "rest_length", "stiffness", "masses", "tets", "triangles",
-             "skin_vertices", "skin_faces", "volume", "meta"}
+             "skin_vertices", "skin_faces", "skin_uv", "volume", "meta"}
     unknown = sorted(set(arrays) - known)
     if unknown:
         raise JelloFileError(f"{src}: array '{unknown[0]}' is not part of the format; expected "

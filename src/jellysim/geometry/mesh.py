@@ -20,12 +20,15 @@ Every step is counted in :class:`MeshDefects`, whose :meth:`MeshDefects.describe
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from jellysim.errors import MeshError
+from jellysim.geometry import texcoords
+from jellysim.geometry.duplicate_faces import remove_duplicates
 from jellysim.geometry.shells import _shell_of_faces, outward  # (outward: re-exported)
 
 __all__ = ["Mesh", "MeshDefects", "MESH_SUFFIXES", "SHIPPED", "UP_AXES", "load_mesh", "outward",
@@ -165,12 +168,16 @@ class Mesh:
         The file the mesh came from, or ``None`` for :meth:`from_arrays`.
     defects:
         What was found and repaired, see :class:`MeshDefects`.
+    uv:
+        Texture coordinates of each face corner [-], shape (m, 3, 2), float64 (the file's,
+        kept per corner across welding: :mod:`jellysim.geometry.texcoords`), or ``None``.
     """
 
     vertices: np.ndarray
     faces: np.ndarray
     path: Path | None = None
     defects: MeshDefects = field(default_factory=MeshDefects)
+    uv: np.ndarray | None = None
 
     @classmethod
     def from_arrays(
@@ -240,8 +247,9 @@ def load_mesh(path, *, weld_tol: float = WELD_REL) -> Mesh:
     if p.stat().st_size == 0:
         raise MeshError(f"{name}: file is empty")
     suffix = p.suffix.lower()
+    uv = None
     if suffix in _TRIMESH_SUFFIXES:
-        v, polys = _read_trimesh(p, name)
+        v, polys, uv = _read_trimesh(p, name)
     elif suffix in _MESHIO_SUFFIXES:
         v, polys = _read_meshio(p, name)
     else:
@@ -249,7 +257,7 @@ def load_mesh(path, *, weld_tol: float = WELD_REL) -> Mesh:
             f"{name}: unsupported file type {suffix!r} "
             f"(supported: {', '.join(sorted(_TRIMESH_SUFFIXES | _MESHIO_SUFFIXES))})"
         )
-    return _clean(v, polys, name, Path(name), weld_tol)  # (path: as given, jellysim:NAME)
+    return _clean(v, polys, name, Path(name), weld_tol, uv)  # (path: as given, jellysim:NAME)
 
 
 # --------------------------------------------------------------------------- readers
@@ -268,7 +276,9 @@ def _read_trimesh(p: Path, name: str):
         # maintain_order keeps the OBJ's vertex list as written, so that vertices no face uses
         # are counted (and then dropped) here rather than silently by the loader
         kwargs = {"maintain_order": True} if p.suffix.lower() == ".obj" else {}
-        loaded = trimesh.load(str(p), force="mesh", process=False, **kwargs)
+        with warnings.catch_warnings():  # (its texture code's NaN medians: not the user's)
+            warnings.simplefilter("ignore", RuntimeWarning)
+            loaded = trimesh.load(str(p), force="mesh", process=False, **kwargs)
     except Exception as exc:  # trimesh raises many different types
         where = _obj_problem(p) if p.suffix.lower() == ".obj" else None
         if where is not None:
@@ -285,7 +295,7 @@ def _read_trimesh(p: Path, name: str):
         raise MeshError(f"{name}: the file holds no triangle mesh (got {type(loaded).__name__})")
     v = np.asarray(loaded.vertices, dtype=np.float64)
     f = np.asarray(loaded.faces, dtype=np.int64)
-    return v, f
+    return v, f, texcoords.trimesh_corner_uv(trimesh, loaded, p, kwargs)
 
 
 def _obj_problem(p: Path) -> str | None:
@@ -423,7 +433,8 @@ def _fan_split(polys) -> np.ndarray:
 # --------------------------------------------------------------------------- cleaning
 
 
-def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol: float) -> Mesh:
+def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol: float,
+           corner_uv=None) -> Mesh:
     d = MeshDefects()
     f = np.asarray(f, dtype=np.int64).reshape(-1, 3)
     if len(f) == 0:
@@ -445,19 +456,22 @@ def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol:
     old_to_used = np.cumsum(used) - 1
     uniq, inv = _weld(vu, weld_tol)
     d.welded_vertices = int(len(vu) - len(uniq))
+    uv = texcoords.checked(corner_uv, len(f))
     f = inv[old_to_used[f]]
     v = uniq
 
     # repeated indices
     rep = (f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 0] == f[:, 2])
     d.repeated_index_faces = int(rep.sum())
-    f = f[~rep]
+    f, uv = f[~rep], None if uv is None else uv[~rep]
     # exact zero area
     zero = _degenerate(v, f)
     d.zero_area_faces = int(zero.sum())
-    f = f[~zero]
-    # duplicates
-    f, d.duplicate_faces, d.reversed_duplicate_faces = _remove_duplicates(f)
+    f, uv = f[~zero], None if uv is None else uv[~zero]
+    # duplicates (the kept face of a group may be re-oriented: its UVs follow its corners)
+    f_all = f
+    f, d.duplicate_faces, d.reversed_duplicate_faces, kept = remove_duplicates(f)
+    uv = None if uv is None else texcoords.align(f_all[kept], uv[kept], f)
     if len(f) == 0:
         raise MeshError(f"{name}: no faces with non-zero area")
 
@@ -475,9 +489,8 @@ def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol:
     d.volume = float(face_volumes_x6(v, f, shell).sum() / 6.0)
     d.face_count = int(len(f))
     d.vertex_count = int(len(v))
-    return Mesh(
-        vertices=np.ascontiguousarray(v), faces=np.ascontiguousarray(f), path=path, defects=d
-    )
+    return Mesh(vertices=np.ascontiguousarray(v), faces=np.ascontiguousarray(f), path=path,
+                defects=d, uv=uv)
 
 
 def _weld(v: np.ndarray, rel_tol: float):
@@ -529,61 +542,6 @@ def _degenerate(v: np.ndarray, f: np.ndarray) -> np.ndarray:
         np.stack([((b - a) ** 2).sum(1), ((c - b) ** 2).sum(1), ((a - c) ** 2).sum(1)]), axis=0
     )
     return cross <= SLIVER_REL * longest
-
-
-def _remove_duplicates(f: np.ndarray):
-    """Keep one face per vertex set; orient the kept one like its neighbours."""
-    key = np.sort(f, axis=1)
-    _, first, inv, counts = np.unique(key, axis=0, return_index=True, return_inverse=True,
-                                      return_counts=True)
-    inv = inv.reshape(-1)
-    if np.all(counts == 1):
-        return f, 0, 0
-    keep = np.zeros(len(f), bool)
-    keep[first] = True
-    dup_groups = np.flatnonzero(counts > 1)
-    in_dup = np.isin(inv, dup_groups)
-    # directed half-edges of faces outside duplicate groups
-    others = f[~in_dup]
-    half = {
-        (int(a), int(b))
-        for a, b in np.concatenate([others[:, [0, 1]], others[:, [1, 2]], others[:, [2, 0]]])
-    }
-
-    def score(tri):
-        """+1 per edge whose reverse a neighbour traverses, -1 per edge a neighbour repeats."""
-        s = 0
-        for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
-            s += ((int(b), int(a)) in half) - ((int(a), int(b)) in half)
-        return s
-
-    n_same = n_rev = 0
-    members_of = {}
-    for idx in np.flatnonzero(in_dup):
-        members_of.setdefault(int(inv[idx]), []).append(int(idx))
-    out = f.copy()
-    for members in members_of.values():
-        ref = f[members[0]]
-        tri = ref if score(ref) >= score(ref[::-1]) else ref[::-1]
-        out[members[0]] = tri
-        kept_parity = _perm_parity(tri)
-        # of the k copies one is kept; each removed copy is a duplicate when it has the kept
-        # orientation and a reversed duplicate otherwise
-        n_kept_orient = sum(_perm_parity(f[m]) == kept_parity for m in members)
-        n_same += max(n_kept_orient - 1, 0)
-        n_rev += len(members) - n_kept_orient - (1 if n_kept_orient == 0 else 0)
-    return out[keep], n_same, n_rev
-
-
-def _perm_parity(tri) -> int:
-    a, b, c = (int(x) for x in tri)
-    # even permutation of the sorted triple <=> cyclic rotation of (lo, mid, hi)
-    lo = min(a, b, c)
-    if lo == a:
-        return 0 if b < c else 1
-    if lo == b:
-        return 0 if c < a else 1
-    return 0 if a < b else 1
 
 
 def _edge_report(f: np.ndarray, d: MeshDefects) -> None:

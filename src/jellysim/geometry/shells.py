@@ -124,6 +124,8 @@ def outward(mesh, name: str = "mesh"):
     import warnings
     from dataclasses import replace
 
+    from .texcoords import align
+
     d = mesh.defects
     if d.inconsistent_edges:
         return mesh
@@ -132,14 +134,15 @@ def outward(mesh, name: str = "mesh"):
                       f"volume {d.volume:.4g}): read turned outward (the file is left as it is)",
                       UserWarning, stacklevel=3)
         mesh = replace(mesh, faces=np.ascontiguousarray(mesh.faces[:, [0, 2, 1]]),
-                       defects=replace(d, volume=-d.volume))
+                       defects=replace(d, volume=-d.volume),
+                       uv=None if mesh.uv is None else mesh.uv[:, [0, 2, 1]])
     faces, turned = outward_shells(mesh.vertices, mesh.faces) if d.watertight else (None, [])
     if turned:  # (one part of several wound inward: .shells)
         warnings.warn(f"{name}: {len(turned)} of its {d.shells} separate shells wound inward "
                       f"(signed volume {sum(turned):.4g}): read turned outward (the file is left as "
                       "it is)", UserWarning,
                       stacklevel=3)
-        mesh = replace(mesh, faces=faces, defects=replace(
+        mesh = replace(mesh, faces=faces, uv=align(mesh.faces, mesh.uv, faces), defects=replace(
             mesh.defects, volume=mesh.defects.volume - 2.0 * sum(turned)))
     return mesh
 

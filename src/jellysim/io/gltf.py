@@ -7,7 +7,10 @@ edges: :func:`~jellysim.geometry.creases.split_creases`, whose vertex order keep
 first); morph target ``k`` holds frame ``k`` (positions and normals)
 minus frame 0 (target 0 is all zeros), so weights one-hot at ``k`` give frame ``k`` exactly
 (in float32).  One animation drives the node's morph weights with ``STEP`` interpolation at the
-frames' times (shifted so the first frame is at 0 s).  Written with the standard library only.
+frames' times (shifted so the first frame is at 0 s).  When the mesh file had texture
+coordinates they are ``TEXCOORD_0``, a vertex on a UV seam having one copy per side
+(:func:`~jellysim.geometry.texcoords.split_seams`; glTF's V axis points down the image, so
+``v`` is written as ``1 - v``).  Written with the standard library only.
 """
 from __future__ import annotations
 
@@ -19,7 +22,7 @@ import numpy as np
 
 from ..errors import JellysimError
 from .atomic import atomic_path
-from .usd import surface_of
+from .usd import surface_of, surface_uv
 
 __all__ = ["export_glb", "read_glb", "glb_frame_positions"]
 
@@ -50,6 +53,13 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
     # creases of the first frame (a box's edges) stay hard: a vertex there has one copy per
     # smooth side (session 14's trial: the averaged normals shaded a box as a soft blob)
     source, faces = split_creases(np.asarray(frames[0], dtype=np.float64), faces)
+    uv = surface_uv(traj)
+    if uv is not None:  # one vertex per (vertex, UV): glTF has no per-corner attributes
+        from ..geometry.texcoords import split_seams
+
+        copy, uv, faces = split_seams(faces, uv)
+        source = source[copy]
+        uv = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype(np.float32)
     frames = np.stack([np.asarray(frames[int(i)], dtype=np.float32)[source] for i in idx])
     times = (times[idx] - times[idx[0]]).astype(np.float32)
     n_frames, m = frames.shape[0], frames.shape[1]
@@ -86,6 +96,9 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
                                 minmax=True),
                 "NORMAL": add(n - normals[0], kind="VEC3", ctype=_FLOAT, target=_ARRAY_BUFFER)}
                for f, n in zip(frames, normals)]
+    attributes = {"POSITION": pos, "NORMAL": nrm}
+    if uv is not None:
+        attributes["TEXCOORD_0"] = add(uv, kind="VEC2", ctype=_FLOAT, target=_ARRAY_BUFFER)
     t_acc = add(times.reshape(-1), kind="SCALAR", ctype=_FLOAT, target=None, minmax=True)
     w_acc = add(np.eye(n_frames, dtype=np.float32).reshape(-1), kind="SCALAR", ctype=_FLOAT,
                 target=None)
@@ -98,7 +111,7 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
                                                 "metallicFactor": 0.0,
                                                 "roughnessFactor": 0.25}}],
         "meshes": [{"name": "skin", "weights": [1.0] + [0.0] * (n_frames - 1),
-                    "primitives": [{"attributes": {"POSITION": pos, "NORMAL": nrm},
+                    "primitives": [{"attributes": attributes,
                                     "indices": ind,
                                     "material": 0, "mode": 4, "targets": targets}],
                     "extras": {"targetNames": [f"frame_{k}" for k in idx.tolist()]}}],
@@ -155,7 +168,7 @@ def _accessor(doc, binary, i) -> np.ndarray:
     acc = doc["accessors"][i]
     view = doc["bufferViews"][acc["bufferView"]]
     dtype = {_FLOAT: np.float32, _UINT: np.uint32}[acc["componentType"]]
-    width = {"SCALAR": 1, "VEC3": 3}[acc["type"]]
+    width = {"SCALAR": 1, "VEC2": 2, "VEC3": 3}[acc["type"]]
     start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
     a = np.frombuffer(binary, dtype=dtype, count=acc["count"] * width, offset=start)
     return a.reshape(acc["count"], width) if width > 1 else a

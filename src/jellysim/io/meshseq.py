@@ -1,4 +1,9 @@
-"""The skin as a sequence of OBJ or PLY files, one per frame (``<stem>_NNNNN.obj``)."""
+"""The skin as a sequence of OBJ or PLY files, one per frame (``<stem>_NNNNN.obj``).
+
+A skin with texture coordinates (its mesh file had UVs) writes them into the OBJ files as
+``vt`` lines, each face corner naming its own (``f a/ta b/tb c/tc``), so the vertices stay
+welded and the UV seams stay seams.  meshio's OBJ writer gives a vertex one UV only, so those
+files are written here (the few lines of the format); PLY files carry positions only."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -7,7 +12,7 @@ import numpy as np
 
 from ..errors import JellysimError
 from .atomic import atomic_path, guard_folder, staged_output
-from .usd import surface_of
+from .usd import surface_of, surface_uv
 
 __all__ = ["export_mesh_sequence"]
 
@@ -27,6 +32,12 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     if fmt not in ("obj", "ply"):
         raise JellysimError(f"mesh sequence format must be 'obj' or 'ply', got '{fmt}'")
     frames, faces = surface_of(traj)
+    uv = surface_uv(traj) if fmt == "obj" else None
+    if uv is not None:  # the distinct UVs, and each corner's among them
+        vt, vt_index = np.unique(np.asarray(uv, np.float64).reshape(-1, 2), axis=0,
+                                 return_inverse=True)
+        corners = np.stack([np.asarray(faces, np.int64).reshape(-1) + 1,
+                            vt_index.reshape(-1) + 1], axis=1).reshape(-1, 6)
     directory = Path(directory)
     if directory.exists() and not directory.is_dir():
         raise JellysimError(f"{directory}: is a file; a mesh sequence is written into a "
@@ -35,8 +46,22 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     guard_folder(directory, [pattern], overwrite, flag="overwrite=True")
     with staged_output(directory, [pattern]) as stage:
         for k, verts in enumerate(frames):
+            if uv is not None:
+                with atomic_path(stage / f"{stem}_{k:05d}.{fmt}") as tmp:
+                    _write_obj(tmp, np.asarray(verts, dtype=np.float64), vt, corners)
+                continue
             mesh = meshio.Mesh(np.asarray(verts, dtype=np.float64),
                                [("triangle", np.asarray(faces, dtype=np.int32))])
             with atomic_path(stage / f"{stem}_{k:05d}.{fmt}") as tmp:
                 meshio.write(tmp, mesh, file_format=fmt)
     return [directory / f"{stem}_{k:05d}.{fmt}" for k in range(len(frames))]
+
+
+def _write_obj(path, verts: np.ndarray, vt: np.ndarray, corners: np.ndarray) -> None:
+    """An OBJ file of ``verts`` [m] (m, 3), texture coordinates ``vt`` (t, 2) and faces
+    ``corners`` (f, 6): 1-based ``a ta b tb c tc``."""
+    with open(path, "w", encoding="ascii") as fh:
+        fh.write("# written by jellysim: the skin of one frame, metres\n")
+        np.savetxt(fh, verts, fmt="v %.9g %.9g %.9g")
+        np.savetxt(fh, vt, fmt="vt %.9g %.9g")
+        np.savetxt(fh, corners, fmt="f %d/%d %d/%d %d/%d")

@@ -32,6 +32,8 @@ Optional skin (:mod:`jellysim.skin`; absent in older files, which load with ``sk
 ``skin_faces``          (f, 3) i8   skin triangles
 ``skin_point_index``    (m, 4) i8   the four points each skin vertex follows
 ``skin_weights``        (m, 4) f8   their weights (rows sum to 1)
+``skin_uv``             (f, 3, 2) f8  texture coordinates of each face corner (when the
+                                    mesh file had UVs)
 ======================  ==========  ===========================================
 """
 from __future__ import annotations

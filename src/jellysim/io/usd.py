@@ -2,7 +2,8 @@
 
 The stage is Y-up, 1 unit = 1 m, ``timeCodesPerSecond`` = the chosen frame rate, one time code
 per trajectory frame (time code ``k`` = frame ``k``).  The mesh has time-sampled vertex
-normals (area-weighted: it shades smooth, as jellysim's own renders) and a
+normals (area-weighted: it shades smooth, as jellysim's own renders), the mesh file's texture
+coordinates when it had some (the face-varying primvar ``st``), and a
 ``UsdPreviewSurface`` material of the renders' jello red, translucent (opacity 0.7), bound to
 it.  Opens in Blender, Houdini, usdview.  Needs ``usd-core`` (``pip install
 'jellysim[usd]'``).
@@ -17,7 +18,7 @@ from ..errors import JellysimError
 from .atomic import atomic_path
 from .timing import frame_rate
 
-__all__ = ["export_usd", "surface_of", "vertex_normals"]
+__all__ = ["export_usd", "surface_of", "surface_uv", "vertex_normals"]
 
 
 class _Frames:
@@ -50,6 +51,12 @@ def surface_of(traj):
         return _Frames(traj, False), np.asarray(traj.triangles, dtype=np.int64)
     raise JellysimError("this trajectory has no skin and no surface triangles to export; "
                         "export it as ParaView (.pvd) instead")
+
+
+def surface_uv(traj) -> np.ndarray | None:
+    """Texture coordinates [-] (f, 3, 2) of each corner of :func:`surface_of`'s faces: the
+    skin's, when its mesh file had some (:mod:`jellysim.geometry.texcoords`), else ``None``."""
+    return None if traj.skin is None else traj.skin.uv
 
 
 def inside_out_note(traj) -> str | None:
@@ -164,6 +171,11 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello",
         mesh.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(0.85, 0.12, 0.24)]))
         mesh.CreateDisplayOpacityAttr(Vt.FloatArray([0.7]))
         _preview_material(stage, mesh, name)
+        uv = surface_uv(traj)
+        if uv is not None:  # per face corner: a seam vertex has one UV on each side
+            st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(
+                "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying)
+            st.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(uv.reshape(-1, 2), np.float32)))
         points = mesh.CreatePointsAttr()
         normals = mesh.CreateNormalsAttr()
         mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)

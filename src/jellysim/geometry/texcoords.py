@@ -1,0 +1,116 @@
+"""Texture coordinates (UVs) of a skin, carried per face corner.
+
+A mesh file's UVs belong to its face corners: a vertex on a UV seam has one UV in each face
+beside the seam.  jellysim welds the file's vertices by position (the simulated surface must
+be one piece), so it keeps the UVs per corner, ``uv[f, c]`` = the UV of corner ``c`` of
+face ``f``, shape (faces, 3, 2), unitless, in OBJ's convention (``vt``: origin at the bottom
+left of the image, ``v`` up; trimesh reads a glTF file's UVs into it).  Every step that changes the faces keeps them:
+
+* cleaning (welding, removed faces, re-oriented duplicates: :func:`align`),
+* turning faces outward (corners swapped: :func:`align`),
+* subdividing a coarse skin (:func:`subdivided`: each new corner interpolated linearly
+  inside the face it came from, so the texture lies on the fine skin as it did on the coarse).
+
+Exports write them as a face-varying primvar (USD ``primvars:st``), separate ``vt`` indices
+(OBJ), or by splitting the vertices along the seams (glTF ``TEXCOORD_0``: :func:`split_seams`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["align", "checked", "split_seams", "subdivided", "trimesh_corner_uv"]
+
+
+def trimesh_corner_uv(trimesh, loaded, path, kwargs) -> np.ndarray | None:
+    """The UVs of each corner of ``loaded``'s faces (f, 3, 2), or ``None`` when the file has
+    none.  trimesh gives one UV per vertex, splitting the vertices along the seams, except
+    where it was asked to keep an OBJ's vertex list as written (``maintain_order``: then a
+    seam vertex keeps one of its UVs): such a file is read once more, split, and its corners
+    taken where they are the same points as ``loaded``'s (the faces keep the file's order).
+    UVs that cannot be read are dropped (``None``), never a reason to refuse the file."""
+    import warnings
+
+    try:
+        with warnings.catch_warnings():  # (trimesh's texture code's NaN medians)
+            warnings.simplefilter("ignore", RuntimeWarning)
+            return _corner_uv(trimesh, loaded, path, kwargs)
+    except Exception:  # noqa: BLE001 (trimesh raises many types; the geometry was read)
+        return None
+
+
+def _corner_uv(trimesh, loaded, path, kwargs) -> np.ndarray | None:
+    uv = getattr(loaded.visual, "uv", None)
+    if kwargs.get("maintain_order") and (uv is not None or b"\nvt " in path.read_bytes()):
+        # (an inside-out OBJ read in order may come without UVs: trimesh could not place them)
+        split = trimesh.load(str(path), force="mesh", process=False)
+        corners = np.asarray(split.vertices)[np.asarray(split.faces)]
+        if corners.shape != (len(loaded.faces), 3, 3) or not np.array_equal(
+                corners, np.asarray(loaded.vertices)[np.asarray(loaded.faces)]):
+            return None
+        loaded = split
+        uv = getattr(loaded.visual, "uv", None)
+    if uv is None:
+        return None
+    uv = np.asarray(uv, dtype=np.float64)
+    if uv.shape != (len(loaded.vertices), 2):
+        return None
+    return uv[np.asarray(loaded.faces, dtype=np.int64)]
+
+
+def checked(uv, faces: int) -> np.ndarray | None:
+    """``uv`` as per-corner UVs of ``faces`` faces ((faces, 3, 2) float64), or ``None`` when
+    absent, of another shape or not finite (a file's UVs are never a reason to refuse it)."""
+    if uv is None:
+        return None
+    uv = np.asarray(uv, dtype=np.float64)
+    return uv if uv.shape == (faces, 3, 2) and np.all(np.isfinite(uv)) else None
+
+
+def align(old_faces: np.ndarray, uv: np.ndarray | None, new_faces: np.ndarray):
+    """``uv`` (f, 3, 2) of ``old_faces`` re-ordered to the corners of ``new_faces``: the same
+    faces, row by row, with their corners permuted (a face turned, a duplicate re-oriented).
+    Each face's three vertex indices must be distinct.  ``None`` stays ``None``."""
+    if uv is None:
+        return None
+    old, new = np.asarray(old_faces), np.asarray(new_faces)
+    out = np.empty_like(uv)
+    for c in range(3):
+        for j in range(3):
+            same = old[:, j] == new[:, c]
+            out[same, c] = uv[same, j]
+    return out
+
+
+def subdivided(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, fine_vertices,
+               fine_faces, parent) -> np.ndarray:
+    """Per-corner UVs of a subdivided skin: corner ``c`` of fine face ``k`` (made from face
+    ``parent[k]`` of ``vertices``/``faces``) gets the UV interpolated at its barycentric
+    coordinates in that face (exact for midpoint subdivision, where the new vertices lie in
+    the parent's plane)."""
+    tri = vertices[faces[parent]]                      # (k, 3, 3) the parents' corners
+    q = np.asarray(fine_vertices)[np.asarray(fine_faces)]      # (k, 3, 3) the fine corners
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+    det = d11 * d22 - d12 * d12
+    det = np.where(det > 0.0, det, 1.0)
+    w = q - tri[:, None, 0]
+    r1, r2 = (w * e1[:, None]).sum(2), (w * e2[:, None]).sum(2)
+    b1 = (d22[:, None] * r1 - d12[:, None] * r2) / det[:, None]
+    b2 = (d11[:, None] * r2 - d12[:, None] * r1) / det[:, None]
+    b0 = 1.0 - b1 - b2
+    p = uv[parent]                                     # (k, 3, 2) the parents' corner UVs
+    return (b0[..., None] * p[:, None, 0] + b1[..., None] * p[:, None, 1]
+            + b2[..., None] * p[:, None, 2])
+
+
+def split_seams(faces: np.ndarray, uv: np.ndarray):
+    """One vertex per (skin vertex, UV) pair, for formats with one UV per vertex (glTF).
+
+    Returns ``(vertex, vertex_uv, faces)``: ``vertex`` (n,) the skin vertex each new vertex
+    copies, in the skin's order (a vertex on no seam keeps its place relative to the others),
+    ``vertex_uv`` (n, 2) float32 and the faces (f, 3) over the new vertices."""
+    f = np.asarray(faces, dtype=np.int64).reshape(-1)
+    key = np.column_stack([f.astype(np.float64), np.asarray(uv, np.float32).reshape(-1, 2)])
+    uniq, inverse = np.unique(key, axis=0, return_inverse=True)
+    return (uniq[:, 0].astype(np.int64), uniq[:, 1:].astype(np.float32),
+            inverse.reshape(-1, 3).astype(np.int64))

@@ -1,0 +1,232 @@
+"""Texture coordinates: a mesh file's UVs survive welding, cleaning, turning outward,
+subdividing, body files, runs and every export (OBJ, glTF, USD), per face corner.
+
+The reference is independent of jellysim's reading: a cube whose UVs are a known function of
+the position on each face (a planar projection per face, different on every face, so every
+edge is a UV seam), and the shipped Spot read here line by line."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from jellysim.geometry.mesh import load_mesh, outward
+
+HALF = 0.05  # [m] the test cube's half side
+
+
+def _uv_of(points, centre):
+    """The cube's texture: on the face whose outward normal is +-axis a, u and v are the two
+    other coordinates (from the centre), shifted per face: each face has its own UVs."""
+    q = np.asarray(points, dtype=np.float64) - centre
+    a = np.argmax(np.abs(q.mean(axis=-2)), axis=-1)          # the face's axis (from its centroid)
+    side = np.take_along_axis(q.mean(axis=-2), a[..., None], -1)[..., 0] > 0
+    u = np.take_along_axis(q, ((a + 1) % 3)[..., None, None].repeat(q.shape[-2], -2), -1)[..., 0]
+    v = np.take_along_axis(q, ((a + 2) % 3)[..., None, None].repeat(q.shape[-2], -2), -1)[..., 0]
+    return np.stack([u + 2.0 * a[..., None], v + side[..., None]], axis=-1)
+
+
+def _cube_obj(path: Path, *, inside_out=False):
+    """An OBJ cube of side 2 HALF centred at the origin: 8 shared vertices, 6 quads, each
+    corner with its own ``vt`` (the planar UVs of :func:`_uv_of`)."""
+    corners = np.array([[x, y, z] for x in (-HALF, HALF) for y in (-HALF, HALF)
+                        for z in (-HALF, HALF)])
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in corners]
+    faces = []
+    for k, quad in enumerate(quads):
+        quad = quad[::-1] if inside_out else quad
+        uv = _uv_of(corners[list(quad)][None], np.zeros(3))[0]
+        lines += [f"vt {u:.17g} {v:.17g}" for u, v in uv]
+        faces.append("f " + " ".join(f"{i + 1}/{4 * k + c + 1}" for c, i in enumerate(quad)))
+    path.write_text("\n".join(lines + faces) + "\n")
+    return path
+
+
+def _read_obj(path):
+    """(corner positions (f, 3, 3), corner UVs (f, 3, 2), vertex count): a plain reading of
+    an OBJ of triangles ``f a/ta b/tb c/tc``."""
+    v, vt, f = [], [], []
+    for line in Path(path).read_text().splitlines():
+        w = line.split()
+        if w and w[0] == "v":
+            v.append([float(x) for x in w[1:4]])
+        elif w and w[0] == "vt":
+            vt.append([float(x) for x in w[1:3]])
+        elif w and w[0] == "f":
+            f.append([[int(t) - 1 for t in c.split("/")[:2]] for c in w[1:]])
+    v, vt, f = np.array(v), np.array(vt), np.array(f)
+    return v[f[:, :, 0]], vt[f[:, :, 1]], len(v)
+
+
+def test_spot_keeps_its_uvs_per_face_corner_across_its_seams():
+    from importlib import resources
+
+    path = resources.files("jellysim") / "data" / "spot.obj"
+    file_xyz, file_uv, _ = _read_obj(path)
+    m = load_mesh("jellysim:spot.obj")
+    # the file has seams: vertices with two UVs (so a UV per vertex could not hold them)
+    seam = {}
+    for xyz, uv in zip(file_xyz.reshape(-1, 3), file_uv.reshape(-1, 2)):
+        seam.setdefault(tuple(xyz), set()).add(tuple(uv))
+    assert sum(len(s) > 1 for s in seam.values()) > 50
+    assert m.uv is not None and m.uv.shape == (len(m.faces), 3, 2)
+    np.testing.assert_array_equal(m.vertices[m.faces], file_xyz)  # (faces in the file's order)
+    np.testing.assert_array_equal(m.uv, file_uv)
+
+
+@pytest.mark.parametrize("inside_out", [False, True])
+def test_a_cube_keeps_its_uvs_through_welding_and_turning_outward(tmp_path, inside_out):
+    m = load_mesh(_cube_obj(tmp_path / "cube.obj", inside_out=inside_out))
+    assert len(m.vertices) == 8 and len(m.faces) == 12  # welded, quads split
+    with pytest.warns(UserWarning, match="inside out") if inside_out else _no_warning():
+        m = outward(m, "cube.obj")
+    assert m.defects.volume > 0
+    np.testing.assert_allclose(m.uv, _uv_of(m.vertices[m.faces], np.zeros(3)), atol=1e-15)
+
+
+def test_a_duplicate_face_keeps_the_uvs_of_its_kept_copy():
+    v = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    f = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2], [2, 1, 0]])  # last: face 0 reversed
+    uv = v[f][..., :2] + v[f][..., 2:] * 0.5
+    from jellysim.geometry.mesh import _clean
+
+    m = _clean(v, f, "t", None, 1e-10, uv)
+    assert len(m.faces) == 4
+    np.testing.assert_array_equal(m.uv, m.vertices[m.faces][..., :2]
+                                  + m.vertices[m.faces][..., 2:] * 0.5)
+
+
+class _no_warning:
+    def __enter__(self):
+        import warnings
+
+        self._w = warnings.catch_warnings()
+        self._w.__enter__()
+        warnings.simplefilter("error")
+
+    def __exit__(self, *exc):
+        self._w.__exit__(*exc)
+
+
+def test_a_subdivided_skin_interpolates_the_uvs_on_each_face(tmp_path):
+    """The 10 cm cube's 12 triangles are far coarser than a 600-point body's spacing: its
+    skin is subdivided, and each new corner's UV is the face's texture at that point."""
+    from jellysim import Body
+    from jellysim.skin import default_skin
+
+    body = Body.from_mesh(_cube_obj(tmp_path / "cube.obj"), size=2 * HALF, points=600)
+    skin = default_skin(None, body)
+    assert len(skin.faces) > 20 * 12 and skin.uv.shape == (len(skin.faces), 3, 2)
+    rest = skin.rest_vertices[skin.faces]
+    np.testing.assert_allclose(skin.uv, _uv_of(rest, np.zeros(3)), atol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def cube_run(tmp_path_factory):
+    from jellysim.runner import run_scene
+    from jellysim.scene import Scene
+
+    out = tmp_path_factory.mktemp("uvrun")
+    _cube_obj(out / "cube.obj")
+    text = f"""
+[material]
+preset = "gelatin"
+[body]
+type = "mesh"
+path = "{(out / 'cube.obj').as_posix()}"
+points = 300
+size = {2 * HALF}
+base = [0.0, 0.01, 0.0]
+[integrator]
+steps = 8
+[output]
+vtu = false
+"""
+    run_scene(Scene.from_text(text, name=str(out / "cube.toml")), out / "run", progress=False)
+    from jellysim.io.trajectory import load_trajectory
+
+    return load_trajectory(out / "run"), out
+
+
+def test_a_runs_skin_carries_the_uvs(cube_run):
+    traj, _ = cube_run
+    rest = traj.skin.rest_vertices
+    centre = 0.5 * (rest.min(axis=0) + rest.max(axis=0))
+    np.testing.assert_allclose(traj.skin.uv, _uv_of(rest[traj.skin.faces], centre), atol=1e-12)
+
+
+def test_obj_sequence_writes_welded_vertices_with_per_corner_uvs(cube_run, tmp_path):
+    from jellysim.io.meshseq import export_mesh_sequence
+
+    traj, _ = cube_run
+    files = export_mesh_sequence(traj, tmp_path / "seq", fmt="obj")
+    k = len(files) - 1
+    xyz, uv, count = _read_obj(files[k])
+    assert count == traj.skin.vertex_count  # welded: a seam is no hole in the file
+    np.testing.assert_allclose(xyz, traj.skin_positions(k)[traj.skin.faces], atol=1e-9)
+    np.testing.assert_allclose(uv, traj.skin.uv, atol=1e-9)
+
+
+def test_glb_and_usd_carry_the_uvs(cube_run, tmp_path):
+    from jellysim.io.gltf import _accessor, export_glb, read_glb
+    from jellysim.io.usd import export_usd
+
+    traj, _ = cube_run
+    doc, binary = read_glb(export_glb(traj, tmp_path / "a.glb"))
+    prim = doc["meshes"][0]["primitives"][0]
+    faces = _accessor(doc, binary, prim["indices"]).reshape(-1, 3)
+    st = _accessor(doc, binary, prim["attributes"]["TEXCOORD_0"])
+    xyz = _accessor(doc, binary, prim["attributes"]["POSITION"])
+    np.testing.assert_allclose(xyz[faces], traj.skin_positions(0)[traj.skin.faces], atol=1e-6)
+    glb_uv = np.stack([st[:, 0], 1.0 - st[:, 1]], axis=-1)[faces]  # (glTF's v points down)
+    np.testing.assert_allclose(glb_uv, traj.skin.uv, atol=1e-6)
+
+    pytest.importorskip("pxr", reason="usd-core (the usd extra) is not installed")
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.Open(str(export_usd(traj, tmp_path / "a.usda")))
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/jello/skin"))
+    var = UsdGeom.PrimvarsAPI(mesh).GetPrimvar("st")
+    assert var.GetInterpolation() == UsdGeom.Tokens.faceVarying
+    np.testing.assert_allclose(np.asarray(var.Get()).reshape(-1, 3, 2), traj.skin.uv, atol=1e-6)
+
+
+@pytest.mark.parametrize("suffix", [".jello", ".npz"])
+def test_body_files_keep_the_uvs_and_a_scene_of_the_file_carries_them(tmp_path, suffix):
+    from jellysim import Body
+    from jellysim.geometry.jellyfile import read_body, write_body
+    from jellysim.scene import Scene
+    from jellysim.skin import default_skin
+
+    body = Body.from_mesh(_cube_obj(tmp_path / "cube.obj"), size=2 * HALF, points=100)
+    write_body(tmp_path / f"cube{suffix}", body)
+    back = read_body(tmp_path / f"cube{suffix}")
+    np.testing.assert_array_equal(back.skin_uv, body.skin_uv)
+    scene = Scene.from_text(f'[material]\npreset = "gelatin"\n[body]\ntype = "file"\n'
+                            f'path = "cube{suffix}"\nbase = [0.0, 0.0, 0.0]\n',
+                            name=str(tmp_path / "s.toml"))
+    skin = default_skin(scene, scene.build_body())
+    rest = skin.rest_vertices
+    centre = 0.5 * (rest.min(axis=0) + rest.max(axis=0))
+    np.testing.assert_allclose(skin.uv, _uv_of(rest[skin.faces], centre), atol=1e-12)
+
+
+def test_a_jello_files_bad_uv_section_is_named(tmp_path):
+    from jellysim.errors import JelloFileError
+    from jellysim.geometry.jellyfile import read_jello
+
+    head = ("jello 1\npoints 4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\nsprings 0\n"
+            "skin_vertices 3\n0 0 0\n1 0 0\n0 1 0\nskin_faces 1\n0 1 2\n")
+    (tmp_path / "a.jello").write_text(head + "skin_uv 2\n0 0 1 0 0 1\n0 0 1 0 0 1\nend\n")
+    with pytest.raises(JelloFileError, match=r"a.jello:14:9: section 'skin_uv' has 2 rows; "
+                                             r"expected one per skin face \(1\)"):
+        read_jello(tmp_path / "a.jello")
+    (tmp_path / "b.jello").write_text(head.replace("skin_faces 1\n0 1 2\n", "")
+                                      + "skin_uv 1\n0 0 1 0 0 1\nskin_faces 1\n0 1 2\nend\n")
+    with pytest.raises(JelloFileError, match="b.jello:12:1: section 'skin_uv' before "
+                                             "'skin_faces'"):
+        read_jello(tmp_path / "b.jello")
+    (tmp_path / "c.jello").write_text(head + "skin_uv 1\n0 0 1 0 0 nan\nend\n")
+    with pytest.raises(JelloFileError, match="c.jello:15:11: 'nan' is not finite; expected "
+                                             "a finite texture coordinate"):
+        read_jello(tmp_path / "c.jello")
