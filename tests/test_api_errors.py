@@ -115,3 +115,37 @@ def test_the_package_docstring_example_names_a_mesh_that_exists():
     for path in paths:
         mesh = load_mesh(path)
         assert len(mesh.faces) > 100
+
+
+def test_a_scene_says_values_that_likely_mean_another_unit():
+    """Valid values a teacher's trial gave in the wrong unit or with the wrong expectation:
+    said once each by name; the same scenes without them say nothing."""
+    import warnings
+
+    from jellysim.scene import Scene
+
+    base = ('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 27\n'
+            'lower = [0.0, 0.0, 0.0]\nupper = [0.03, 0.03, 0.03]\n')
+
+    def said(extra):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            Scene.from_text(base + extra, name="lesson.toml")
+        return [str(w.message) for w in caught]
+
+    assert said("[integrator]\ndt = 0.005\nsteps = 1\n[ground]\nfriction = 0.6\n") == []
+    (dt,) = said("[integrator]\ndt = 16.7\nsteps = 1\n")
+    assert dt.startswith("lesson.toml: [integrator] dt = 16.7 s: time steps are in seconds")
+    assert "16.7 ms would be 0.0167" in dt
+    (mu,) = said("[integrator]\nsteps = 1\n[ground]\nfriction = 30\n")
+    assert "[ground] friction = 30 is a coefficient" in mu and "would be 0.3" in mu
+    (e,) = said("[integrator]\nsteps = 1\n[ground]\nrestitution = 0.5\n")
+    assert "[ground] restitution = 0.5" in e and "damping_ratio" in e
+    # a springs body (no elastic material): e is each point's, as for free particles
+    springs = ('[body]\npoints = 27\nlower = [0.0, 0.0, 0.0]\nupper = [0.03, 0.03, 0.03]\n'
+               '[springs]\nradius = 0.02\nstiffness = 100.0\n[integrator]\ndt = 0.001\n'
+               'steps = 1\n[ground]\nrestitution = 0.5\n')
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        Scene.from_text(springs, name="s.toml")
+    assert not [w for w in caught if "restitution" in str(w.message)]

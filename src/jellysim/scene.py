@@ -26,7 +26,7 @@ from .scene_schema import SCHEMA
 from .scene_spec import (Spec, as_toml, check_backend, check_body_file, check_given_keys,
                          check_value, given_keys, plain, grid_radius, infer_body_type,
                          missing_path, refuse_point_mass, refuse_unused_keys,
-                         said_springs_ignore)
+                         said_springs_ignore, say_slips)
 from .scene_spec import apply_override as _override
 from .scene_spec import check_table as _table
 from .scene_doc import schema_markdown as make
@@ -120,6 +120,7 @@ class Scene:
                 msg += " (given on the command line: " + ", ".join(
                     f"--set {item}" for item in given) + ")"
             raise SceneError(msg) from None
+        say_slips(params, given, name)
         scene = cls(params, text=text, name=name)
         scene.overrides = tuple(overrides)  # (a resume needs them again)
         scene.given = given

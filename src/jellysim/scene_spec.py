@@ -416,7 +416,7 @@ def check_body_file(name, params, given, body, stiffness, mass):
                              "remove [springs] stiffness to use the file's")
         warnings.warn(f"{name}: the body file {path} gives every spring its own "
                       f"stiffness, used instead of the preset's [springs] stiffness = "
-                      f"{stiffness:g} N/m", UserWarning, stacklevel=3)
+                      f"{stiffness:g} N/m", UserWarning, stacklevel=_user_stacklevel())
         stiffness = None
     if body.stiffness is None and stiffness is None:
         raise SceneError(f"{name}: the body file {path} has no spring stiffness; "
@@ -433,9 +433,40 @@ def check_body_file(name, params, given, body, stiffness, mass):
         warnings.warn(f"{name}: the body file {path} gives every point its own mass "
                       f"({body.masses.sum():.4g} kg in all), used instead of the "
                       f"{preset!r} preset's masses (remove the file's mass column for "
-                      "the preset's)", UserWarning, stacklevel=3)
+                      "the preset's)", UserWarning, stacklevel=_user_stacklevel())
     if body.masses is None and body.volume is None and mass["point_mass"] is None:
         raise SceneError(f"{name}: the body file {path} has no masses and no volume: "
                          "give [mass] point_mass (kg) in the scene, or a mass column or a "
                          "volume line in the file (docs/jello-format.md)")
     return stiffness
+
+
+def say_slips(params: dict, given: dict, name: str) -> None:
+    """Warn of values that are valid but likely mean something else (a teacher's trial,
+    session 25): a time step given in milliseconds, a friction coefficient given as a
+    percent, and a ground restitution set for a jello body, whose bounce it hardly changes."""
+    import warnings
+
+    from .params import _user_stacklevel
+
+    dt = (params.get("integrator") or {}).get("dt")
+    if dt is not None and dt > 0.1:
+        warnings.warn(f"{name}: [integrator] dt = {dt:g} s: time steps are in seconds (one "
+                      f"frame at 60 frames/s is 1/60 = 0.0167 s; {dt:g} ms would be "
+                      f"{dt / 1000:g})", UserWarning, stacklevel=_user_stacklevel())
+    ground = params.get("ground") or {}
+    for key in ("friction", "static_friction"):
+        mu = ground.get(key)
+        if key in given.get("ground", ()) and mu is not None and mu > 2.0:
+            warnings.warn(f"{name}: [ground] {key} = {mu:g} is a coefficient, mu = friction "
+                          "force / normal force (wood on wood about 0.3, rubber on concrete "
+                          f"about 1), not a percent ({mu:g} % would be {mu / 100:g})",
+                          UserWarning, stacklevel=_user_stacklevel())
+    mat = params.get("material") or {}
+    if ("restitution" in given.get("ground", ()) and ground.get("enabled", True)
+            and mat.get("youngs_modulus") is not None and mat.get("model") != "springs"):
+        warnings.warn(f"{name}: [ground] restitution = {ground['restitution']:g} sets how each "
+                      "point of the jello rebounds from the ground; how high the jello itself "
+                      "bounces is set by its elasticity and its damping ([material] "
+                      "damping_ratio), hardly by e (measured: docs/physics.md, \"Bounce and "
+                      "restitution\")", UserWarning, stacklevel=_user_stacklevel())
