@@ -141,6 +141,8 @@ def test_a_scene_says_values_that_likely_mean_another_unit():
     assert "[ground] friction = 30 is a coefficient" in mu and "would be 0.3" in mu
     (e,) = said("[integrator]\nsteps = 1\n[ground]\nrestitution = 0.5\n")
     assert "[ground] restitution = 0.5" in e and "damping_ratio" in e
+    (drag,) = said("[integrator]\nsteps = 1\n[physics]\ndamping = 0.001\n")
+    assert "[physics] damping = 0.001 kg/s" in drag and "damps a finer body more" in drag
     # a springs body (no elastic material): e is each point's, as for free particles
     springs = ('[body]\npoints = 27\nlower = [0.0, 0.0, 0.0]\nupper = [0.03, 0.03, 0.03]\n'
                '[springs]\nradius = 0.02\nstiffness = 100.0\n[integrator]\ndt = 0.001\n'

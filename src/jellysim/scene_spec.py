@@ -444,7 +444,8 @@ def check_body_file(name, params, given, body, stiffness, mass):
 def say_slips(params: dict, given: dict, name: str) -> None:
     """Warn of values that are valid but likely mean something else (a teacher's trial,
     session 25): a time step given in milliseconds, a friction coefficient given as a
-    percent, and a ground restitution set for a jello body, whose bounce it hardly changes."""
+    percent, a ground restitution set for a jello body, whose bounce it hardly changes, and
+    the report's per-point drag on a jello body (it depends on the resolution)."""
     import warnings
 
     from .params import _user_stacklevel
@@ -470,3 +471,10 @@ def say_slips(params: dict, given: dict, name: str) -> None:
                       "bounces is set by its elasticity and its damping ([material] "
                       "damping_ratio), hardly by e (measured: docs/physics.md, \"Bounce and "
                       "restitution\")", UserWarning, stacklevel=_user_stacklevel())
+    if ("damping" in given.get("physics", ()) and (params.get("physics") or {}).get("damping")
+            and mat.get("youngs_modulus") is not None and mat.get("model") != "springs"):
+        warnings.warn(f"{name}: [physics] damping = {params['physics']['damping']:g} kg/s is the "
+                      "report's drag on every point (a body of n points and mass M slows at "
+                      "n delta / M per second): the same value damps a finer body more; for a "
+                      "damping that is the material's, the same at any resolution, set "
+                      "[material] damping_ratio", UserWarning, stacklevel=_user_stacklevel())
