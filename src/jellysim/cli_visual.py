@@ -216,7 +216,7 @@ def guard_output(path, overwrite: bool) -> None:
     if path.suffix.lower() == ".pvd":  # its frames go into the sibling folder <stem>/
         guard_file(path, overwrite)
         guard_folder(path.parent / path.stem, [f"{path.stem}_[0-9]*.vtu"], overwrite)
-    elif path.suffix.lower() in (".usdc", ".usda", ".usd", ".glb"):
+    elif path.suffix.lower() in (".usdc", ".usda", ".usd", ".glb", ".csv"):
         guard_file(path, overwrite)
     elif output_kind(path) == "pngdir":
         guard_folder(path, ["frame_[0-9]*.png"], overwrite)
@@ -412,8 +412,9 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
 @click.argument("target", required=False, type=click.Path(), metavar="[OUTPUT]")
 @click.option("-o", "--output", default=None, type=click.Path(),
               help="run.usdc / .usda (USD), run.glb (glTF), run.pvd (ParaView series; its "
-                   ".vtu frames go into the folder run/), or a folder with --sequence.  May "
-                   "also be given as the second argument.")
+                   ".vtu frames go into the folder run/), table.csv (per frame: time, centre "
+                   "of mass and its velocity, energies; SI units in the header), or a folder "
+                   "with --sequence.  May also be given as the second argument.")
 @click.option("--sequence", type=click.Choice(["obj", "ply"]), default=None,
               help="Write the skin as one OBJ/PLY file per frame into the folder OUTPUT.")
 @click.option("--fps", type=click.FloatRange(min=0.1), default=None,
@@ -424,11 +425,12 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
                    "each.")
 @_overwrite
 def export(trajectory, target, output, sequence, fps, max_frames, overwrite=False):
-    """Export TRAJECTORY for other tools: USD, glTF (.glb), ParaView (.pvd), OBJ/PLY.
+    """Export TRAJECTORY for other tools: USD, glTF (.glb), ParaView (.pvd), OBJ/PLY, CSV.
 
     \b
     jellysim export out/run/trajectory.npz -o run.glb
-    jellysim export out/run/trajectory.npz --sequence obj frames/"""
+    jellysim export out/run/trajectory.npz --sequence obj frames/
+    jellysim export out/run -o table.csv"""
     if output and target and Path(output) != Path(target):
         _fail(f"two outputs given ('{target}' and -o '{output}'); give one")
     if not (output or target):
@@ -443,7 +445,7 @@ def export(trajectory, target, output, sequence, fps, max_frames, overwrite=Fals
         _fail("--max-frames applies to .glb exports (one morph target per frame): remove it")
     try:
         traj = _load(trajectory)
-        if suffix != ".pvd" or sequence:  # (ParaView shows both sides)
+        if suffix not in (".pvd", ".csv") or sequence:  # (ParaView shows both sides)
             _warn_inside_out(traj)
         if sequence:
             if out.suffix and not out.is_dir():
@@ -458,12 +460,16 @@ def export(trajectory, target, output, sequence, fps, max_frames, overwrite=Fals
             click.echo(f"wrote {len(paths)} {sequence.upper()} files in {out}")
             return
         suffix = out.suffix.lower()
-        if suffix in (".usdc", ".usda", ".usd", ".glb", ".pvd"):
+        if suffix in (".usdc", ".usda", ".usd", ".glb", ".pvd", ".csv"):
             guard_output(out, overwrite)
         if suffix in (".usdc", ".usda", ".usd"):
             written = [export_usd(traj, out, fps=fps, overwrite=True)]  # (guarded above)
         elif suffix == ".glb":
             written = [export_glb(traj, out, max_frames=max_frames, overwrite=True)]
+        elif suffix == ".csv":
+            from .plot import write_table
+
+            written = [write_table(traj, out)]
         elif suffix == ".pvd":  # the .pvd and its frame folder replace the old together
             from .io.atomic import staged_output
 
@@ -472,7 +478,7 @@ def export(trajectory, target, output, sequence, fps, max_frames, overwrite=Fals
                 written = [out.parent / p.name for p in export_pvd_file(traj, stage / out.name)]
         else:
             raise JellysimError(f"{out}: unknown export type '{suffix}'; use .usdc, .usda, "
-                                ".glb, .pvd, or --sequence obj|ply with a folder")
+                                ".glb, .pvd, .csv, or --sequence obj|ply with a folder")
     except JellysimError as exc:
         _fail(str(exc))
     for p in written:

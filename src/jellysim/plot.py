@@ -7,8 +7,13 @@ Quantities per frame (SI units):
   (FEM) run, the tets' Stable Neo-Hookean energy (:func:`jellysim.physics.fem.elastic_energy`,
   rebuilt from the trajectory's tets and the E and nu it records)
 * gravitational energy ``-sum m g . x`` [J], zero on the ground plane (``y = height``)
-* centre-of-mass height [m] (its coordinate along ``-g``)
+* centre-of-mass height [m] (its coordinate along ``-g``), its position ``sum m x / M`` [m]
+  and velocity ``sum m v / M`` [m/s], and how far it has moved across ``g`` since the first
+  frame [m] (a block sliding on the ground, or down a slope made by tilting ``g``)
 * largest spring strain ``max |(|x_j - x_i| - L0) / L0|`` [-]
+
+:func:`write_table` writes them as a CSV file (``jellysim export RUN -o table.csv``) for a
+spreadsheet or a class's own analysis.
 """
 from __future__ import annotations
 
@@ -19,13 +24,24 @@ import numpy as np
 from .errors import JellysimError
 from .io.atomic import atomic_path
 
-__all__ = ["diagnostics", "plot_trajectory"]
+__all__ = ["diagnostics", "plot_trajectory", "write_table"]
+
+TABLE_COLUMNS = (("time", "time_s"), ("com_x", "com_x_m"), ("com_y", "com_y_m"),
+                 ("com_z", "com_z_m"), ("com_vx", "com_vx_m_per_s"),
+                 ("com_vy", "com_vy_m_per_s"), ("com_vz", "com_vz_m_per_s"),
+                 ("com_height", "com_height_m"), ("travel", "travel_across_g_m"),
+                 ("kinetic", "kinetic_J"), ("elastic", "elastic_J"), ("gravity", "gravity_J"),
+                 ("total", "total_J"), ("max_strain", "max_spring_strain"))
+"""The CSV's columns: (:func:`diagnostics` key, header with its unit)."""
 
 
 def diagnostics(traj) -> dict[str, np.ndarray]:
     """Per-frame diagnostics, each shape (F,): ``time`` [s], ``kinetic`` [J], ``spring`` [J]
     (the springs' energy), ``tets`` [J] (the FEM tets' energy; zeros without), ``gravity``
-    [J], ``total`` [J], ``com_height`` [m], ``max_strain`` [-] (of the springs)."""
+    [J], ``total`` [J], ``com_height`` [m], ``max_strain`` [-] (of the springs); the centre
+    of mass ``com_x``, ``com_y``, ``com_z`` [m] and its velocity ``com_vx`` ... [m/s];
+    ``travel`` [m] its distance across ``g`` from the first frame; ``elastic`` [J] = spring
+    + tets."""
     x = np.asarray(traj.positions, dtype=np.float64)
     v = np.asarray(traj.velocities, dtype=np.float64)
     m = np.asarray(traj.masses, dtype=np.float64)
@@ -46,9 +62,30 @@ def diagnostics(traj) -> dict[str, np.ndarray]:
         spring = strain = np.zeros(len(x))
     tets = _tet_energy(traj, x)
     com = (height @ m) / m.sum() + float(ground)
-    return {"time": np.asarray(traj.times, dtype=np.float64), "kinetic": kinetic,
-            "spring": spring, "tets": tets, "gravity": grav,
-            "total": kinetic + spring + tets + grav, "com_height": com, "max_strain": strain}
+    centre, velocity = (x.transpose(0, 2, 1) @ m) / m.sum(), (v.transpose(0, 2, 1) @ m) / m.sum()
+    moved = centre - centre[:1]
+    travel = np.linalg.norm(moved - np.outer(moved @ up, up), axis=1)
+    out = {"time": np.asarray(traj.times, dtype=np.float64), "kinetic": kinetic,
+           "spring": spring, "tets": tets, "elastic": spring + tets, "gravity": grav,
+           "total": kinetic + spring + tets + grav, "com_height": com, "max_strain": strain,
+           "travel": travel}
+    for k, axis in enumerate("xyz"):
+        out[f"com_{axis}"], out[f"com_v{axis}"] = centre[:, k], velocity[:, k]
+    return out
+
+
+def write_table(traj, path) -> Path:
+    """Write :func:`diagnostics` as a CSV file: one row per frame, the columns of
+    :data:`TABLE_COLUMNS` (SI units, named in the header line)."""
+    path = Path(path)
+    if path.suffix.lower() != ".csv":
+        raise JellysimError(f"{path}: a table file name must end in .csv")
+    d = diagnostics(traj)
+    table = np.column_stack([d[key] for key, _ in TABLE_COLUMNS])
+    with atomic_path(path) as tmp:
+        np.savetxt(tmp, table, delimiter=",", fmt="%.10g", comments="",
+                   header=",".join(name for _, name in TABLE_COLUMNS))
+    return path
 
 
 def _tet_energy(traj, x) -> np.ndarray:
@@ -96,8 +133,11 @@ def plot_trajectory(traj, path, *, title: str | None = None) -> Path:
     ax.plot(t, d["total"] - d["total"][0], "k--", lw=1, label="total")
     ax.set_ylabel("change since the start [J]")
     ax.legend(loc="best")
-    axes[2].plot(t, d["com_height"], color="C3")
-    axes[2].set_ylabel("centre-of-mass height [m]")
+    axes[2].plot(t, d["com_height"], color="C3", label="height")
+    if np.any(d["travel"] > 1e-3 * max(np.ptp(d["com_height"]), 1e-9)):
+        axes[2].plot(t, d["travel"], color="C2", label="distance moved across g")
+        axes[2].legend(loc="best")
+    axes[2].set_ylabel("centre of mass [m]")
     axes[3].plot(t, 100 * d["max_strain"], color="C4")
     axes[3].set_ylabel("largest spring strain [%]")
     axes[3].set_xlabel("time [s]")
