@@ -61,7 +61,7 @@ def test_the_table_is_the_trajectorys_centre_of_mass_and_energies(tmp_path):
     g = -float(traj.gravity[1])  # (the report's 9.8 m/s^2 by default)
     assert g > 9
     np.testing.assert_allclose(col["com_vy_m_per_s"], 0.4 - g * t, rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(col["travel_across_g_m"], np.hypot(0.7, 0.2) * t, rtol=1e-6,
+    np.testing.assert_allclose(col["travel_xz_m"], np.hypot(0.7, 0.2) * t, rtol=1e-6,
                                atol=1e-12)
     # the energy: symplectic Euler's free fall loses -1/2 M g^2 dt t (docs/physics.md), the
     # springs' wobble keeps its own to well below that

@@ -8,8 +8,9 @@ Quantities per frame (SI units):
   rebuilt from the trajectory's tets and the E and nu it records)
 * gravitational energy ``-sum m g . x`` [J], zero on the ground plane (``y = height``)
 * centre-of-mass height [m] (its coordinate along ``-g``), its position ``sum m x / M`` [m]
-  and velocity ``sum m v / M`` [m/s], and how far it has moved across ``g`` since the first
-  frame [m] (a block sliding on the ground, or down a slope made by tilting ``g``)
+  and velocity ``sum m v / M`` [m/s], and how far it has moved along the ground (in the x-z
+  plane) since the first frame [m] (a block sliding on the plate, or down a slope made by
+  tilting ``g``)
 * largest spring strain ``max |(|x_j - x_i| - L0) / L0|`` [-]
 
 :func:`write_table` writes them as a CSV file (``jellysim export RUN -o table.csv``) for a
@@ -29,7 +30,7 @@ __all__ = ["diagnostics", "plot_trajectory", "write_table"]
 TABLE_COLUMNS = (("time", "time_s"), ("com_x", "com_x_m"), ("com_y", "com_y_m"),
                  ("com_z", "com_z_m"), ("com_vx", "com_vx_m_per_s"),
                  ("com_vy", "com_vy_m_per_s"), ("com_vz", "com_vz_m_per_s"),
-                 ("com_height", "com_height_m"), ("travel", "travel_across_g_m"),
+                 ("com_height", "com_height_m"), ("travel", "travel_xz_m"),
                  ("kinetic", "kinetic_J"), ("elastic", "elastic_J"), ("gravity", "gravity_J"),
                  ("total", "total_J"), ("max_strain", "max_spring_strain"))
 """The CSV's columns: (:func:`diagnostics` key, header with its unit)."""
@@ -40,8 +41,8 @@ def diagnostics(traj) -> dict[str, np.ndarray]:
     (the springs' energy), ``tets`` [J] (the FEM tets' energy; zeros without), ``gravity``
     [J], ``total`` [J], ``com_height`` [m], ``max_strain`` [-] (of the springs); the centre
     of mass ``com_x``, ``com_y``, ``com_z`` [m] and its velocity ``com_vx`` ... [m/s];
-    ``travel`` [m] its distance across ``g`` from the first frame; ``elastic`` [J] = spring
-    + tets."""
+    ``travel`` [m] its distance in the x-z plane (along the ground) from the first frame;
+    ``elastic`` [J] = spring + tets."""
     x = np.asarray(traj.positions, dtype=np.float64)
     v = np.asarray(traj.velocities, dtype=np.float64)
     m = np.asarray(traj.masses, dtype=np.float64)
@@ -63,8 +64,7 @@ def diagnostics(traj) -> dict[str, np.ndarray]:
     tets = _tet_energy(traj, x)
     com = (height @ m) / m.sum() + float(ground)
     centre, velocity = (x.transpose(0, 2, 1) @ m) / m.sum(), (v.transpose(0, 2, 1) @ m) / m.sum()
-    moved = centre - centre[:1]
-    travel = np.linalg.norm(moved - np.outer(moved @ up, up), axis=1)
+    travel = np.hypot(centre[:, 0] - centre[0, 0], centre[:, 2] - centre[0, 2])
     out = {"time": np.asarray(traj.times, dtype=np.float64), "kinetic": kinetic,
            "spring": spring, "tets": tets, "elastic": spring + tets, "gravity": grav,
            "total": kinetic + spring + tets + grav, "com_height": com, "max_strain": strain,
@@ -135,7 +135,7 @@ def plot_trajectory(traj, path, *, title: str | None = None) -> Path:
     ax.legend(loc="best")
     axes[2].plot(t, d["com_height"], color="C3", label="height")
     if np.any(d["travel"] > 1e-3 * max(np.ptp(d["com_height"]), 1e-9)):
-        axes[2].plot(t, d["travel"], color="C2", label="distance moved across g")
+        axes[2].plot(t, d["travel"], color="C2", label="distance moved along the ground (x-z)")
         axes[2].legend(loc="best")
     axes[2].set_ylabel("centre of mass [m]")
     axes[3].plot(t, 100 * d["max_strain"], color="C4")

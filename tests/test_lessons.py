@@ -1,0 +1,79 @@
+"""The teaching lessons of docs/lessons.md: each runs as shipped (examples/lessons/) and
+meets its textbook formula, measured by the same examples/lessons/measure.py a class uses.
+
+The formulas are independent of the simulation: v0^2 / (2 mu g) for a block braking on a
+plate, g (sin t - mu cos t) down a slope, Dunkerley's shear + bending estimate of a cube's
+sway (a lower bound of the continuum's fundamental), a viscoelastic sway's logarithmic
+decrement, and the mass on a spring, T = 2 pi sqrt(M / k)."""
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from jellysim.io.trajectory import load_trajectory
+from jellysim.runner import run_scene
+from jellysim.scene import Scene
+
+LESSONS = Path(__file__).resolve().parents[1] / "examples" / "lessons"
+
+
+def _module(name):
+    spec = importlib.util.spec_from_file_location(f"lesson_{name}", LESSONS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+measure = _module("measure")
+
+
+def _run(tmp_path, name, *overrides):
+    scene = Scene.load(LESSONS / f"{name}.toml", overrides=overrides)
+    out = tmp_path / name
+    run_scene(scene, out, progress=False, vtu=False)
+    return load_trajectory(out)
+
+
+def test_slide_stops_at_v0_squared_over_2_mu_g(tmp_path):
+    measured, formula, _ = measure.slide(_run(tmp_path, "slide"))
+    assert measured == pytest.approx(formula, rel=0.02)
+
+
+def test_incline_accelerates_at_g_sin_minus_mu_cos(tmp_path):
+    measured, formula, _ = measure.incline(_run(tmp_path, "incline"))
+    assert formula == pytest.approx(0.589, abs=1e-3)
+    assert measured == pytest.approx(formula, rel=0.03)
+
+
+def test_below_the_friction_angle_a_pushed_block_stops(tmp_path):
+    traj = _run(tmp_path, "incline", "physics.gravity=[2.5364,-9.4661,0.0]",
+                "body.settle=true", "body.velocity=[0.1,0.0,0.0]")
+    d = measure._table(traj)
+    g = np.asarray(traj.gravity)
+    theta = np.arctan2(g[0], -g[1])
+    braking = 9.8 * (0.3 * np.cos(theta) - np.sin(theta))
+    assert abs(d["com_vx"][-1]) < 1e-4                              # at rest, held by friction
+    assert d["travel"][-1] == pytest.approx(0.1**2 / (2 * braking), rel=0.05)
+
+
+def test_wobble_sways_just_above_dunkerleys_estimate(tmp_path):
+    measured, formula, _ = measure.wobble(_run(tmp_path, "wobble"))
+    assert formula == pytest.approx(3.198, abs=0.01)
+    assert formula < measured < 1.10 * formula
+
+
+def test_the_sways_decay_gives_the_materials_damping_ratio(tmp_path):
+    measured, formula, _ = measure.decay(_run(tmp_path, "wobble", "material.damping_ratio=0.05",
+                                              "material.damping_frequency=3.35"))
+    assert measured == pytest.approx(formula, rel=0.10)
+
+
+@pytest.mark.parametrize("zeta", [0.0, 0.1])
+def test_mass_on_a_spring(zeta):
+    period, period_formula, drop, drop_formula, over, over_formula = \
+        _module("mass_on_spring").measure(zeta)
+    assert period == pytest.approx(period_formula, rel=0.01)
+    assert over == pytest.approx(over_formula, abs=0.02)
+    if zeta == 0.0:
+        assert drop == pytest.approx(drop_formula, rel=0.02)
