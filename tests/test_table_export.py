@@ -70,3 +70,29 @@ def test_the_table_is_the_trajectorys_centre_of_mass_and_energies(tmp_path):
     res = CliRunner().invoke(cli, ["export", str(tmp_path / "run"), "-o",
                                    str(tmp_path / "table.csv")])
     assert res.exit_code != 0 and "overwrite" in res.output  # (an existing table is kept)
+
+
+def test_a_physical_runs_table_gives_its_tets_smallest_volume_ratio(tmp_path):
+    """J = V / V0 of the tets, computed here from 3x3 determinants: 1 at rest, below 1 where
+    the landing squeezes the cube; a springs run has no tets' J (NaN)."""
+    scene = ('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 27\n'
+             'lower = [0.0, 0.02, 0.0]\nupper = [0.03, 0.05, 0.03]\n'
+             '[integrator]\nsteps = 12\n[output]\nvtu = false\n')
+    run_scene(Scene.from_text(scene, name="drop.toml"), tmp_path / "run", progress=False)
+    traj = load_trajectory(tmp_path / "run")
+    from jellysim.plot import diagnostics, write_table
+
+    table = np.loadtxt(write_table(traj, tmp_path / "t.csv"), delimiter=",", skiprows=1)
+    t = np.asarray(traj.tets)
+
+    def smallest_j(x):
+        edges = lambda p: np.stack([p[t[:, k]] - p[t[:, 0]] for k in (1, 2, 3)], axis=1)
+        return float(np.min(np.linalg.det(edges(x)) / np.linalg.det(edges(traj.rest_positions))))
+
+    expected = [smallest_j(x) for x in traj.positions]
+    np.testing.assert_allclose(table[:, -1], expected, rtol=1e-9)  # (10 digits written)
+    assert expected[0] == 1.0 or abs(expected[0] - 1.0) < 1e-12
+    assert min(expected) < 0.99  # (it landed: squeezed)
+    springs = Scene.from_text(SCENE.replace("steps = 300", "steps = 20"), name="fly.toml")
+    run_scene(springs, tmp_path / "fly", progress=False)
+    assert np.all(np.isnan(diagnostics(load_trajectory(tmp_path / "fly"))["min_volume_ratio"]))

@@ -12,6 +12,8 @@ Quantities per frame (SI units):
   plane) since the first frame [m] (a block sliding on the plate, or down a slope made by
   tilting ``g``)
 * largest spring strain ``max |(|x_j - x_i| - L0) / L0|`` [-]
+* smallest tet volume ratio ``J = V / V0`` [-] of a physical (FEM) run: below 1 squeezed,
+  below 0 inside out (its springs, when it has any, only draw it: their strain is not a force)
 
 :func:`write_table` writes them as a CSV file (``jellysim export RUN -o table.csv``) for a
 spreadsheet or a class's own analysis.
@@ -32,7 +34,8 @@ TABLE_COLUMNS = (("time", "time_s"), ("com_x", "com_x_m"), ("com_y", "com_y_m"),
                  ("com_vy", "com_vy_m_per_s"), ("com_vz", "com_vz_m_per_s"),
                  ("com_height", "com_height_m"), ("travel", "travel_xz_m"),
                  ("kinetic", "kinetic_J"), ("elastic", "elastic_J"), ("gravity", "gravity_J"),
-                 ("total", "total_J"), ("max_strain", "max_spring_strain"))
+                 ("total", "total_J"), ("max_strain", "max_spring_strain"),
+                 ("min_volume_ratio", "min_tet_volume_ratio"))
 """The CSV's columns: (:func:`diagnostics` key, header with its unit)."""
 
 
@@ -42,7 +45,8 @@ def diagnostics(traj) -> dict[str, np.ndarray]:
     [J], ``total`` [J], ``com_height`` [m], ``max_strain`` [-] (of the springs); the centre
     of mass ``com_x``, ``com_y``, ``com_z`` [m] and its velocity ``com_vx`` ... [m/s];
     ``travel`` [m] its distance in the x-z plane (along the ground) from the first frame;
-    ``elastic`` [J] = spring + tets."""
+    ``elastic`` [J] = spring + tets; ``min_volume_ratio`` [-] the smallest J = V / V0 of the
+    tets of a physical run (NaN for a springs run)."""
     x = np.asarray(traj.positions, dtype=np.float64)
     v = np.asarray(traj.velocities, dtype=np.float64)
     m = np.asarray(traj.masses, dtype=np.float64)
@@ -71,7 +75,19 @@ def diagnostics(traj) -> dict[str, np.ndarray]:
            "travel": travel}
     for k, axis in enumerate("xyz"):
         out[f"com_{axis}"], out[f"com_v{axis}"] = centre[:, k], velocity[:, k]
+    out["min_volume_ratio"] = _min_volume_ratio(traj, x)
     return out
+
+
+def _min_volume_ratio(traj, x) -> np.ndarray:
+    """The smallest tet volume ratio J per frame [-] of a physical run (NaN otherwise)."""
+    if not (traj.params or {}).get("fem") or len(traj.tets) == 0:
+        return np.full(len(x), np.nan)
+    from .geometry.tetra import tet_signed_volumes
+
+    tets = np.asarray(traj.tets, dtype=np.int64)
+    rest = tet_signed_volumes(np.asarray(traj.rest_positions, dtype=np.float64), tets)
+    return np.array([float(np.min(tet_signed_volumes(xf, tets) / rest)) for xf in x])
 
 
 def write_table(traj, path) -> Path:
@@ -138,8 +154,13 @@ def plot_trajectory(traj, path, *, title: str | None = None) -> Path:
         axes[2].plot(t, d["travel"], color="C2", label="distance moved along the ground (x-z)")
         axes[2].legend(loc="best")
     axes[2].set_ylabel("centre of mass [m]")
-    axes[3].plot(t, 100 * d["max_strain"], color="C4")
-    axes[3].set_ylabel("largest spring strain [%]")
+    if np.all(np.isnan(d["min_volume_ratio"])):
+        axes[3].plot(t, 100 * d["max_strain"], color="C4")
+        axes[3].set_ylabel("largest spring strain [%]")
+    else:  # (a physical run: its tets carry it, J is what says it is squeezed or inverted)
+        axes[3].plot(t, d["min_volume_ratio"], color="C4")
+        axes[3].axhline(0.0, color="k", lw=0.8, ls=":")
+        axes[3].set_ylabel("smallest tet volume ratio J")
     axes[3].set_xlabel("time [s]")
     for a in axes:
         a.grid(alpha=0.3)

@@ -15,6 +15,7 @@ import numpy as np
 
 from .errors import SceneError, did_you_mean
 from .kernels import WARP_INTEGRATORS
+from .params import _user_stacklevel
 
 __all__ = ["REQUIRED", "Spec", "as_toml", "missing_path", "check_table", "check_value", "plain",
            "apply_override", "check_backend", "grid_radius", "check_body_file"]
@@ -447,8 +448,6 @@ def say_slips(params: dict, given: dict, name: str) -> None:
     percent, a ground restitution set for a jello body, whose bounce it hardly changes, and
     the report's per-point drag on a jello body (it depends on the resolution)."""
     import warnings
-
-    from .params import _user_stacklevel
 
     dt = (params.get("integrator") or {}).get("dt")
     if dt is not None and dt > 0.1:
