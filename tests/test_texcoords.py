@@ -25,9 +25,10 @@ def _uv_of(points, centre):
     return np.stack([u + 2.0 * a[..., None], v + side[..., None]], axis=-1)
 
 
-def _cube_obj(path: Path, *, inside_out=False):
+def _cube_obj(path: Path, *, inside_out=False, materials=False):
     """An OBJ cube of side 2 HALF centred at the origin: 8 shared vertices, 6 quads, each
-    corner with its own ``vt`` (the planar UVs of :func:`_uv_of`)."""
+    corner with its own ``vt`` (the planar UVs of :func:`_uv_of`); ``materials``: the first
+    three quads use one textured material and the others another (an .mtl and two PNGs)."""
     corners = np.array([[x, y, z] for x in (-HALF, HALF) for y in (-HALF, HALF)
                         for z in (-HALF, HALF)])
     quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
@@ -37,7 +38,16 @@ def _cube_obj(path: Path, *, inside_out=False):
         quad = quad[::-1] if inside_out else quad
         uv = _uv_of(corners[list(quad)][None], np.zeros(3))[0]
         lines += [f"vt {u:.17g} {v:.17g}" for u, v in uv]
+        if materials and k in (0, 3):
+            faces.append(f"usemtl {'ab'[k // 3]}")
         faces.append("f " + " ".join(f"{i + 1}/{4 * k + c + 1}" for c, i in enumerate(quad)))
+    if materials:
+        from PIL import Image
+
+        for name, colour in (("a", (200, 30, 30)), ("b", (30, 30, 200))):
+            Image.new("RGB", (8, 8), colour).save(path.parent / f"{name}.png")
+        (path.parent / "cube.mtl").write_text("newmtl a\nmap_Kd a.png\nnewmtl b\nmap_Kd b.png\n")
+        lines.insert(0, "mtllib cube.mtl")
     path.write_text("\n".join(lines + faces) + "\n")
     return path
 
@@ -82,6 +92,24 @@ def test_a_cube_keeps_its_uvs_through_welding_and_turning_outward(tmp_path, insi
         m = outward(m, "cube.obj")
     assert m.defects.volume > 0
     np.testing.assert_allclose(m.uv, _uv_of(m.vertices[m.faces], np.zeros(3)), atol=1e-15)
+
+
+def test_a_file_of_two_textured_materials_keeps_each_faces_own_uvs(tmp_path):
+    """trimesh merges the materials by packing their images into one atlas and rescaling the
+    UVs into it (a trial found every corner wrong); the skin keeps the file's, and says that
+    the materials are merged."""
+    with pytest.warns(UserWarning, match="its 2 materials are read as one surface"):
+        m = load_mesh(_cube_obj(tmp_path / "cube.obj", materials=True))
+    np.testing.assert_allclose(m.uv, _uv_of(m.vertices[m.faces], np.zeros(3)), atol=1e-15)
+
+
+def test_unreadable_uvs_are_said_and_dropped(tmp_path):
+    path = _cube_obj(tmp_path / "cube.obj")
+    text = path.read_text().replace("f 1/1 ", "f 1 ", 1)   # one corner without its UV
+    path.write_text(text)
+    with pytest.warns(UserWarning, match="its texture coordinates could not be read"):
+        m = load_mesh(path)
+    assert m.uv is None and len(m.faces) == 12
 
 
 def test_a_duplicate_face_keeps_the_uvs_of_its_kept_copy():

@@ -295,7 +295,7 @@ def _read_trimesh(p: Path, name: str):
         raise MeshError(f"{name}: the file holds no triangle mesh (got {type(loaded).__name__})")
     v = np.asarray(loaded.vertices, dtype=np.float64)
     f = np.asarray(loaded.faces, dtype=np.int64)
-    return v, f, texcoords.trimesh_corner_uv(trimesh, loaded, p, kwargs)
+    return v, f, texcoords.trimesh_corner_uv(trimesh, loaded, p, name)
 
 
 def _obj_problem(p: Path) -> str | None:

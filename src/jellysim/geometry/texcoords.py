@@ -18,43 +18,62 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..params import _user_stacklevel
+
 __all__ = ["align", "checked", "split_seams", "subdivided", "trimesh_corner_uv"]
 
 
-def trimesh_corner_uv(trimesh, loaded, path, kwargs) -> np.ndarray | None:
+def trimesh_corner_uv(trimesh, loaded, path, name: str) -> np.ndarray | None:
     """The UVs of each corner of ``loaded``'s faces (f, 3, 2), or ``None`` when the file has
-    none.  trimesh gives one UV per vertex, splitting the vertices along the seams, except
-    where it was asked to keep an OBJ's vertex list as written (``maintain_order``: then a
-    seam vertex keeps one of its UVs): such a file is read once more, split, and its corners
-    taken where they are the same points as ``loaded``'s (the faces keep the file's order).
-    UVs that cannot be read are dropped (``None``), never a reason to refuse the file."""
+    none.  ``loaded`` is the file read as one mesh; its own UVs are not used: trimesh merges a
+    file of several materials into one mesh by packing their textures into a new atlas and
+    rescaling the UVs into it, and keeps one UV per seam vertex of an OBJ read in order.  So
+    the file is read once more as its parts (one per material, each split along its seams, in
+    the order the merged mesh has them), and their corners are taken where they are the same
+    points as ``loaded``'s.  UVs that cannot be read are said (``name``: the file) and dropped,
+    never a reason to refuse the file; several materials are said too (the skin is one
+    surface: the exports keep each face's UVs but not which material it used)."""
     import warnings
 
+    has_uv = getattr(loaded.visual, "uv", None) is not None or (
+        path.suffix.lower() == ".obj" and b"\nvt " in path.read_bytes())
+    if not has_uv:
+        return None
     try:
         with warnings.catch_warnings():  # (trimesh's texture code's NaN medians)
             warnings.simplefilter("ignore", RuntimeWarning)
-            return _corner_uv(trimesh, loaded, path, kwargs)
-    except Exception:  # noqa: BLE001 (trimesh raises many types; the geometry was read)
-        return None
-
-
-def _corner_uv(trimesh, loaded, path, kwargs) -> np.ndarray | None:
-    uv = getattr(loaded.visual, "uv", None)
-    if kwargs.get("maintain_order") and (uv is not None or b"\nvt " in path.read_bytes()):
-        # (an inside-out OBJ read in order may come without UVs: trimesh could not place them)
-        split = trimesh.load(str(path), force="mesh", process=False)
-        corners = np.asarray(split.vertices)[np.asarray(split.faces)]
-        if corners.shape != (len(loaded.faces), 3, 3) or not np.array_equal(
-                corners, np.asarray(loaded.vertices)[np.asarray(loaded.faces)]):
-            return None
-        loaded = split
-        uv = getattr(loaded.visual, "uv", None)
+            uv, why, parts = _corner_uv(trimesh, loaded, path)
+    except Exception as exc:  # noqa: BLE001 (trimesh raises many types; the geometry was read)
+        uv, why, parts = None, f"{type(exc).__name__}: {exc}", 1
     if uv is None:
-        return None
-    uv = np.asarray(uv, dtype=np.float64)
-    if uv.shape != (len(loaded.vertices), 2):
-        return None
-    return uv[np.asarray(loaded.faces, dtype=np.int64)]
+        warnings.warn(f"{name}: its texture coordinates could not be read ({why}): the skin "
+                      "and its exports carry none", UserWarning, stacklevel=_user_stacklevel())
+    elif parts > 1:
+        warnings.warn(f"{name}: its {parts} materials are read as one surface: every face keeps "
+                      "its own UVs, but the exports do not say which faces use which material "
+                      "or texture (docs/visual.md)", UserWarning, stacklevel=_user_stacklevel())
+    return uv
+
+
+def _corner_uv(trimesh, loaded, path):
+    """``(uv or None, why not, number of parts)``: see :func:`trimesh_corner_uv`."""
+    split = trimesh.load(str(path), process=False)
+    parts = split.dump() if isinstance(split, trimesh.Scene) else [split]
+    uvs = [getattr(getattr(g, "visual", None), "uv", None) for g in parts]
+    if not parts or any(u is None for u in uvs):
+        return None, "some of its faces have none", len(parts)
+    if any(np.shape(u) != (len(g.vertices), 2) for g, u in zip(parts, uvs)):
+        return None, "not one per vertex", len(parts)
+    corners = np.concatenate([np.asarray(g.vertices)[np.asarray(g.faces)] for g in parts])
+    if corners.shape != (len(loaded.faces), 3, 3) or not np.array_equal(
+            corners, np.asarray(loaded.vertices)[np.asarray(loaded.faces)]):
+        return None, "its faces, read by material, could not be matched to its surface", \
+            len(parts)
+    uv = np.concatenate([np.asarray(u, dtype=np.float64)[np.asarray(g.faces, dtype=np.int64)]
+                         for g, u in zip(parts, uvs)])
+    if not np.all(np.isfinite(uv)):
+        return None, "some are not finite numbers", len(parts)
+    return uv, "", len(parts)
 
 
 def checked(uv, faces: int) -> np.ndarray | None:
