@@ -258,3 +258,52 @@ def test_a_jello_files_bad_uv_section_is_named(tmp_path):
     with pytest.raises(JelloFileError, match="c.jello:15:11: 'nan' is not finite; expected "
                                              "a finite texture coordinate"):
         read_jello(tmp_path / "c.jello")
+
+
+def test_a_texture_is_carried_into_each_export(cube_run, tmp_path):
+    """--texture: glTF embeds the image's own bytes as the material's base colour texture;
+    USD's stage and the OBJ frames' .mtl name a path that leads to the image; a skin
+    without UVs refuses it."""
+    import dataclasses
+    import os
+
+    from PIL import Image
+
+    from jellysim.errors import JellysimError
+    from jellysim.io.gltf import export_glb, read_glb
+    from jellysim.io.meshseq import export_mesh_sequence
+
+    traj, _ = cube_run
+    image = tmp_path / "tex" / "checker.png"
+    image.parent.mkdir()
+    Image.new("RGB", (4, 4), (10, 200, 30)).save(image)
+    doc, binary = read_glb(export_glb(traj, tmp_path / "a.glb", texture=image))
+    view = doc["bufferViews"][doc["images"][0]["bufferView"]]
+    start = view.get("byteOffset", 0)
+    assert binary[start:start + view["byteLength"]] == image.read_bytes()
+    pbr = doc["materials"][0]["pbrMetallicRoughness"]
+    assert pbr["baseColorTexture"]["index"] == 0 and doc["textures"][0]["source"] == 0
+    assert doc["materials"][0]["alphaMode"] == "OPAQUE"
+
+    files = export_mesh_sequence(traj, tmp_path / "seq", texture=image)
+    assert files[0].read_text().splitlines()[1:3] == ["mtllib skin.mtl", "usemtl jello"]
+    (line,) = [w for w in (tmp_path / "seq" / "skin.mtl").read_text().splitlines()
+               if w.startswith("map_Kd ")]
+    assert Path(os.path.normpath(tmp_path / "seq" / line.split(" ", 1)[1])) == image
+
+    pytest.importorskip("pxr", reason="usd-core (the usd extra) is not installed")
+    from pxr import Usd, UsdShade
+
+    from jellysim.io.usd import export_usd
+
+    stage = Usd.Stage.Open(str(export_usd(traj, tmp_path / "a.usda", texture=image)))
+    shader = UsdShade.Shader(stage.GetPrimAtPath("/jello/jello_material/texture"))
+    asset = shader.GetInput("file").Get().path
+    assert Path(os.path.normpath(tmp_path / asset)) == image
+    surface = UsdShade.Shader(stage.GetPrimAtPath("/jello/jello_material/surface"))
+    source = surface.GetInput("diffuseColor").GetConnectedSources()[0][0].source
+    assert source.GetPath() == shader.GetPath()
+
+    plain = dataclasses.replace(traj, skin=dataclasses.replace(traj.skin, uv=None))
+    with pytest.raises(JellysimError, match="has no texture coordinates"):
+        export_glb(plain, tmp_path / "b.glb", texture=image)

@@ -423,8 +423,13 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
 @click.option("--max-frames", type=click.IntRange(min=2), default=None,
               help="glb: keep at most this many frames (evenly spaced), one morph target "
                    "each.")
+@click.option("--texture", type=click.Path(), default=None, metavar="IMAGE",
+              help="A .png/.jpg image mapped on the skin by its mesh file's UVs: embedded in "
+                   "a .glb, named by a .usd* stage or the OBJ frames' .mtl (relative path); "
+                   "the material is then opaque.")
 @_overwrite
-def export(trajectory, target, output, sequence, fps, max_frames, overwrite=False):
+def export(trajectory, target, output, sequence, fps, max_frames, texture=None,
+           overwrite=False):
     """Export TRAJECTORY for other tools: USD, glTF (.glb), ParaView (.pvd), OBJ/PLY, CSV.
 
     \b
@@ -443,6 +448,10 @@ def export(trajectory, target, output, sequence, fps, max_frames, overwrite=Fals
               "formats keep the trajectory's own times: remove it")
     if max_frames is not None and (sequence or suffix != ".glb"):
         _fail("--max-frames applies to .glb exports (one morph target per frame): remove it")
+    if texture is not None and (sequence == "ply" or not sequence and suffix not in (
+            ".usdc", ".usda", ".usd", ".glb")):
+        _fail("--texture applies to .glb, .usdc/.usda/.usd and --sequence obj exports (the "
+              "others carry no material): remove it")
     try:
         traj = _load(trajectory)
         if suffix not in (".pvd", ".csv") or sequence:  # (ParaView shows both sides)
@@ -456,16 +465,19 @@ def export(trajectory, target, output, sequence, fps, max_frames, overwrite=Fals
 
             surface_of(traj)  # (no surface to write: refused before old frames go)
             guard_folder(out, [f"skin_[0-9]*.{sequence}"], overwrite)
-            paths = export_mesh_sequence(traj, out, fmt=sequence, overwrite=True)  # (staged)
+            paths = export_mesh_sequence(traj, out, fmt=sequence, overwrite=True,  # (staged)
+                                         texture=texture)
             click.echo(f"wrote {len(paths)} {sequence.upper()} files in {out}")
             return
         suffix = out.suffix.lower()
         if suffix in (".usdc", ".usda", ".usd", ".glb", ".pvd", ".csv"):
             guard_output(out, overwrite)
         if suffix in (".usdc", ".usda", ".usd"):
-            written = [export_usd(traj, out, fps=fps, overwrite=True)]  # (guarded above)
+            written = [export_usd(traj, out, fps=fps, overwrite=True,  # (guarded above)
+                                  texture=texture)]
         elif suffix == ".glb":
-            written = [export_glb(traj, out, max_frames=max_frames, overwrite=True)]
+            written = [export_glb(traj, out, max_frames=max_frames, overwrite=True,
+                                  texture=texture)]
         elif suffix == ".csv":
             from .plot import write_table
 

@@ -30,12 +30,14 @@ _FLOAT, _UINT = 5126, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 
 
-def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = False) -> Path:
+def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = False,
+               texture=None) -> Path:
     """Write the skin of a loaded trajectory as an animated ``.glb`` (an existing ``path`` is
     refused unless ``overwrite``).
 
     ``max_frames``: keep at most this many frames (evenly spaced) to bound the file size;
-    default all."""
+    default all.  ``texture``: a PNG/JPEG image embedded as the material's
+    ``baseColorTexture`` (opaque), mapped by the skin's UVs (:mod:`jellysim.io.texture`)."""
 
     path = Path(path)
     if path.suffix.lower() != ".glb":
@@ -44,6 +46,9 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
 
     guard_file(path, overwrite, flag="overwrite=True")
     frames, faces = surface_of(traj)
+    from .texture import TEXTURE_SUFFIXES, texture_file
+
+    texture = texture_file(traj, texture)
     times = np.asarray(traj.times, dtype=np.float64)
     idx = np.arange(len(frames))
     if max_frames is not None and len(idx) > max_frames:
@@ -99,6 +104,13 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
     attributes = {"POSITION": pos, "NORMAL": nrm}
     if uv is not None:
         attributes["TEXCOORD_0"] = add(uv, kind="VEC2", ctype=_FLOAT, target=_ARRAY_BUFFER)
+    image_view = None
+    if texture is not None:  # the image's bytes as they are, in a view of their own
+        raw = texture.read_bytes()
+        views.append({"buffer": 0, "byteOffset": sum(len(b) for b in blobs),
+                      "byteLength": len(raw)})
+        blobs.append(raw + b"\0" * (-len(raw) % 4))
+        image_view = len(views) - 1
     t_acc = add(times.reshape(-1), kind="SCALAR", ctype=_FLOAT, target=None, minmax=True)
     w_acc = add(np.eye(n_frames, dtype=np.float32).reshape(-1), kind="SCALAR", ctype=_FLOAT,
                 target=None)
@@ -106,15 +118,24 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
         "asset": {"version": "2.0", "generator": "jellysim"},
         "scene": 0, "scenes": [{"nodes": [0]}],
         "nodes": [{"mesh": 0, "name": "jello"}],
-        "materials": [{"name": "jello", "alphaMode": "BLEND", "doubleSided": True,
-                       "pbrMetallicRoughness": {"baseColorFactor": [0.85, 0.12, 0.24, 0.7],
-                                                "metallicFactor": 0.0,
-                                                "roughnessFactor": 0.25}}],
+        "materials": [{"name": "jello", "doubleSided": True,
+                       "alphaMode": "BLEND" if texture is None else "OPAQUE",
+                       "pbrMetallicRoughness": {
+                           "baseColorFactor": [0.85, 0.12, 0.24, 0.7] if texture is None
+                           else [1.0, 1.0, 1.0, 1.0],
+                           **({} if texture is None else
+                              {"baseColorTexture": {"index": 0, "texCoord": 0}}),
+                           "metallicFactor": 0.0, "roughnessFactor": 0.25}}],
         "meshes": [{"name": "skin", "weights": [1.0] + [0.0] * (n_frames - 1),
                     "primitives": [{"attributes": attributes,
                                     "indices": ind,
                                     "material": 0, "mode": 4, "targets": targets}],
                     "extras": {"targetNames": [f"frame_{k}" for k in idx.tolist()]}}],
+        **({} if texture is None else {
+            "images": [{"bufferView": image_view, "mimeType":
+                        TEXTURE_SUFFIXES[texture.suffix.lower()]}],
+            "samplers": [{"wrapS": 10497, "wrapT": 10497}],   # (REPEAT, as OBJ's vt)
+            "textures": [{"sampler": 0, "source": 0}]}),
         "animations": [{"name": "simulation",
                         "samplers": [{"input": t_acc, "output": w_acc,
                                       "interpolation": "STEP"}],

@@ -18,13 +18,15 @@ __all__ = ["export_mesh_sequence"]
 
 
 def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin",
-                         overwrite: bool = False) -> list[Path]:
+                         overwrite: bool = False, texture=None) -> list[Path]:
     """Write ``directory/<stem>_NNNNN.<fmt>`` for every frame; ``fmt`` is ``obj`` or ``ply``.
 
     Vertices [m] are the skin's (or the body surface's) positions of each frame.  A folder
     already holding ``<stem>_NNNNN.<fmt>`` files (an earlier export, whose extra frames would
     stay mixed with the new ones) is refused unless ``overwrite``; then the old files are
-    replaced only once every new frame is written (an interrupted export keeps them)."""
+    replaced only once every new frame is written (an interrupted export keeps them).
+    ``texture`` (OBJ only): a PNG/JPEG image, named (relative to the folder) by a
+    ``<stem>.mtl`` that every frame uses (:mod:`jellysim.io.texture`)."""
     import meshio
 
 
@@ -32,6 +34,12 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     if fmt not in ("obj", "ply"):
         raise JellysimError(f"mesh sequence format must be 'obj' or 'ply', got '{fmt}'")
     frames, faces = surface_of(traj)
+    from .texture import relative_to, texture_file
+
+    if texture is not None and fmt != "obj":
+        raise JellysimError("a texture goes with OBJ frames (their .mtl names it); PLY files "
+                            "carry positions only")
+    texture = texture_file(traj, texture)
     uv = surface_uv(traj) if fmt == "obj" else None
     if uv is not None:  # the distinct UVs, and each corner's among them
         vt, vt_index = np.unique(np.asarray(uv, np.float64).reshape(-1, 2), axis=0,
@@ -44,11 +52,16 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
                             "folder (one file per frame): give a folder name")
     pattern = f"{stem}_[0-9]*.{fmt}"
     guard_folder(directory, [pattern], overwrite, flag="overwrite=True")
-    with staged_output(directory, [pattern]) as stage:
+    mtl = None if texture is None else f"{stem}.mtl"
+    with staged_output(directory, [pattern] + ([mtl] if mtl else [])) as stage:
+        if mtl:
+            (stage / mtl).write_text("# written by jellysim: the skin's texture\nnewmtl jello\n"
+                                     f"map_Kd {relative_to(texture, directory)}\n",
+                                     encoding="utf-8")
         for k, verts in enumerate(frames):
             if uv is not None:
                 with atomic_path(stage / f"{stem}_{k:05d}.{fmt}") as tmp:
-                    _write_obj(tmp, np.asarray(verts, dtype=np.float64), vt, corners)
+                    _write_obj(tmp, np.asarray(verts, dtype=np.float64), vt, corners, mtl)
                 continue
             mesh = meshio.Mesh(np.asarray(verts, dtype=np.float64),
                                [("triangle", np.asarray(faces, dtype=np.int32))])
@@ -57,11 +70,15 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     return [directory / f"{stem}_{k:05d}.{fmt}" for k in range(len(frames))]
 
 
-def _write_obj(path, verts: np.ndarray, vt: np.ndarray, corners: np.ndarray) -> None:
+def _write_obj(path, verts: np.ndarray, vt: np.ndarray, corners: np.ndarray,
+               mtl: str | None = None) -> None:
     """An OBJ file of ``verts`` [m] (m, 3), texture coordinates ``vt`` (t, 2) and faces
-    ``corners`` (f, 6): 1-based ``a ta b tb c tc``."""
-    with open(path, "w", encoding="ascii") as fh:
+    ``corners`` (f, 6): 1-based ``a ta b tb c tc``; ``mtl``: the material library its faces
+    use (material ``jello``)."""
+    with open(path, "w", encoding="utf-8") as fh:
         fh.write("# written by jellysim: the skin of one frame, metres\n")
+        if mtl:
+            fh.write(f"mtllib {mtl}\nusemtl jello\n")
         np.savetxt(fh, verts, fmt="v %.9g %.9g %.9g")
         np.savetxt(fh, vt, fmt="vt %.9g %.9g")
         np.savetxt(fh, corners, fmt="f %d/%d %d/%d %d/%d")

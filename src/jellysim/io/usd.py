@@ -118,16 +118,30 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return n / np.where(length > 0, length, 1.0)[:, None]
 
 
-def _preview_material(stage, mesh, name: str):
-    """A UsdPreviewSurface of the renders' jello red, translucent, bound to ``mesh``."""
+def _preview_material(stage, mesh, name: str, texture: str | None = None):
+    """A UsdPreviewSurface of the renders' jello red, translucent, bound to ``mesh``; with
+    ``texture`` (an asset path) opaque, its colour read from the image at the ``st`` UVs."""
     from pxr import Gf, Sdf, UsdShade
 
     material = UsdShade.Material.Define(stage, Sdf.Path(f"/{name}/jello_material"))
     shader = UsdShade.Shader.Define(stage, Sdf.Path(f"/{name}/jello_material/surface"))
     shader.CreateIdAttr("UsdPreviewSurface")
-    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(
-        Gf.Vec3f(0.85, 0.12, 0.24))
-    shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(0.7)
+    colour = shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
+    if texture is None:
+        colour.Set(Gf.Vec3f(0.85, 0.12, 0.24))
+    else:
+        reader = UsdShade.Shader.Define(stage, Sdf.Path(f"/{name}/jello_material/st"))
+        reader.CreateIdAttr("UsdPrimvarReader_float2")
+        reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
+        image = UsdShade.Shader.Define(stage, Sdf.Path(f"/{name}/jello_material/texture"))
+        image.CreateIdAttr("UsdUVTexture")
+        image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(texture))
+        image.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set("repeat")
+        image.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set("repeat")
+        image.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(
+            reader.ConnectableAPI(), "result")
+        colour.ConnectToSource(image.CreateOutput("rgb", Sdf.ValueTypeNames.Float3))
+    shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(0.7 if texture is None else 1.0)
     shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.25)
     shader.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.34)  # (mostly water)
     material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
@@ -135,9 +149,11 @@ def _preview_material(stage, mesh, name: str):
 
 
 def export_usd(traj, path, *, fps: float | None = None, name: str = "jello",
-               overwrite: bool = False) -> Path:
+               overwrite: bool = False, texture=None) -> Path:
     """Write the skin of a loaded trajectory as a USD stage with time-sampled points (an
-    existing ``path`` is refused unless ``overwrite``)."""
+    existing ``path`` is refused unless ``overwrite``); ``texture``: a PNG/JPEG image its
+    material shows at the skin's UVs (:mod:`jellysim.io.texture`), named relative to the
+    stage."""
     try:
         from pxr import Gf, Sdf, Usd, UsdGeom, Vt
     except ImportError as exc:
@@ -150,6 +166,10 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello",
 
     guard_file(path, overwrite, flag="overwrite=True")
     frames, faces = surface_of(traj)
+    from .texture import relative_to, texture_file
+
+    texture = texture_file(traj, texture)
+    asset = None if texture is None else relative_to(texture, path.parent)
     fps = (frame_rate(traj.times) or 30.0) if fps is None else float(fps)  # real time
     with atomic_path(path) as tmp:
         tmp.unlink()
@@ -170,7 +190,7 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello",
         mesh.CreateDoubleSidedAttr(True)  # as the glTF export: an open skin shows its inside
         mesh.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(0.85, 0.12, 0.24)]))
         mesh.CreateDisplayOpacityAttr(Vt.FloatArray([0.7]))
-        _preview_material(stage, mesh, name)
+        _preview_material(stage, mesh, name, asset)
         uv = surface_uv(traj)
         if uv is not None:  # per face corner: a seam vertex has one UV on each side
             st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(
