@@ -307,3 +307,16 @@ def test_a_texture_is_carried_into_each_export(cube_run, tmp_path):
     plain = dataclasses.replace(traj, skin=dataclasses.replace(traj.skin, uv=None))
     with pytest.raises(JellysimError, match="has no texture coordinates"):
         export_glb(plain, tmp_path / "b.glb", texture=image)
+
+
+def test_inspect_of_the_run_says_its_skin_has_uvs(cube_run):
+    from click.testing import CliRunner
+
+    from jellysim.cli import cli
+
+    traj, out = cube_run
+    res = CliRunner().invoke(cli, ["inspect", str(out / "run")])
+    assert res.exit_code == 0, res.output
+    (row,) = [line for line in res.output.splitlines() if line.strip().startswith("skin ")]
+    assert f"{traj.skin.vertex_count} vertices, {len(traj.skin.faces)} faces, with texture " \
+           "coordinates" in row

@@ -75,4 +75,9 @@ def trajectory_rows(traj) -> list[tuple[str, str]]:
         rows.append(("tet volume", f"smallest ratio {smallest[-1]:.4g} at the end, "
                                    f"{smallest[k]:.4g} at t = {traj.times[k]:.6g} s (the "
                                    "frames' smallest; below 0: inside out)"))
+    if traj.skin is not None:  # what the exports carry
+        s = traj.skin
+        rows.append(("skin", f"{s.vertex_count} vertices, {len(s.faces)} faces" + (
+            ", with texture coordinates (export --texture IMAGE maps an image)"
+            if s.uv is not None else ", no texture coordinates")))
     return rows
