@@ -154,6 +154,7 @@ BAD_FILES = {
     "text.stl": (b"solid x\nthis is not an stl\n", "no faces"),
     "flat.obj": (b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n", "no faces with non-zero area"),
     "points.xyz": (b"0 0 0\n", "unsupported file type"),
+    "model.fbx": (b"Kaydara FBX Binary", "export it from your DCC tool as glTF .glb or OBJ"),
 }
 
 

@@ -253,9 +253,12 @@ def load_mesh(path, *, weld_tol: float = WELD_REL) -> Mesh:
     elif suffix in _MESHIO_SUFFIXES:
         v, polys = _read_meshio(p, name)
     else:
+        convert = (" (export it from your DCC tool as glTF .glb or OBJ, which keep its UVs)"
+                   if suffix in (".fbx", ".blend", ".dae", ".3ds", ".max", ".ma", ".mb",
+                                 ".usd", ".usda", ".usdc", ".usdz", ".abc") else "")
         raise MeshError(
             f"{name}: unsupported file type {suffix!r} "
-            f"(supported: {', '.join(sorted(_TRIMESH_SUFFIXES | _MESHIO_SUFFIXES))})"
+            f"(supported: {', '.join(sorted(_TRIMESH_SUFFIXES | _MESHIO_SUFFIXES))}){convert}"
         )
     return _clean(v, polys, name, Path(name), weld_tol, uv)  # (path: as given, jellysim:NAME)
 
