@@ -269,20 +269,27 @@ def test_usd_has_one_time_sample_per_frame_equal_to_the_skin(traj, tmp_path):
     # time-sampled vertex normals and a translucent preview material
     from pxr import UsdShade
 
+    # (a box's edges are creases: the normals are per face corner, each its face's side's)
     normals = meshes[0].GetNormalsAttr()
     assert list(normals.GetTimeSamples()) == list(range(traj.frame_count))
-    assert meshes[0].GetNormalsInterpolation() == UsdGeom.Tokens.vertex
+    assert meshes[0].GetNormalsInterpolation() == UsdGeom.Tokens.faceVarying
     for k in range(traj.frame_count):
         n = np.array(normals.Get(k), dtype=float)
+        assert n.shape == (3 * len(idx), 3)
         np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-6)
-    rest, n0 = traj.skin_positions(0), np.array(normals.Get(0), dtype=float)
+    rest = traj.skin_positions(0)
+    n0 = np.array(normals.Get(0), dtype=float).reshape(-1, 3, 3)
     lo, hi = rest.min(axis=0), rest.max(axis=0)
-    assert np.all(np.einsum("ij,ij->i", rest - 0.5 * (lo + hi), n0) > 0)  # outward
-    on = (np.isclose(rest, lo, atol=1e-9) | np.isclose(rest, hi, atol=1e-9))
-    flat = on.sum(axis=1) == 1  # inside one face of the box (not on an edge): its normal
-    axis = np.where(np.isclose(rest, hi, atol=1e-9), 1.0, -1.0) * on   # is the face's
-    assert flat.sum() > 20
-    np.testing.assert_allclose(n0[flat], axis[flat], atol=1e-6)
+    corners = rest[idx]                                   # (f, 3, 3)
+    assert np.all(np.einsum("fcj,fcj->fc", corners - 0.5 * (lo + hi), n0) > 0)  # outward
+    # every corner of a face lying in a side of the box has that side's normal, edges and
+    # corners of the box included
+    centroid = corners.mean(axis=1)
+    on_hi = np.isclose(corners, hi, atol=1e-9).all(axis=1)
+    on_lo = np.isclose(corners, lo, atol=1e-9).all(axis=1)
+    side = np.where(on_hi, 1.0, 0.0) - np.where(on_lo, 1.0, 0.0)   # (f, 3): the face's side
+    assert np.all(np.abs(side).sum(axis=1) == 1) and len(centroid) > 20
+    np.testing.assert_allclose(n0, np.repeat(side[:, None, :], 3, axis=1), atol=1e-6)
     material = UsdShade.MaterialBindingAPI(meshes[0].GetPrim()).ComputeBoundMaterial()[0]
     shader = UsdShade.Shader(stage.GetPrimAtPath(material.GetPath().AppendChild("surface")))
     assert shader.GetIdAttr().Get() == "UsdPreviewSurface"

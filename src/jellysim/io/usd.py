@@ -2,7 +2,9 @@
 
 The stage is Y-up, 1 unit = 1 m, ``timeCodesPerSecond`` = the chosen frame rate, one time code
 per trajectory frame (time code ``k`` = frame ``k``).  The mesh has time-sampled vertex
-normals (area-weighted: it shades smooth, as jellysim's own renders), the mesh file's texture
+normals (area-weighted: it shades smooth, as jellysim's own renders; per face corner where
+the first frame has a crease, so a box keeps its edges, as in the glTF export), the mesh
+file's texture
 coordinates when it had some (the face-varying primvar ``st``), and a
 ``UsdPreviewSurface`` material of the renders' jello red, translucent (opacity 0.7), bound to
 it.  Opens in Blender, Houdini, usdview.  Needs ``usd-core`` (``pip install
@@ -198,13 +200,22 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello",
             st.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(uv.reshape(-1, 2), np.float32)))
         points = mesh.CreatePointsAttr()
         normals = mesh.CreateNormalsAttr()
-        mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
+        # creases of the first frame (a box's edges) stay hard, as in the glTF export: the
+        # normals are then per face corner, each corner's from its side of the crease
+        from ..geometry.creases import split_creases
+
+        source, split = split_creases(np.asarray(frames[0], dtype=np.float64), faces)
+        creased = len(source) > len(np.unique(np.asarray(faces).ravel()))
+        mesh.SetNormalsInterpolation(UsdGeom.Tokens.faceVarying if creased
+                                     else UsdGeom.Tokens.vertex)
         extent = mesh.CreateExtentAttr()
         for k, verts in enumerate(frames):
             v = np.ascontiguousarray(verts, dtype=np.float32)
             points.Set(Vt.Vec3fArray.FromNumpy(v), Usd.TimeCode(codes[k]))
-            normals.Set(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(
-                vertex_normals(verts, faces), dtype=np.float32)), Usd.TimeCode(codes[k]))
+            n = (vertex_normals(np.asarray(verts)[source], split)[split].reshape(-1, 3)
+                 if creased else vertex_normals(verts, faces))
+            normals.Set(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(n, dtype=np.float32)),
+                        Usd.TimeCode(codes[k]))
             extent.Set(Vt.Vec3fArray.FromNumpy(np.stack([v.min(0), v.max(0)])),
                        Usd.TimeCode(codes[k]))
         stage.GetRootLayer().Save()
