@@ -1299,3 +1299,29 @@ def test_an_odd_image_size_is_said_as_it_is_rounded(traj):
     with pytest.warns(UserWarning, match=r"image size 161x97 rounded up to 162x98"):
         with Renderer(traj, RenderOptions(size=(161, 97))) as r:
             assert r.render(0).shape == (98, 162, 3)
+
+
+def test_render_clock_and_labels_write_text_in_their_corners_only(run_dir, tmp_path):
+    """--clock writes the frame's time in the upper right, --label a caption in the upper
+    left: dark text pixels there, and nothing else of the picture changes; one label per
+    run is asked."""
+    import imageio.v3 as iio
+
+    def render(*extra):
+        out = tmp_path / f"f{len(extra)}.png"
+        res = CliRunner().invoke(cli, ["render", str(run_dir), "-o", str(out), "--frame", "3",
+                                       "--size", "320x180", "--quiet", *extra])
+        assert res.exit_code == 0, res.output
+        return np.asarray(iio.imread(out)).astype(int)[..., :3]
+
+    plain, marked = render(), render("--clock", "--label", "soft")
+    changed = np.abs(marked - plain).max(axis=2) > 0
+    rows, cols = np.nonzero(changed)
+    assert rows.size > 20 and rows.max() < 180 // 4          # text, in the top quarter
+    left, right = cols < 320 // 2, cols >= 320 // 2
+    assert left.sum() > 10 and right.sum() > 10                # both corners
+    dark = marked.sum(axis=2) < 3 * 110
+    assert dark[:45, 200:].any() and dark[:45, :120].any()
+    res = CliRunner().invoke(cli, ["render", str(run_dir), str(run_dir), "-o",
+                                   str(tmp_path / "two.png"), "--label", "one"])
+    assert res.exit_code != 0 and "1 --label given for 2 run(s)" in res.output

@@ -337,6 +337,11 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @click.option("--plate", is_flag=True,
               help="A round white plate on the floor under the body, as `jellysim demo` draws.")
+@click.option("--clock", is_flag=True,
+              help="Write each frame's simulated time (t = 0.517 s) in the upper right corner.")
+@click.option("--label", "label", multiple=True, metavar="TEXT",
+              help="A caption in the upper left: one per run, in order (default for several "
+                   "runs side by side: their folders' names).")
 @_overwrite
 @_camera_options
 @click.option("--camera", "camera_mode", type=click.Choice(["auto", "fixed", "follow"]),
@@ -348,7 +353,8 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
                    "with an alpha channel (with --no-floor: the jello alone, for slides).")
 def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame, every,
            quiet, overwrite=False, azimuth=None, elevation=None, zoom=1.0,
-           camera_mode="auto", background=None, start=None, end=None, plate=False):
+           camera_mode="auto", background=None, start=None, end=None, plate=False,
+           clock=False, label=()):
     """Render TRAJECTORY (a run folder or its trajectory.npz) to a video or pictures, off
     screen.  Several runs are drawn side by side, at one scale, each at the time of the
     first's frames (soft vs firm)."""
@@ -374,7 +380,7 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
             frames = np.array([frame % traj.frame_count])
         options = dataclasses.replace(_options(size, color, opacity, show, no_floor,
                                                (azimuth, elevation, zoom)), camera=camera_mode,
-                                      plate=plate)
+                                      plate=plate, clock=clock)
         if background is not None:
             if background != "transparent":
                 try:
@@ -388,7 +394,11 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
                                 "remove --camera follow, or render the runs one at a time")
         _warn_inside_out(traj)  # (as export does: a mirrored run's skin is shaded inside out)
         guard_output(output, overwrite)  # (after the checks: a refusal deletes nothing)
-        labels = [_run_name(tr) for tr in trajectory] if len(runs) > 1 else None
+        if label and len(label) != len(runs):
+            raise JellysimError(f"{len(label)} --label given for {len(runs)} run(s): give one "
+                                "per run, in the order of the runs")
+        labels = (list(label) if label else [_run_name(tr) for tr in trajectory]
+                  if len(runs) > 1 else None)
         from .render.video import output_kind
 
         if output_kind(Path(output)) == "pngdir":  # old frames kept until all new are written

@@ -46,6 +46,8 @@ class RenderOptions:
     shadow: bool = True
     """Draw a contact shadow: the skin's silhouette on the floor, straight below it."""
     plate: bool = False
+    clock: bool = False
+    """Write the simulated time of each frame (``t = 0.517 s``) in the upper right corner."""
     """Draw a round white plate on the floor under the body's last position."""
     background: str = "#f4f1ec"
     """Background colour, or ``"transparent"`` (PNG output only: an alpha channel, 0 where
@@ -380,6 +382,10 @@ class Renderer:
             self.points.points = x
         if self.springs is not None:
             self.springs.points = x
+        if self.options.clock:  # (a text actor of the same name replaces the last)
+            self.plotter.add_text(f"t = {float(self.traj.times[f]):.3f} s",
+                                  position="upper_right", name="clock", color="#3a3530",
+                                  font_size=max(8, self.size[1] // 40))
 
     def render(self, f: int) -> np.ndarray:
         """Image of frame ``f``, shape (height, width, 3), uint8."""
