@@ -463,15 +463,15 @@ def say_slips(params: dict, given: dict, name: str) -> None:
                           f"about 1), not a percent ({mu:g} % would be {mu / 100:g})",
                           UserWarning, stacklevel=_user_stacklevel())
     mat = params.get("material") or {}
-    if ("restitution" in given.get("ground", ()) and ground.get("enabled", True)
-            and mat.get("youngs_modulus") is not None and mat.get("model") != "springs"):
+    jello = mat.get("youngs_modulus") is not None and mat.get("model") != "springs"
+    if jello and "restitution" in given.get("ground", ()) and ground.get("enabled", True):
         warnings.warn(f"{name}: [ground] restitution = {ground['restitution']:g} sets how each "
                       "point of the jello rebounds from the ground; how high the jello itself "
                       "bounces is set by its elasticity and its damping ([material] "
                       "damping_ratio), hardly by e (measured: docs/physics.md, \"Bounce and "
                       "restitution\")", UserWarning, stacklevel=_user_stacklevel())
-    if ("damping" in given.get("physics", ()) and (params.get("physics") or {}).get("damping")
-            and mat.get("youngs_modulus") is not None and mat.get("model") != "springs"):
+    if jello and "damping" in given.get("physics", ()) and (params.get("physics") or {}).get(
+            "damping"):
         warnings.warn(f"{name}: [physics] damping = {params['physics']['damping']:g} kg/s is the "
                       "report's drag on every point (a body of n points and mass M slows at "
                       "n delta / M per second): the same value damps a finer body more; for a "
