@@ -320,3 +320,37 @@ def test_inspect_of_the_run_says_its_skin_has_uvs(cube_run):
     (row,) = [line for line in res.output.splitlines() if line.strip().startswith("skin ")]
     assert f"{traj.skin.vertex_count} vertices, {len(traj.skin.faces)} faces, with texture " \
            "coordinates" in row
+
+
+def test_a_uv_seam_of_a_smooth_skin_shades_smooth_in_the_glb(tmp_path):
+    """Spot's UV seams split its glTF vertices (one UV per vertex) but are no creases: each
+    seam vertex's copies carry one normal (the one of its smooth side), as many distinct
+    normals as it has sides of a crease (a session-25 review found seams shaded as creases)."""
+    from jellysim.geometry.creases import split_creases
+    from jellysim.io.gltf import _accessor, export_glb, read_glb
+    from jellysim.io.trajectory import load_trajectory
+    from jellysim.runner import run_scene
+    from jellysim.scene import Scene
+
+    text = ('[material]\npreset = "gelatin"\n[body]\ntype = "mesh"\npath = "jellysim:spot.obj"\n'
+            'points = 150\nsize = 0.1\nbase = [0.0, 0.01, 0.0]\n[integrator]\nsteps = 2\n'
+            '[output]\nvtu = false\n')
+    run_scene(Scene.from_text(text, name=str(tmp_path / "s.toml")), tmp_path / "run",
+              progress=False)
+    traj = load_trajectory(tmp_path / "run")
+    doc, binary = read_glb(export_glb(traj, tmp_path / "spot.glb"))
+    prim = doc["meshes"][0]["primitives"][0]
+    xyz = _accessor(doc, binary, prim["attributes"]["POSITION"])
+    normal = _accessor(doc, binary, prim["attributes"]["NORMAL"])
+    rest = traj.skin_positions(0)
+    source, _ = split_creases(rest, traj.skin.faces)
+    sides = np.bincount(source, minlength=len(rest))          # crease copies per vertex
+    from scipy.spatial import cKDTree
+
+    vertex = cKDTree(rest).query(xyz)[1]                       # each glb vertex's skin vertex
+    copies = np.bincount(vertex, minlength=len(rest))
+    seam = np.flatnonzero(copies > sides)
+    assert len(seam) > 50                                      # Spot's seams, split for glTF
+    for v in seam:
+        distinct = np.unique(np.round(normal[vertex == v], 4), axis=0)
+        assert len(distinct) <= sides[v]

@@ -58,14 +58,16 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
     # creases of the first frame (a box's edges) stay hard: a vertex there has one copy per
     # smooth side (session 14's trial: the averaged normals shaded a box as a soft blob)
     source, faces = split_creases(np.asarray(frames[0], dtype=np.float64), faces)
+    frames = np.stack([np.asarray(frames[int(i)], dtype=np.float32)[source] for i in idx])
+    # the normals on the crease-split surface: a UV seam is no crease (it shades smooth)
+    normals = np.stack([_vertex_normals(f, faces) for f in frames])
     uv = surface_uv(traj)
     if uv is not None:  # one vertex per (vertex, UV): glTF has no per-corner attributes
         from ..geometry.texcoords import split_seams
 
         copy, uv, faces = split_seams(faces, uv)
-        source = source[copy]
+        frames, normals = frames[:, copy], normals[:, copy]
         uv = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype(np.float32)
-    frames = np.stack([np.asarray(frames[int(i)], dtype=np.float32)[source] for i in idx])
     times = (times[idx] - times[idx[0]]).astype(np.float32)
     n_frames, m = frames.shape[0], frames.shape[1]
     if n_frames == 0 or m == 0:
@@ -92,7 +94,6 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
         return len(accessors) - 1
 
     base = frames[0]
-    normals = np.stack([_vertex_normals(f, faces) for f in frames])
     pos = add(base, kind="VEC3", ctype=_FLOAT, target=_ARRAY_BUFFER, minmax=True)
     nrm = add(normals[0], kind="VEC3", ctype=_FLOAT, target=_ARRAY_BUFFER)
     ind = add(np.asarray(faces, dtype=np.uint32).reshape(-1), kind="SCALAR", ctype=_UINT,
