@@ -42,8 +42,9 @@ def hang(zeta: float = 0.0, seconds: float = 2.0):
 
 
 def measure(zeta: float = 0.0):
-    """``(period [s], 2 pi sqrt(M/k) / sqrt(1 - zeta^2), lowest point [m below the start], 2 M g / k, first
-    overshoot / drop to rest, exp(-pi zeta / sqrt(1 - zeta^2)))``."""
+    """``(period [s], 2 pi sqrt(M/k) / sqrt(1 - zeta^2), lowest point [m below the start],
+    M g / k (1 + exp(-pi zeta / sqrt(1 - zeta^2))) (2 M g / k undamped), first overshoot /
+    drop to rest, exp(-pi zeta / sqrt(1 - zeta^2)))``."""
     t, y, mass, g = hang(zeta)
     rest = y[0] - mass * g / STIFFNESS                     # where the spring carries the weight
     u = y - rest
@@ -52,14 +53,15 @@ def measure(zeta: float = 0.0):
     period = 2.0 * float(np.mean(np.diff(crossings)))
     low = int(np.argmin(y[: len(y) // 2]))
     overshoot = (rest - y[low]) / (y[0] - rest)
+    over = float(np.exp(-np.pi * zeta / np.sqrt(1 - zeta**2)))
     return (period, 2 * np.pi * np.sqrt(mass / STIFFNESS) / np.sqrt(1 - zeta**2), y[0] - y[low],
-            2 * mass * g / STIFFNESS, overshoot, float(np.exp(-np.pi * zeta / np.sqrt(1 - zeta**2))))
+            mass * g / STIFFNESS * (1 + over), overshoot, over)
 
 
 if __name__ == "__main__":
     for zeta in (0.0, 0.1):
         period, t_formula, drop, drop_formula, over, over_formula = measure(zeta)
         print(f"zeta = {zeta}: period {period:.4f} s, 2 pi sqrt(M/k) / sqrt(1 - zeta^2) = "
-              f"{t_formula:.4f} s; "
-              f"lowest point {1000 * drop:.1f} mm down, 2 M g / k = {1000 * drop_formula:.1f} "
-              f"mm; first overshoot {over:.3f} of the drop to rest, formula {over_formula:.3f}")
+              f"{t_formula:.4f} s; lowest point {1000 * drop:.1f} mm down, M g / k (1 + "
+              f"overshoot) = {1000 * drop_formula:.1f} mm; first overshoot {over:.3f} of the "
+              f"drop to rest, exp(-pi zeta / sqrt(1 - zeta^2)) = {over_formula:.3f}")

@@ -2,8 +2,10 @@
 
     python examples/lessons/measure.py slide   out/slide      # stopping distance
     python examples/lessons/measure.py incline out/incline    # acceleration down the slope
+                                                              # (below the friction angle,
+                                                              # pushed: the stopping distance)
     python examples/lessons/measure.py wobble  out/wobble     # sway frequency
-    python examples/lessons/measure.py decay   out/wobble     # damping ratio of the sway
+    python examples/lessons/measure.py decay   out/wobble_damped   # damping ratio of the sway
 
 Everything is read from the run's saved trajectory through ``jellysim.plot.diagnostics``
 (the same numbers as ``jellysim export RUN -o table.csv``): the centre of mass, its velocity
@@ -41,20 +43,32 @@ def slide(traj):
 def incline(traj, after: float = 0.2):
     """Acceleration [m/s^2] down the slope made by tilting g, against g (sin t - mu cos t):
     a parabola fitted to the distance moved after ``after`` seconds (the first moments are
-    the block settling onto the slope)."""
+    the block dropping into its sag).  Below the friction angle (tan t < mu) a block pushed
+    down the slope at v0 brakes at g (mu cos t - sin t): then its stopping distance [m]
+    against v0^2 / (2 g (mu cos t - sin t))."""
     d = _table(traj)
     g = np.asarray(traj.gravity, dtype=np.float64)
     theta = float(np.arctan2(np.hypot(g[0], g[2]), -g[1]))
     mu = traj.params["ground"]["friction"]
     size = float(np.linalg.norm(g))
-    formula = max(0.0, size * (np.sin(theta) - mu * np.cos(theta)))
+    slope = f"theta = {np.degrees(theta):.1f} deg (tan = {np.tan(theta):.3f}, mu = {mu:g})"
+    braking = size * (mu * np.cos(theta) - np.sin(theta))
+    v0 = float(np.hypot(d["com_vx"][0], d["com_vz"][0]))
+    if braking > 0 and v0 > 0:
+        formula, measured = v0**2 / (2 * braking), float(d["travel"][-1])
+        still = abs(d["com_vx"][-1]) < 1e-3 * v0
+        return measured, formula, (
+            f"{slope}: below the friction angle, pushed at {v0:g} m/s it brakes at "
+            f"g (mu cos theta - sin theta) = {braking:.3f} m/s^2; it slid "
+            f"{1000 * measured:.2f} mm{'' if still else ' (still moving)'}; v0^2 / (2 x "
+            f"{braking:.3f}) = {1000 * formula:.2f} mm ({measured / formula - 1:+.1%})")
+    formula = max(0.0, -braking)
     t = d["time"] - d["time"][0]
     late = t > after
     measured = float(2 * np.polyfit(t[late], d["travel"][late], 2)[0])
-    return measured, formula, (f"theta = {np.degrees(theta):.1f} deg (tan = "
-                               f"{np.tan(theta):.3f}, mu = {mu:g}): accelerates at "
-                               f"{measured:.3f} m/s^2; g (sin theta - mu cos theta) = "
-                               f"{formula:.3f} m/s^2")
+    return measured, formula, (f"{slope}: accelerates at {measured:.3f} m/s^2 (fitted after "
+                               f"{after:g} s); g (sin theta - mu cos theta) = {formula:.3f} "
+                               "m/s^2")
 
 
 def _sway(traj, after: float):
@@ -108,6 +122,9 @@ LESSONS = {"slide": slide, "incline": incline, "wobble": wobble, "decay": decay}
 if __name__ == "__main__":
     if len(sys.argv) != 3 or sys.argv[1] not in LESSONS:
         sys.exit(f"usage: python {sys.argv[0]} {{{','.join(LESSONS)}}} RUN_FOLDER")
-    from jellysim import load_trajectory
+    from jellysim import JellysimError, load_trajectory
 
-    print(LESSONS[sys.argv[1]](load_trajectory(sys.argv[2]))[2])
+    try:
+        print(LESSONS[sys.argv[1]](load_trajectory(sys.argv[2]))[2])
+    except JellysimError as exc:
+        sys.exit(f"error: {exc} (run the lesson's scene first: its header gives the command)")

@@ -338,7 +338,8 @@ def demo(out_dir, frames, size, no_usd, quiet, scene, backend=None, device=None,
 @click.option("--plate", is_flag=True,
               help="A round white plate on the floor under the body, as `jellysim demo` draws.")
 @click.option("--clock", is_flag=True,
-              help="Write each frame's simulated time (t = 0.517 s) in the upper right corner.")
+              help="Write each frame's simulated time (time 0.517 s) in the upper right "
+                   "corner.")
 @click.option("--label", "label", multiple=True, metavar="TEXT",
               help="A caption in the upper left: one per run, in order (default for several "
                    "runs side by side: their folders' names).")

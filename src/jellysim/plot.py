@@ -7,12 +7,13 @@ Quantities per frame (SI units):
   (FEM) run, the tets' Stable Neo-Hookean energy (:func:`jellysim.physics.fem.elastic_energy`,
   rebuilt from the trajectory's tets and the E and nu it records)
 * gravitational energy ``-sum m g . x`` [J], zero on the ground plane (``y = height``)
-* centre-of-mass height [m] (its coordinate along ``-g``), its position ``sum m x / M`` [m]
+* centre-of-mass height [m] above the ground plane (``y - height``: above the plate also
+  where ``g`` is tilted to make a slope), its position ``sum m x / M`` [m]
   and velocity ``sum m v / M`` [m/s], and how far it has moved along the ground (in the x-z
   plane) since the first frame [m] (a block sliding on the plate, or down a slope made by
   tilting ``g``)
 * largest spring strain ``max |(|x_j - x_i| - L0) / L0|`` [-]
-* smallest tet volume ratio ``J = V / V0`` [-] of a physical (FEM) run: below 1 squeezed,
+* smallest tet volume ratio ``V / V0`` (J) [-] of a physical (FEM) run: below 1 squeezed,
   below 0 inside out (its springs, when it has any, only draw it: their strain is not a force)
 
 :func:`write_table` writes them as a CSV file (``jellysim export RUN -o table.csv``) for a
@@ -42,7 +43,8 @@ TABLE_COLUMNS = (("time", "time_s"), ("com_x", "com_x_m"), ("com_y", "com_y_m"),
 def diagnostics(traj) -> dict[str, np.ndarray]:
     """Per-frame diagnostics, each shape (F,): ``time`` [s], ``kinetic`` [J], ``spring`` [J]
     (the springs' energy), ``tets`` [J] (the FEM tets' energy; zeros without), ``gravity``
-    [J], ``total`` [J], ``com_height`` [m], ``max_strain`` [-] (of the springs); the centre
+    [J], ``total`` [J], ``com_height`` [m] (above the ground plane), ``max_strain`` [-] (of
+    the springs, a fraction); the centre
     of mass ``com_x``, ``com_y``, ``com_z`` [m] and its velocity ``com_vx`` ... [m/s];
     ``travel`` [m] its distance in the x-z plane (along the ground) from the first frame;
     ``elastic`` [J] = spring + tets; ``min_volume_ratio`` [-] the smallest J = V / V0 of the
@@ -66,13 +68,12 @@ def diagnostics(traj) -> dict[str, np.ndarray]:
     else:
         spring = strain = np.zeros(len(x))
     tets = _tet_energy(traj, x)
-    com = (height @ m) / m.sum() + float(ground)
     centre, velocity = (x.transpose(0, 2, 1) @ m) / m.sum(), (v.transpose(0, 2, 1) @ m) / m.sum()
     travel = np.hypot(centre[:, 0] - centre[0, 0], centre[:, 2] - centre[0, 2])
     out = {"time": np.asarray(traj.times, dtype=np.float64), "kinetic": kinetic,
            "spring": spring, "tets": tets, "elastic": spring + tets, "gravity": grav,
-           "total": kinetic + spring + tets + grav, "com_height": com, "max_strain": strain,
-           "travel": travel}
+           "total": kinetic + spring + tets + grav, "com_height": centre[:, 1] - float(ground),
+           "max_strain": strain, "travel": travel}
     for k, axis in enumerate("xyz"):
         out[f"com_{axis}"], out[f"com_v{axis}"] = centre[:, k], velocity[:, k]
     out["min_volume_ratio"] = _min_volume_ratio(traj, x)
@@ -160,7 +161,7 @@ def plot_trajectory(traj, path, *, title: str | None = None) -> Path:
     else:  # (a physical run: its tets carry it, J is what says it is squeezed or inverted)
         axes[3].plot(t, d["min_volume_ratio"], color="C4")
         axes[3].axhline(0.0, color="k", lw=0.8, ls=":")
-        axes[3].set_ylabel("smallest tet volume ratio J")
+        axes[3].set_ylabel("smallest tet volume ratio V / V0")
     axes[3].set_xlabel("time [s]")
     for a in axes:
         a.grid(alpha=0.3)

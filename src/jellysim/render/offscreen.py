@@ -47,7 +47,7 @@ class RenderOptions:
     """Draw a contact shadow: the skin's silhouette on the floor, straight below it."""
     plate: bool = False
     clock: bool = False
-    """Write the simulated time of each frame (``t = 0.517 s``) in the upper right corner."""
+    """Write the simulated time of each frame (``time 0.517 s``) in the upper right corner."""
     """Draw a round white plate on the floor under the body's last position."""
     background: str = "#f4f1ec"
     """Background colour, or ``"transparent"`` (PNG output only: an alpha channel, 0 where
@@ -383,7 +383,7 @@ class Renderer:
         if self.springs is not None:
             self.springs.points = x
         if self.options.clock:  # (a text actor of the same name replaces the last)
-            self.plotter.add_text(f"t = {float(self.traj.times[f]):.3f} s",
+            self.plotter.add_text(f"time {float(self.traj.times[f]):.3f} s ",
                                   position="upper_right", name="clock", color="#3a3530",
                                   font_size=max(8, self.size[1] // 40))
 
