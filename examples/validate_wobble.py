@@ -15,6 +15,10 @@ wobble's energy kept per period (from the amplitude envelope: the largest |u| in
 period, first to last, squared per period).
 
     PYTHONPATH=src python examples/validate_wobble.py [--test]
+
+This is the springs path's check (the report's network, nu = 1/4).  The gelatin preset's
+cube (the physical path, nu = 0.48) against a shear + bending estimate is a lesson:
+examples/lessons/wobble.toml, docs/lessons.md.
 """
 from __future__ import annotations
 
