@@ -143,6 +143,14 @@ def test_a_scene_says_values_that_likely_mean_another_unit():
     assert "[ground] restitution = 0.5" in e and "damping_ratio" in e
     (drag,) = said("[integrator]\nsteps = 1\n[physics]\ndamping = 0.001\n")
     assert "[physics] damping = 0.001 kg/s" in drag and "damps a finer body more" in drag
+    # a sweep's dictionaries are told the same (a researcher's trial: they were not)
+    import tomllib
+
+    raw = tomllib.loads(base + "[integrator]\nsteps = 1\n[ground]\nfriction = 30\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        Scene.from_dict(raw, name="sweep")
+    assert [str(w.message) for w in caught] == [mu.replace("lesson.toml", "sweep")]
     # a springs body (no elastic material): e is each point's, as for free particles
     springs = ('[body]\npoints = 27\nlower = [0.0, 0.0, 0.0]\nupper = [0.03, 0.03, 0.03]\n'
                '[springs]\nradius = 0.02\nstiffness = 100.0\n[integrator]\ndt = 0.001\n'

@@ -94,13 +94,22 @@ def test_a_cube_keeps_its_uvs_through_welding_and_turning_outward(tmp_path, insi
     np.testing.assert_allclose(m.uv, _uv_of(m.vertices[m.faces], np.zeros(3)), atol=1e-15)
 
 
+def _in_material_a(corners):
+    """The test cube's faces of material ``a``: quads 0-2, the sides x = -HALF, x = +HALF and
+    y = -HALF (by each face's centroid)."""
+    c = np.asarray(corners).mean(axis=-2)
+    return np.isclose(np.abs(c[..., 0]), HALF) | np.isclose(c[..., 1], -HALF)
+
+
 def test_a_file_of_two_textured_materials_keeps_each_faces_own_uvs(tmp_path):
     """trimesh merges the materials by packing their images into one atlas and rescaling the
-    UVs into it (a trial found every corner wrong); the skin keeps the file's, and says that
-    the materials are merged."""
-    with pytest.warns(UserWarning, match="its 2 materials are read as one surface"):
-        m = load_mesh(_cube_obj(tmp_path / "cube.obj", materials=True))
+    UVs into it (a trial found every corner wrong); the skin keeps the file's, and which
+    material each face uses."""
+    m = load_mesh(_cube_obj(tmp_path / "cube.obj", materials=True))
     np.testing.assert_allclose(m.uv, _uv_of(m.vertices[m.faces], np.zeros(3)), atol=1e-15)
+    assert sorted(m.materials.names) == ["a", "b"]
+    np.testing.assert_array_equal(m.materials.index == m.materials.names.index("a"),
+                                  _in_material_a(m.vertices[m.faces]))
 
 
 def test_unreadable_uvs_are_said_and_dropped(tmp_path):
@@ -286,7 +295,9 @@ def test_a_texture_is_carried_into_each_export(cube_run, tmp_path):
     assert doc["materials"][0]["alphaMode"] == "OPAQUE"
 
     files = export_mesh_sequence(traj, tmp_path / "seq", texture=image)
-    assert files[0].read_text().splitlines()[1:3] == ["mtllib skin.mtl", "usemtl jello"]
+    lines = files[0].read_text().splitlines()
+    assert lines[1] == "mtllib skin.mtl" and lines.count("usemtl jello") == 1
+    assert lines.index("usemtl jello") < min(k for k, w in enumerate(lines) if w[:2] == "f ")
     (line,) = [w for w in (tmp_path / "seq" / "skin.mtl").read_text().splitlines()
                if w.startswith("map_Kd ")]
     assert Path(os.path.normpath(tmp_path / "seq" / line.split(" ", 1)[1])) == image
@@ -354,3 +365,96 @@ def test_a_uv_seam_of_a_smooth_skin_shades_smooth_in_the_glb(tmp_path):
     for v in seam:
         distinct = np.unique(np.round(normal[vertex == v], 4), axis=0)
         assert len(distinct) <= sides[v]
+
+
+@pytest.fixture(scope="module")
+def two_material_run(tmp_path_factory):
+    from jellysim.io.trajectory import load_trajectory
+    from jellysim.runner import run_scene
+    from jellysim.scene import Scene
+
+    out = tmp_path_factory.mktemp("uv2")
+    _cube_obj(out / "cube.obj", materials=True)
+    text = (f'[material]\npreset = "gelatin"\n[body]\ntype = "mesh"\n'
+            f'path = "{(out / "cube.obj").as_posix()}"\npoints = 300\nsize = {2 * HALF}\n'
+            'base = [0.0, 0.01, 0.0]\n[integrator]\nsteps = 4\n[output]\nvtu = false\n')
+    run_scene(Scene.from_text(text, name=str(out / "cube.toml")), out / "run", progress=False)
+    return load_trajectory(out / "run"), out
+
+
+def test_a_skin_of_two_materials_exports_a_group_per_material(two_material_run, tmp_path):
+    """The subdivided skin keeps each face's material (its parent's); OBJ frames write one
+    usemtl run per material, glTF one primitive each, USD a GeomSubset each (a partition of
+    the faces), each bound to its own material; NAME=IMAGE gives one material its image."""
+    import os
+
+    from PIL import Image
+
+    from jellysim.io.gltf import _accessor, export_glb, read_glb
+    from jellysim.io.meshseq import export_mesh_sequence
+
+    traj, out = two_material_run
+    skin = traj.skin
+    rest = skin.rest_vertices[skin.faces]
+    names = skin.materials.names
+    assert len(skin.faces) > 100 and sorted(names) == ["a", "b"]
+    in_a = skin.materials.index == names.index("a")
+    count = {"a": in_a.sum(), "b": (~in_a).sum()}
+    np.testing.assert_array_equal(in_a, _in_material_a(rest - rest.reshape(-1, 3).mean(0)))
+    red = tmp_path / "red.png"
+    Image.new("RGB", (4, 4), (220, 20, 20)).save(red)
+
+    files = export_mesh_sequence(traj, tmp_path / "seq", texture={"b": red})
+    text = files[-1].read_text().splitlines()
+    runs = [w.split()[1] for w in text if w.startswith("usemtl ")]
+    assert runs == list(names)
+    starts = [text.index(f"usemtl {r}") for r in runs] + [len(text)]
+    for r, a, b in zip(runs, starts[:-1], starts[1:]):
+        assert sum(1 for w in text[a:b] if w[:2] == "f ") == count[r]
+    mtl = (tmp_path / "seq" / "skin.mtl").read_text()
+    (kd,) = [w for w in mtl.splitlines() if w.startswith("map_Kd ")]
+    assert mtl.index("newmtl b") < mtl.index(kd)            # b's image; a keeps the red
+    assert Path(os.path.normpath(tmp_path / "seq" / kd.split(" ", 1)[1])) == red
+
+    doc, binary = read_glb(export_glb(traj, tmp_path / "a.glb", texture={"b": red}))
+    prims = doc["meshes"][0]["primitives"]
+    for p in prims:
+        material = doc["materials"][p["material"]]
+        assert len(_accessor(doc, binary, p["indices"])) // 3 == count[material["name"]]
+        textured = "baseColorTexture" in material["pbrMetallicRoughness"]
+        assert textured == (material["name"] == "b")          # b's image; a keeps the red
+    assert sorted(doc["materials"][p["material"]]["name"] for p in prims) == ["a", "b"]
+
+    pytest.importorskip("pxr", reason="usd-core (the usd extra) is not installed")
+    from pxr import Usd, UsdGeom, UsdShade
+
+    from jellysim.io.usd import export_usd
+
+    stage = Usd.Stage.Open(str(export_usd(traj, tmp_path / "a.usda", texture=red)))
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/jello/skin"))
+    subsets = UsdGeom.Subset.GetGeomSubsets(mesh, UsdGeom.Tokens.face, "materialBind")
+    assert sorted(s.GetPrim().GetName() for s in subsets) == ["a", "b"]
+    for s in subsets:
+        rows = np.array(s.GetIndicesAttr().Get())
+        want = np.flatnonzero(in_a if s.GetPrim().GetName() == "a" else ~in_a)
+        np.testing.assert_array_equal(np.sort(rows), want)
+        material = UsdShade.MaterialBindingAPI(s.GetPrim()).GetDirectBinding().GetMaterial()
+        assert material.GetPrim().GetName() == s.GetPrim().GetName()
+        assert stage.GetPrimAtPath(material.GetPath().AppendChild("texture")).IsValid()
+
+
+def test_texture_names_are_checked(two_material_run, tmp_path):
+    from click.testing import CliRunner
+
+    from jellysim.cli import cli
+
+    _, out = two_material_run
+    res = CliRunner().invoke(cli, ["export", str(out / "run"), "-o", str(tmp_path / "a.glb"),
+                                   "--texture", f"c={out / 'a.png'}"])
+    assert res.exit_code != 0
+    assert "the skin has no material 'c'; its materials are " in res.output
+    assert "'a'" in res.output and "'b'" in res.output
+    res = CliRunner().invoke(cli, ["export", str(out / "run"), "-o", str(tmp_path / "b.glb"),
+                                   "--texture", f"a={out / 'a.png'}", "--texture",
+                                   f"b={out / 'b.png'}"])
+    assert res.exit_code == 0, res.output

@@ -71,7 +71,7 @@ def _check_values(pts: np.ndarray, springs: np.ndarray, body) -> None:
                              "springs' start lengths)")
 
 
-@dataclass
+@dataclass(eq=False)   # (== is identity: comparing two bodies' arrays element-wise is ambiguous)
 class Body:
     """Points and springs of one jello body (SI units throughout).
 
@@ -108,6 +108,9 @@ class Body:
         The mesh file's texture coordinates [-] of each corner of ``skin_faces``, shape
         (f, 3, 2), float64, or ``None`` (:mod:`jellysim.geometry.texcoords`): exports of the
         run carry them.
+    skin_material:
+        For a mesh file of several materials, the one each skin face uses: an index into
+        ``meta["skin_material_names"]``, shape (f,), int64, or ``None`` (:attr:`materials`).
     """
 
     points: np.ndarray
@@ -122,6 +125,18 @@ class Body:
     skin_vertices: np.ndarray | None = None
     skin_faces: np.ndarray | None = None
     skin_uv: np.ndarray | None = None
+    skin_material: np.ndarray | None = None
+
+    @property
+    def materials(self):
+        """:attr:`skin_material` with its names, as a
+        :class:`~jellysim.geometry.texcoords.Materials` (``None`` without)."""
+        from .geometry.texcoords import Materials
+
+        n = 0 if self.skin_material is None else int(np.max(self.skin_material, initial=-1)) + 1
+        names = list(self.meta.get("skin_material_names", []))
+        return Materials.of(self.skin_material, names + [f"material_{k}" for k in
+                                                         range(len(names), n)])
 
     def __post_init__(self):  # a list or a (3,) array for points was an error much later
         try:

@@ -195,7 +195,8 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
     so that its largest bounding-box extent is ``size`` metres; masses (density x enclosed
     volume) are those of the scaled body.
     The body keeps the (scaled) mesh as ``skin_vertices`` / ``skin_faces`` (and the file's
-    UVs as ``skin_uv``): written into body files, it is the smooth skin a run carries.
+    UVs and materials, ``skin_uv``, ``skin_material``): written into body files, it is the
+    smooth skin a run carries.
 
     Parameters
     ----------
@@ -251,9 +252,9 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
                        epsilon=epsilon, min_quality=min_quality, max_volume=max_volume,
                        size=size, snap=snap, relax=relax, keep=keep, up=up)
     if "mesh" in keep:  # the (scaled) mesh the body fills: its skin in body files
-        m = keep["mesh"]
-        body.skin_vertices = np.array(m.vertices, dtype=np.float64).reshape(-1, 3)
-        body.skin_faces, body.skin_uv = np.array(m.faces, dtype=np.int64).reshape(-1, 3), m.uv
+        from .geometry.texcoords import attach_skin
+
+        attach_skin(body, keep["mesh"])
     body.meta["density"] = float(density)
     if size is not None:
         body.meta["size"] = float(size)

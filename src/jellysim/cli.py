@@ -419,8 +419,8 @@ def _skin_row(body) -> str:
     v, f = body.skin_vertices, body.skin_faces
     uv = ", with its texture coordinates" if body.skin_uv is not None else ""
     row = f"{len(v)} vertices, {len(f)} faces{uv} (the mesh it was built from"
-    fine_v, fine_f, _ = _fine_enough(v, f, body.points, body_tets(body.points, body.springs,
-                                                                  body.tets))
+    fine_v, fine_f, _, _ = _fine_enough(v, f, body.points,
+                                        body_tets(body.points, body.springs, body.tets))
     if len(fine_v) == len(v):
         return row + ": a run's skin)"
     return (row + f"; a run's skin subdivides it to the point spacing: {len(fine_v)} "

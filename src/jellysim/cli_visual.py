@@ -434,12 +434,13 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
 @click.option("--max-frames", type=click.IntRange(min=2), default=None,
               help="glb: keep at most this many frames (evenly spaced), one morph target "
                    "each.")
-@click.option("--texture", type=click.Path(), default=None, metavar="IMAGE",
+@click.option("--texture", type=click.Path(), multiple=True, metavar="[NAME=]IMAGE",
               help="A .png/.jpg image mapped on the skin by its mesh file's UVs: embedded in "
                    "a .glb, named by a .usd* stage or the OBJ frames' .mtl (relative path); "
-                   "the material is then opaque.")
+                   "the material is then opaque.  For a mesh of several materials, "
+                   "NAME=IMAGE gives material NAME its own (repeatable).")
 @_overwrite
-def export(trajectory, target, output, sequence, fps, max_frames, texture=None,
+def export(trajectory, target, output, sequence, fps, max_frames, texture=(),
            overwrite=False):
     """Export TRAJECTORY for other tools: USD, glTF (.glb), ParaView (.pvd), OBJ/PLY, CSV.
 
@@ -459,11 +460,14 @@ def export(trajectory, target, output, sequence, fps, max_frames, texture=None,
               "formats keep the trajectory's own times: remove it")
     if max_frames is not None and (sequence or suffix != ".glb"):
         _fail("--max-frames applies to .glb exports (one morph target per frame): remove it")
-    if texture is not None and (sequence == "ply" or not sequence and suffix not in (
+    if texture and (sequence == "ply" or not sequence and suffix not in (
             ".usdc", ".usda", ".usd", ".glb")):
         _fail("--texture applies to .glb, .usdc/.usda/.usd and --sequence obj exports (the "
               "others carry no material): remove it")
     try:
+        from .io.texture import parse_textures
+
+        texture = parse_textures(texture)
         traj = _load(trajectory)
         if suffix not in (".pvd", ".csv") or sequence:  # (ParaView shows both sides)
             _warn_inside_out(traj)

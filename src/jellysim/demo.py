@@ -83,18 +83,19 @@ DEMO_SCENE = {
 """Physical settings of the demo (scene format): 3 s simulated, 60 frames per second."""
 
 
-def demo_mesh(name: str = "jelly", mesh=None, up: str = "y", uv: bool = False):
+def demo_mesh(name: str = "jelly", mesh=None, up: str = "y", texture: bool = False):
     """The demo's surface: vertices [m] (m, 3), faces (f, 3), scaled to the shape's
     ``length``, standing ``drop_height`` above y = 0, centred in x and z.  ``name = "mesh"``:
     the surface of the file ``mesh`` (any format :func:`~jellysim.geometry.load_mesh`
-    reads), its ``up`` axis turned to +y and its faces outward.  ``uv``: also return the
-    file's texture coordinates per face corner (f, 3, 2) (``None`` for the shipped shapes)."""
-    shape, corner_uv = DEMO_SHAPES[name], None
+    reads), its ``up`` axis turned to +y and its faces outward.  ``texture``: also return the
+    file's texture coordinates per face corner (f, 3, 2) and its faces' materials (``None``
+    for the shipped shapes)."""
+    shape, corner_uv, materials = DEMO_SHAPES[name], None, None
     if shape["mesh"] == "file":
         from .geometry.mesh import load_mesh, outward, rotate_up
 
         m = outward(load_mesh(mesh), str(mesh))
-        v, f, corner_uv = rotate_up(m.vertices, up), m.faces, m.uv
+        v, f, corner_uv, materials = rotate_up(m.vertices, up), m.faces, m.uv, m.materials
     elif shape["mesh"] == "mould":
         from .geometry.shapes import jelly_mould
 
@@ -110,7 +111,7 @@ def demo_mesh(name: str = "jelly", mesh=None, up: str = "y", uv: bool = False):
     v = v * (shape["length"] / np.ptp(v, axis=0).max())
     lo, hi = v.min(axis=0), v.max(axis=0)
     v = v - [0.5 * (lo[0] + hi[0]), lo[1] - shape["drop_height"], 0.5 * (lo[2] + hi[2])]
-    return (v, np.asarray(f, dtype=np.int64)) + ((corner_uv,) if uv else ())
+    return (v, np.asarray(f, dtype=np.int64)) + ((corner_uv, materials) if texture else ())
 
 
 def build_demo_body(name: str = "jelly", points: int | None = None, mesh=None,
@@ -125,7 +126,7 @@ def build_demo_body(name: str = "jelly", points: int | None = None, mesh=None,
     from .geometry.mesh import Mesh
 
     shape = DEMO_SHAPES[name]
-    verts, faces, uv = demo_mesh(name, mesh, up, uv=True)
+    verts, faces, uv, materials = demo_mesh(name, mesh, up, texture=True)
     with warnings.catch_warnings():
         # the shipped surfaces are clean; a user's mesh is reported (demo --mesh)
         warnings.simplefilter("default" if mesh is not None else "ignore")
@@ -139,7 +140,7 @@ def build_demo_body(name: str = "jelly", points: int | None = None, mesh=None,
                           connect=shape["connect"], density=REPORT_DENSITY,
                           seed=shape["seed"])
     body.meta.update(builder=f"demo-{name}", **{k: v for k, v in shape.items()})
-    return body, bind_body_skin(body, verts, faces, uv)
+    return body, bind_body_skin(body, verts, faces, uv, materials)
 
 
 def demo_command(out_dir, scene, mesh, up, points, frames, usd, backend=None, device=None,

@@ -18,8 +18,7 @@ from .errors import BuildError, JellysimError, SceneError, did_you_mean
 from .geometry.mesh import MESH_SUFFIXES
 from .params import (MAX_ALL_PAIRS_POINTS, GroundParams, ImplicitParams, ProvotOrder, ProvotPairs,
                      ProvotParams, density_slip)
-# Spec (one row of the schema) and the checks live in scene_spec, the table of keys in
-# scene_schema
+# Spec (a row of the schema) and the checks live in scene_spec, the table of keys in scene_schema
 from .scene_obstacles import (OBSTACLE_KEYS, OBSTACLE_SCHEMA,  # noqa: F401 (re-exported)
                               make_obstacle, validate_obstacles)
 from .scene_schema import SCHEMA
@@ -27,8 +26,7 @@ from .scene_spec import (Spec, as_toml, check_backend, check_body_file, check_gi
                          check_value, given_keys, plain, grid_radius, infer_body_type,
                          missing_path, refuse_point_mass, refuse_unused_keys,
                          said_springs_ignore, say_slips)
-from .scene_spec import apply_override as _override
-from .scene_spec import check_table as _table
+from .scene_spec import apply_override as _override, check_table as _table
 from .scene_doc import schema_markdown as make
 from .scene_handles import apply_handle_tables, validate_handle_tables
 from .resources import check_body_memory
@@ -144,7 +142,9 @@ class Scene:
                              f"{type(raw).__name__}")
         raw = plain(raw)  # tuples, numpy arrays and numpy scalars as the TOML reader's values
         given = given_keys(raw, SCHEMA, PRESETS)
-        scene = cls(cls._validate(raw, name, user=given), text=as_toml(raw), name=name)
+        params = cls._validate(raw, name, user=given)
+        say_slips(params, given, name)   # (as from_text: a sweep's dictionaries too)
+        scene = cls(params, text=as_toml(raw), name=name)
         scene.given = given
         return scene
 
@@ -285,7 +285,12 @@ class Scene:
     @property
     def surface_uv(self):
         """The texture coordinates [-] (f, 3, 2) of :attr:`surface`'s faces, or ``None``."""
-        return getattr(self, "_surface_uv", None)
+        return getattr(self, "_texture", (None, None))[0]
+
+    @property
+    def surface_materials(self):
+        """Which material each face of :attr:`surface` uses (``Materials``), or ``None``."""
+        return getattr(self, "_texture", (None, None))[1]
 
     def _place(self, points: np.ndarray) -> np.ndarray:
         b = self.params["body"]
@@ -341,7 +346,7 @@ class Scene:
             # placed by its skin (what is drawn), as a mesh body is; the points move with it
             skin = self._place(body.skin_vertices)
             placed = body.points + (skin[0] - body.skin_vertices[0])
-            self._surface, self._surface_uv = (skin, body.skin_faces), body.skin_uv
+            self._surface, self._texture = (skin, body.skin_faces), (body.skin_uv, body.materials)
             return replace(body, points=placed, skin_vertices=skin)
         if b["type"] == "mesh":
             from dataclasses import replace
@@ -365,7 +370,7 @@ class Scene:
                 v = v * (b["size"] / float(np.ptp(v, axis=0).max()))
             v = self._place(v)
             placed = replace(Mesh.from_arrays(v, mesh.faces, name=str(path)), path=path)
-            self._surface, self._surface_uv = (v, np.asarray(mesh.faces)), mesh.uv
+            self._surface, self._texture = (v, np.asarray(mesh.faces)), (mesh.uv, mesh.materials)
             mat = self.params["material"]
             density = mat["density"] if mat["density"] is not None else (
                 self.params["mass"]["density"])

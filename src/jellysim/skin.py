@@ -63,6 +63,9 @@ class Skin:
     uv:
         Texture coordinates [-] of each face corner, shape (f, 3, 2), float64, or ``None``
         (the mesh file's, :mod:`jellysim.geometry.texcoords`).
+    materials:
+        Which of the mesh file's materials each face uses
+        (:class:`~jellysim.geometry.texcoords.Materials`), or ``None``.
     """
 
     rest_vertices: np.ndarray
@@ -70,6 +73,7 @@ class Skin:
     point_index: np.ndarray
     weights: np.ndarray
     uv: np.ndarray | None = None
+    materials: object = None
 
     @property
     def vertex_count(self) -> int:
@@ -111,6 +115,11 @@ class Skin:
                "skin_point_index": self.point_index, "skin_weights": self.weights}
         if self.uv is not None:
             out["skin_uv"] = self.uv
+        if self.materials is not None:
+            import json
+
+            out["skin_material"] = np.asarray(self.materials.index, dtype=np.int64)
+            out["skin_material_names"] = np.str_(json.dumps(list(self.materials.names)))
         return out
 
     @classmethod
@@ -123,7 +132,19 @@ class Skin:
                    point_index=np.asarray(d["skin_point_index"], dtype=np.int64),
                    weights=np.asarray(d["skin_weights"], dtype=np.float64),
                    uv=np.asarray(d["skin_uv"], dtype=np.float64).reshape(-1, 3, 2)
-                   if "skin_uv" in d and len(d["skin_uv"]) else None)
+                   if "skin_uv" in d and len(d["skin_uv"]) else None,
+                   materials=_materials(d))
+
+
+def _materials(d):
+    """The :class:`~jellysim.geometry.texcoords.Materials` stored by :meth:`Skin.arrays`."""
+    if "skin_material" not in d:
+        return None
+    import json
+
+    from .geometry.texcoords import Materials
+
+    return Materials.of(d["skin_material"], json.loads(str(d["skin_material_names"])))
 
 
 def _barycentric(points: np.ndarray, tets: np.ndarray, query: np.ndarray) -> np.ndarray:
@@ -291,17 +312,21 @@ def _places(x: np.ndarray, amp: np.ndarray, extent: float, spacing: float = 0.0,
     return "; ".join(parts) + (f"; and {count - most} more places" if count > most else "")
 
 
-def bind_body_skin(body, vertices: np.ndarray, faces: np.ndarray, uv=None) -> Skin:
+def bind_body_skin(body, vertices: np.ndarray, faces: np.ndarray, uv=None,
+                   materials=None) -> Skin:
     """Bind a surface (vertices [m] (m, 3), faces (f, 3), optional per-corner texture
-    coordinates ``uv`` (f, 3, 2)) to a :class:`~jellysim.body.Body`: its tets when it has
-    some, else the spring-spanned Delaunay cells of its points."""
+    coordinates ``uv`` (f, 3, 2) and the faces' ``materials``) to a
+    :class:`~jellysim.body.Body`: its tets when it has some, else the spring-spanned Delaunay
+    cells of its points."""
     tets = body_tets(body.points, body.springs, body.tets)
     uv = None if uv is None else np.asarray(uv, dtype=np.float64).reshape(-1, 3, 2)
-    vertices, faces, uv = _fine_enough(np.asarray(vertices, dtype=np.float64).reshape(-1, 3),
-                                       np.asarray(faces, dtype=np.int64).reshape(-1, 3),
-                                       body.points, tets, uv)
+    vertices, faces, uv, parent = _fine_enough(
+        np.asarray(vertices, dtype=np.float64).reshape(-1, 3),
+        np.asarray(faces, dtype=np.int64).reshape(-1, 3), body.points, tets, uv)
     skin = bind_skin(body.points, tets, vertices, faces)
-    return skin if uv is None else replace(skin, uv=uv)
+    if materials is not None and parent is not None:  # (subdivided: each face its parent's)
+        materials = materials.rows(parent)
+    return replace(skin, uv=uv, materials=materials)
 
 
 MAX_SKIN_FACES = 200_000
@@ -314,21 +339,23 @@ def _fine_enough(vertices, faces, points, tets, uv=None):
     with the body: it is subdivided to edges of one spacing (trimesh; the same surface, its
     original vertices first, in their order, so a point cache of the file still lines up).
     The spacing is the median edge of the body's tets.  Per-corner texture coordinates ``uv``
-    are interpolated onto the fine faces (:func:`~jellysim.geometry.texcoords.subdivided`)."""
+    are interpolated onto the fine faces (:func:`~jellysim.geometry.texcoords.subdivided`).
+    Returns ``(vertices, faces, uv, parent)``: ``parent`` (f',) the face each fine face came
+    from, ``None`` when the skin is kept as it is."""
     if len(faces) == 0 or len(tets) == 0:
-        return vertices, faces, uv
+        return vertices, faces, uv, None
     edges = points[tets[:, [0, 0, 0, 1, 1, 2]]] - points[tets[:, [1, 2, 3, 2, 3, 3]]]
     spacing = float(np.median(np.linalg.norm(edges, axis=2)))
     longest = float(np.linalg.norm(vertices[faces[:, [1, 2, 0]]] - vertices[faces],
                                    axis=2).max())
     if not (spacing > 0 and longest > 2.0 * spacing):
-        return vertices, faces, uv
+        return vertices, faces, uv, None
     try:
         from ._interrupts import import_trimesh
 
         trimesh = import_trimesh()
     except ImportError:  # (the mesh extra): the skin stays as it is
-        return vertices, faces, uv
+        return vertices, faces, uv, None
     tri = vertices[faces]
     area = 0.5 * float(np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
                                       axis=1).sum())
@@ -338,15 +365,16 @@ def _fine_enough(vertices, faces, points, tets, uv=None):
             vertices, faces, max_edge=edge, max_iter=int(np.ceil(np.log2(longest / edge))) + 2,
             return_index=True)
     except ValueError:  # (trimesh gave up: the skin is left as it is)
-        return vertices, faces, uv
+        return vertices, faces, uv, None
     if len(fine_f) > 4 * MAX_SKIN_FACES:  # (a skin far larger than its body: a slip of units)
-        return vertices, faces, uv
+        return vertices, faces, uv, None
     fine_v, fine_f = np.asarray(fine_v, dtype=np.float64), np.asarray(fine_f, dtype=np.int64)
+    parent = np.asarray(parent, np.int64)
     if uv is not None:
         from .geometry.texcoords import subdivided
 
-        uv = subdivided(vertices, faces, uv, fine_v, fine_f, np.asarray(parent, np.int64))
-    return fine_v, fine_f, uv
+        uv = subdivided(vertices, faces, uv, fine_v, fine_f, parent)
+    return fine_v, fine_f, uv, parent
 
 
 def identity_skin(points: np.ndarray, triangles: np.ndarray) -> Skin:
@@ -413,9 +441,11 @@ def default_skin(scene, body) -> Skin | None:
     b = scene.params.get("body", {}) if scene is not None else {}
     surface = getattr(scene, "surface", None)
     if surface is not None:  # a mesh scene carries its (placed) input mesh
-        return bind_body_skin(body, surface[0], surface[1], scene.surface_uv)
+        return bind_body_skin(body, surface[0], surface[1], scene.surface_uv,
+                              scene.surface_materials)
     if getattr(body, "skin_vertices", None) is not None:
-        return bind_body_skin(body, body.skin_vertices, body.skin_faces, body.skin_uv)
+        return bind_body_skin(body, body.skin_vertices, body.skin_faces, body.skin_uv,
+                              body.materials)
     if b.get("type") == "box" and "lower" in b:
         return box_skin(body, b["lower"], b["upper"])
     if body.triangles is not None and len(body.triangles):

@@ -14,7 +14,7 @@ __all__ = ["validate_arrays"]
 
 def validate_arrays(src: str, points, springs, rest_length=None, stiffness=None, masses=None,
                     tets=None, triangles=None, volume=None, skin_vertices=None,
-                    skin_faces=None, skin_uv=None) -> dict:
+                    skin_faces=None, skin_uv=None, skin_material=None) -> dict:
     """Check body arrays; return them normalised (dtype, contiguous).  ``src`` names the file."""
 
     def err(array: str, msg: str) -> JelloFileError:
@@ -89,6 +89,7 @@ def validate_arrays(src: str, points, springs, rest_length=None, stiffness=None,
         "skin_vertices": None,
         "skin_faces": None,
         "skin_uv": None,
+        "skin_material": None,
     }
     if (skin_vertices is None) != (skin_faces is None):
         raise err("skin_faces" if skin_faces is None else "skin_vertices",
@@ -103,6 +104,15 @@ def validate_arrays(src: str, points, springs, rest_length=None, stiffness=None,
             raise err("skin_uv", "given without a skin: texture coordinates belong to the "
                       "faces of skin_faces")
         out["skin_uv"] = floats("skin_uv", skin_uv, (out["skin_faces"].shape[0], 3, 2))
+    if skin_material is not None:
+        if skin_faces is None:
+            raise err("skin_material", "given without a skin: it says which material each "
+                      "face of skin_faces uses")
+        m = np.asarray(skin_material)
+        if m.shape != (out["skin_faces"].shape[0],):
+            raise err("skin_material", f"shape {m.shape}; expected one per skin face "
+                      f"({out['skin_faces'].shape[0]},)")
+        out["skin_material"] = ints("skin_material", m.reshape(-1, 1), 1, 2**31).reshape(-1)
     if volume is not None:
         v = np.asarray(volume)
         if v.shape != () or v.dtype.kind not in "fiu" or not math.isfinite(float(v)) or v <= 0:

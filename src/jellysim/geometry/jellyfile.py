@@ -14,6 +14,7 @@ The text format is specified in ``docs/jello-format.md``; in short::
     skin_vertices 0                  # optional: x y z [m] of the skin (the built-from mesh)
     skin_faces 0                     # with it: a b c, indices into skin_vertices
     skin_uv 0                        # optional: u0 v0 u1 v1 u2 v2, each skin face's UVs
+    skin_material 0                  # optional: m, each skin face's material (names: meta)
     volume 0.125                     # optional: [m^3]
     meta {"builder": "delaunay"}     # optional: one line of JSON
     end
@@ -60,9 +61,10 @@ _SECTIONS = {
     "skin_vertices": (("x", "y", "z"), ()),
     "skin_faces": (("a", "b", "c"), ()),
     "skin_uv": (("u0", "v0", "u1", "v1", "u2", "v2"), ()),
+    "skin_material": (("m",), ()),
 }
 _ORDER = ("points", "springs", "tets", "triangles", "skin_vertices", "skin_faces", "skin_uv",
-          "volume", "meta")
+          "skin_material", "volume", "meta")
 _POSITIVE = {"mass": "mass [kg]", "rest_length": "rest length [m]", "stiffness": "stiffness [N/m]"}
 
 
@@ -234,9 +236,10 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
         if word == "skin_faces" and "skin_vertices" not in seen:
             raise lines.error(no, col, "section 'skin_faces' before 'skin_vertices'; expected "
                               "the skin's vertices first (its faces index them)")
-        if word == "skin_uv" and "skin_faces" not in seen:
-            raise lines.error(no, col, "section 'skin_uv' before 'skin_faces'; expected the "
-                              "skin's faces first (it gives each face's corners' UVs)")
+        if word in ("skin_uv", "skin_material") and "skin_faces" not in seen:
+            raise lines.error(no, col, f"section '{word}' before 'skin_faces'; expected the "
+                              "skin's faces first (it gives each face's "
+                              + ("corners' UVs)" if word == "skin_uv" else "material)"))
         seen[word] = no
         if word == "volume":
             if len(toks) != 2:
@@ -259,8 +262,8 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
         fixed, optional = _SECTIONS[word]
         count = _parse_count(lines, no, toks[1][0] if len(toks) > 1 else col + len(word) + 1,
                              toks[1][1] if len(toks) > 1 else None, word)
-        if word == "skin_uv" and count != len(data["skin_faces"][1]):
-            raise lines.error(no, toks[1][0], f"section 'skin_uv' has {count} rows; expected "
+        if word in ("skin_uv", "skin_material") and count != len(data["skin_faces"][1]):
+            raise lines.error(no, toks[1][0], f"section '{word}' has {count} rows; expected "
                               f"one per skin face ({len(data['skin_faces'][1])})")
         cols = []
         for c, t in toks[2:]:
@@ -297,6 +300,8 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
                 nidx = len(fixed)
                 vals = [_parse_int(lines, rno, c, t, "a skin vertex index", n_skin)
                         if word == "skin_faces" else
+                        _parse_int(lines, rno, c, t, "a material number", 2**31)
+                        if word == "skin_material" else
                         _parse_int(lines, rno, c, t, "a point index", n_points)
                         for c, t in rtoks[:nidx]]
                 for (c, t), (c2, t2) in ((a, b) for k, a in enumerate(rtoks[:nidx])
@@ -375,6 +380,7 @@ def parse_jello(data_bytes: bytes, *, name: str = "<text>") -> Body:
         skin_faces=_idx("skin_faces", 3),
         skin_uv=None if "skin_uv" not in data else np.array(
             data["skin_uv"][1], dtype=np.float64).reshape(-1, 3, 2),
+        skin_material=None if "skin_material" not in data else _idx("skin_material", 1)[:, 0],
     )
 
 
@@ -390,7 +396,8 @@ def _atomic_write(path: Path, write) -> None:
 def _body_arrays(path, body: Body) -> dict:
     return validate_arrays(f"{path} (writing)", body.points, body.springs, body.rest_length,
                            body.stiffness, body.masses, body.tets, body.triangles, body.volume,
-                           body.skin_vertices, body.skin_faces, body.skin_uv)
+                           body.skin_vertices, body.skin_faces, body.skin_uv,
+                           body.skin_material)
 
 
 def write_jello(path, body: Body) -> None:
@@ -427,7 +434,8 @@ def write_jello(path, body: Body) -> None:
             for r, x in zip(rows, a[c].tolist()):
                 r.append(x)
         out.append(fmt(rows))
-        for sec in ("tets", "triangles", "skin_vertices", "skin_faces", "skin_uv"):
+        for sec in ("tets", "triangles", "skin_vertices", "skin_faces", "skin_uv",
+                    "skin_material"):
             if a[sec] is not None:
                 out.append(f"{sec} {a[sec].shape[0]}\n")
                 out.append(fmt(a[sec].reshape(a[sec].shape[0], -1).tolist()))
@@ -492,7 +500,7 @@ def read_npz(path) -> Body:
         if req not in arrays:
             raise JelloFileError(f"{src}: array '{req}' is missing")
     known = {"points", "springs", "rest_length", "stiffness", "masses", "tets", "triangles",
-             "skin_vertices", "skin_faces", "skin_uv", "volume", "meta"}
+             "skin_vertices", "skin_faces", "skin_uv", "skin_material", "volume", "meta"}
     unknown = sorted(set(arrays) - known)
     if unknown:
         raise JelloFileError(f"{src}: array '{unknown[0]}' is not part of the format; expected "

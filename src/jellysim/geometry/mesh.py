@@ -171,6 +171,9 @@ class Mesh:
     uv:
         Texture coordinates of each face corner [-], shape (m, 3, 2), float64 (the file's,
         kept per corner across welding: :mod:`jellysim.geometry.texcoords`), or ``None``.
+    materials:
+        Which of the file's materials each face uses
+        (:class:`~jellysim.geometry.texcoords.Materials`), for a file of several, or ``None``.
     """
 
     vertices: np.ndarray
@@ -178,6 +181,7 @@ class Mesh:
     path: Path | None = None
     defects: MeshDefects = field(default_factory=MeshDefects)
     uv: np.ndarray | None = None
+    materials: texcoords.Materials | None = None
 
     @classmethod
     def from_arrays(
@@ -247,9 +251,9 @@ def load_mesh(path, *, weld_tol: float = WELD_REL) -> Mesh:
     if p.stat().st_size == 0:
         raise MeshError(f"{name}: file is empty")
     suffix = p.suffix.lower()
-    uv = None
+    uv = materials = None
     if suffix in _TRIMESH_SUFFIXES:
-        v, polys, uv = _read_trimesh(p, name)
+        v, polys, (uv, materials) = _read_trimesh(p, name)
     elif suffix in _MESHIO_SUFFIXES:
         v, polys = _read_meshio(p, name)
     else:
@@ -260,7 +264,7 @@ def load_mesh(path, *, weld_tol: float = WELD_REL) -> Mesh:
             f"{name}: unsupported file type {suffix!r} "
             f"(supported: {', '.join(sorted(_TRIMESH_SUFFIXES | _MESHIO_SUFFIXES))}){convert}"
         )
-    return _clean(v, polys, name, Path(name), weld_tol, uv)  # (path: as given, jellysim:NAME)
+    return _clean(v, polys, name, Path(name), weld_tol, uv, materials)  # (path: as given)
 
 
 # --------------------------------------------------------------------------- readers
@@ -437,7 +441,7 @@ def _fan_split(polys) -> np.ndarray:
 
 
 def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol: float,
-           corner_uv=None) -> Mesh:
+           corner_uv=None, materials=None) -> Mesh:
     d = MeshDefects()
     f = np.asarray(f, dtype=np.int64).reshape(-1, 3)
     if len(f) == 0:
@@ -459,22 +463,23 @@ def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol:
     old_to_used = np.cumsum(used) - 1
     uniq, inv = _weld(vu, weld_tol)
     d.welded_vertices = int(len(vu) - len(uniq))
-    uv = texcoords.checked(corner_uv, len(f))
+    uv, src = texcoords.checked(corner_uv, len(f)), np.arange(len(f))   # (src: the file's face)
     f = inv[old_to_used[f]]
     v = uniq
 
     # repeated indices
     rep = (f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 0] == f[:, 2])
     d.repeated_index_faces = int(rep.sum())
-    f, uv = f[~rep], None if uv is None else uv[~rep]
+    f, src, uv = f[~rep], src[~rep], None if uv is None else uv[~rep]
     # exact zero area
     zero = _degenerate(v, f)
     d.zero_area_faces = int(zero.sum())
-    f, uv = f[~zero], None if uv is None else uv[~zero]
+    f, src, uv = f[~zero], src[~zero], None if uv is None else uv[~zero]
     # duplicates (the kept face of a group may be re-oriented: its UVs follow its corners)
     f_all = f
     f, d.duplicate_faces, d.reversed_duplicate_faces, kept = remove_duplicates(f)
     uv = None if uv is None else texcoords.align(f_all[kept], uv[kept], f)
+    materials = None if materials is None else materials.rows(src[kept])
     if len(f) == 0:
         raise MeshError(f"{name}: no faces with non-zero area")
 
@@ -493,7 +498,7 @@ def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol:
     d.face_count = int(len(f))
     d.vertex_count = int(len(v))
     return Mesh(vertices=np.ascontiguousarray(v), faces=np.ascontiguousarray(f), path=path,
-                defects=d, uv=uv)
+                defects=d, uv=uv, materials=materials)
 
 
 def _weld(v: np.ndarray, rel_tol: float):

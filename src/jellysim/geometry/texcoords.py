@@ -4,76 +4,119 @@ A mesh file's UVs belong to its face corners: a vertex on a UV seam has one UV i
 beside the seam.  jellysim welds the file's vertices by position (the simulated surface must
 be one piece), so it keeps the UVs per corner, ``uv[f, c]`` = the UV of corner ``c`` of
 face ``f``, shape (faces, 3, 2), unitless, in OBJ's convention (``vt``: origin at the bottom
-left of the image, ``v`` up; trimesh reads a glTF file's UVs into it).  Every step that changes the faces keeps them:
+left of the image, ``v`` up; trimesh reads a glTF file's UVs into it); for a file of several
+materials also which one each face uses (:class:`Materials`).  Every step that changes the
+faces keeps them:
 
 * cleaning (welding, removed faces, re-oriented duplicates: :func:`align`),
 * turning faces outward (corners swapped: :func:`align`),
 * subdividing a coarse skin (:func:`subdivided`: each new corner interpolated linearly
-  inside the face it came from, so the texture lies on the fine skin as it did on the coarse).
+  inside the face it came from, so the texture lies on the fine skin as it did on the coarse;
+  a fine face keeps its parent's material).
 
 Exports write them as a face-varying primvar (USD ``primvars:st``), separate ``vt`` indices
 (OBJ), or by splitting the vertices along the seams (glTF ``TEXCOORD_0``: :func:`split_seams`).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..params import _user_stacklevel
 
-__all__ = ["align", "checked", "split_seams", "subdivided", "trimesh_corner_uv"]
+__all__ = ["Materials", "align", "checked", "split_seams", "subdivided", "trimesh_corner_uv"]
 
 
-def trimesh_corner_uv(trimesh, loaded, path, name: str) -> np.ndarray | None:
-    """The UVs of each corner of ``loaded``'s faces (f, 3, 2), or ``None`` when the file has
-    none.  ``loaded`` is the file read as one mesh; its own UVs are not used: trimesh merges a
+@dataclass(frozen=True, eq=False)
+class Materials:
+    """Which of a mesh file's materials each face uses (a file of several: an OBJ's
+    ``usemtl`` groups, a glTF's primitives): ``index`` (f,) int64 into ``names`` (the file's
+    material names).  Exports write one group per material (USD ``GeomSubset``s, OBJ
+    ``usemtl`` runs, glTF primitives), so each can get its own texture."""
+
+    index: np.ndarray
+    names: tuple
+
+    def rows(self, rows) -> "Materials":
+        """The same for the faces ``rows`` (an index or mask array) of the surface."""
+        return Materials(np.asarray(self.index)[rows], self.names)
+
+    @classmethod
+    def of(cls, index, names) -> "Materials | None":
+        """``None`` when ``index`` is; else checked (names as strings, indices in range)."""
+        if index is None:
+            return None
+        index, names = np.asarray(index, dtype=np.int64).reshape(-1), tuple(map(str, names))
+        if index.size and (index.min() < 0 or index.max() >= len(names)):
+            raise ValueError(f"material index out of range 0..{len(names) - 1}")
+        return cls(index, names)
+
+
+def attach_skin(body, mesh) -> None:
+    """Give ``body`` the surface ``mesh`` (a :class:`~jellysim.geometry.mesh.Mesh`) as its
+    skin: ``skin_vertices`` [m], ``skin_faces``, ``skin_uv``, ``skin_material`` and its names
+    in ``meta["skin_material_names"]``."""
+    body.skin_vertices = np.array(mesh.vertices, dtype=np.float64).reshape(-1, 3)
+    body.skin_faces = np.array(mesh.faces, dtype=np.int64).reshape(-1, 3)
+    body.skin_uv, materials = mesh.uv, mesh.materials
+    body.skin_material = None if materials is None else np.array(materials.index, np.int64)
+    if materials is not None:
+        body.meta["skin_material_names"] = list(materials.names)
+
+
+def trimesh_corner_uv(trimesh, loaded, path, name: str):
+    """``(uv, materials)``: the UVs of each corner of ``loaded``'s faces (f, 3, 2), or
+    ``None`` when the file has none, and its faces' :class:`Materials` when it has several
+    (else ``None``).  ``loaded`` is the file read as one mesh; its own UVs are not used: trimesh merges a
     file of several materials into one mesh by packing their textures into a new atlas and
     rescaling the UVs into it, and keeps one UV per seam vertex of an OBJ read in order.  So
     the file is read once more as its parts (one per material, each split along its seams, in
     the order the merged mesh has them), and their corners are taken where they are the same
     points as ``loaded``'s.  UVs that cannot be read are said (``name``: the file) and dropped,
-    never a reason to refuse the file; several materials are said too (the skin is one
-    surface: the exports keep each face's UVs but not which material it used)."""
+    never a reason to refuse the file."""
     import warnings
 
     has_uv = getattr(loaded.visual, "uv", None) is not None or (
         path.suffix.lower() == ".obj" and b"\nvt " in path.read_bytes())
     if not has_uv:
-        return None
+        return None, None
     try:
         with warnings.catch_warnings():  # (trimesh's texture code's NaN medians)
             warnings.simplefilter("ignore", RuntimeWarning)
-            uv, why, parts = _corner_uv(trimesh, loaded, path)
+            uv, why, materials = _corner_uv(trimesh, loaded, path)
     except Exception as exc:  # noqa: BLE001 (trimesh raises many types; the geometry was read)
-        uv, why, parts = None, f"{type(exc).__name__}: {exc}", 1
+        uv, why, materials = None, f"{type(exc).__name__}: {exc}", None
     if uv is None:
         warnings.warn(f"{name}: its texture coordinates could not be read ({why}): the skin "
                       "and its exports carry none", UserWarning, stacklevel=_user_stacklevel())
-    elif parts > 1:
-        warnings.warn(f"{name}: its {parts} materials are read as one surface: every face keeps "
-                      "its own UVs, but the exports do not say which faces use which material "
-                      "or texture (docs/visual.md)", UserWarning, stacklevel=_user_stacklevel())
-    return uv
+    return uv, materials
 
 
 def _corner_uv(trimesh, loaded, path):
-    """``(uv or None, why not, number of parts)``: see :func:`trimesh_corner_uv`."""
+    """``(uv or None, why not, Materials or None)``: see :func:`trimesh_corner_uv`."""
     split = trimesh.load(str(path), process=False)
     parts = split.dump() if isinstance(split, trimesh.Scene) else [split]
     uvs = [getattr(getattr(g, "visual", None), "uv", None) for g in parts]
     if not parts or any(u is None for u in uvs):
-        return None, "some of its faces have none", len(parts)
+        return None, "some of its faces have none", None
     if any(np.shape(u) != (len(g.vertices), 2) for g, u in zip(parts, uvs)):
-        return None, "not one per vertex", len(parts)
+        return None, "not one per vertex", None
     corners = np.concatenate([np.asarray(g.vertices)[np.asarray(g.faces)] for g in parts])
     if corners.shape != (len(loaded.faces), 3, 3) or not np.array_equal(
             corners, np.asarray(loaded.vertices)[np.asarray(loaded.faces)]):
-        return None, "its faces, read by material, could not be matched to its surface", \
-            len(parts)
+        return None, "its faces, read by material, could not be matched to its surface", None
     uv = np.concatenate([np.asarray(u, dtype=np.float64)[np.asarray(g.faces, dtype=np.int64)]
                          for g, u in zip(parts, uvs)])
     if not np.all(np.isfinite(uv)):
-        return None, "some are not finite numbers", len(parts)
-    return uv, "", len(parts)
+        return None, "some are not finite numbers", None
+    if len(parts) == 1:
+        return uv, "", None
+    names = [str(getattr(getattr(g.visual, "material", None), "name", None)
+                 or g.metadata.get("name") or f"material_{k}") for k, g in enumerate(parts)]
+    names = [n if names.count(n) == 1 else f"{n}_{k}" for k, n in enumerate(names)]
+    index = np.repeat(np.arange(len(parts)), [len(g.faces) for g in parts])
+    return uv, "", Materials.of(index, names)
 
 
 def checked(uv, faces: int) -> np.ndarray | None:

@@ -37,7 +37,9 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
 
     ``max_frames``: keep at most this many frames (evenly spaced) to bound the file size;
     default all.  ``texture``: a PNG/JPEG image embedded as the material's
-    ``baseColorTexture`` (opaque), mapped by the skin's UVs (:mod:`jellysim.io.texture`)."""
+    ``baseColorTexture`` (opaque), mapped by the skin's UVs, or ``{material name: image}``
+    for a skin of several materials, which is written as one primitive per material
+    (:mod:`jellysim.io.texture`)."""
 
     path = Path(path)
     if path.suffix.lower() != ".glb":
@@ -46,9 +48,9 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
 
     guard_file(path, overwrite, flag="overwrite=True")
     frames, faces = surface_of(traj)
-    from .texture import TEXTURE_SUFFIXES, texture_file
+    from .texture import TEXTURE_SUFFIXES, face_groups, textures_of
 
-    texture = texture_file(traj, texture)
+    images, groups = textures_of(traj, texture), face_groups(traj)
     times = np.asarray(traj.times, dtype=np.float64)
     idx = np.arange(len(frames))
     if max_frames is not None and len(idx) > max_frames:
@@ -96,8 +98,6 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
     base = frames[0]
     pos = add(base, kind="VEC3", ctype=_FLOAT, target=_ARRAY_BUFFER, minmax=True)
     nrm = add(normals[0], kind="VEC3", ctype=_FLOAT, target=_ARRAY_BUFFER)
-    ind = add(np.asarray(faces, dtype=np.uint32).reshape(-1), kind="SCALAR", ctype=_UINT,
-              target=_ELEMENT_ARRAY_BUFFER)
     targets = [{"POSITION": add(f - base, kind="VEC3", ctype=_FLOAT, target=_ARRAY_BUFFER,
                                 minmax=True),
                 "NORMAL": add(n - normals[0], kind="VEC3", ctype=_FLOAT, target=_ARRAY_BUFFER)}
@@ -105,13 +105,31 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
     attributes = {"POSITION": pos, "NORMAL": nrm}
     if uv is not None:
         attributes["TEXCOORD_0"] = add(uv, kind="VEC2", ctype=_FLOAT, target=_ARRAY_BUFFER)
-    image_view = None
-    if texture is not None:  # the image's bytes as they are, in a view of their own
-        raw = texture.read_bytes()
+    embedded = sorted(set(images.values()), key=str)   # each image once, its bytes as they are
+    for image in embedded:
+        raw = image.read_bytes()
         views.append({"buffer": 0, "byteOffset": sum(len(b) for b in blobs),
                       "byteLength": len(raw)})
         blobs.append(raw + b"\0" * (-len(raw) % 4))
-        image_view = len(views) - 1
+    image_views = range(len(views) - len(embedded), len(views))
+    # one primitive per material of the file (one, "jello", for a skin of one), all sharing
+    # the vertices and the morph targets
+    groups = [(name, rows) for name, rows in groups if len(rows)]
+    primitives = [{"attributes": attributes, "material": k, "mode": 4, "targets": targets,
+                   "indices": add(np.asarray(faces, dtype=np.uint32)[rows].reshape(-1),
+                                  kind="SCALAR", ctype=_UINT, target=_ELEMENT_ARRAY_BUFFER)}
+                  for k, (_, rows) in enumerate(groups)]
+    materials = []
+    for name, _ in groups:
+        image = images.get(name)
+        materials.append({"name": name, "doubleSided": True,
+                          "alphaMode": "BLEND" if image is None else "OPAQUE",
+                          "pbrMetallicRoughness": {
+                              "baseColorFactor": [0.85, 0.12, 0.24, 0.7] if image is None
+                              else [1.0, 1.0, 1.0, 1.0],
+                              **({} if image is None else {"baseColorTexture": {
+                                  "index": embedded.index(image), "texCoord": 0}}),
+                              "metallicFactor": 0.0, "roughnessFactor": 0.25}})
     t_acc = add(times.reshape(-1), kind="SCALAR", ctype=_FLOAT, target=None, minmax=True)
     w_acc = add(np.eye(n_frames, dtype=np.float32).reshape(-1), kind="SCALAR", ctype=_FLOAT,
                 target=None)
@@ -119,24 +137,15 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
         "asset": {"version": "2.0", "generator": "jellysim"},
         "scene": 0, "scenes": [{"nodes": [0]}],
         "nodes": [{"mesh": 0, "name": "jello"}],
-        "materials": [{"name": "jello", "doubleSided": True,
-                       "alphaMode": "BLEND" if texture is None else "OPAQUE",
-                       "pbrMetallicRoughness": {
-                           "baseColorFactor": [0.85, 0.12, 0.24, 0.7] if texture is None
-                           else [1.0, 1.0, 1.0, 1.0],
-                           **({} if texture is None else
-                              {"baseColorTexture": {"index": 0, "texCoord": 0}}),
-                           "metallicFactor": 0.0, "roughnessFactor": 0.25}}],
+        "materials": materials,
         "meshes": [{"name": "skin", "weights": [1.0] + [0.0] * (n_frames - 1),
-                    "primitives": [{"attributes": attributes,
-                                    "indices": ind,
-                                    "material": 0, "mode": 4, "targets": targets}],
+                    "primitives": primitives,
                     "extras": {"targetNames": [f"frame_{k}" for k in idx.tolist()]}}],
-        **({} if texture is None else {
-            "images": [{"bufferView": image_view, "mimeType":
-                        TEXTURE_SUFFIXES[texture.suffix.lower()]}],
+        **({} if not embedded else {
+            "images": [{"bufferView": v, "mimeType": TEXTURE_SUFFIXES[p.suffix.lower()]}
+                       for v, p in zip(image_views, embedded)],
             "samplers": [{"wrapS": 10497, "wrapT": 10497}],   # (REPEAT, as OBJ's vt)
-            "textures": [{"sampler": 0, "source": 0}]}),
+            "textures": [{"sampler": 0, "source": k} for k in range(len(embedded))]}),
         "animations": [{"name": "simulation",
                         "samplers": [{"input": t_acc, "output": w_acc,
                                       "interpolation": "STEP"}],

@@ -25,8 +25,10 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     already holding ``<stem>_NNNNN.<fmt>`` files (an earlier export, whose extra frames would
     stay mixed with the new ones) is refused unless ``overwrite``; then the old files are
     replaced only once every new frame is written (an interrupted export keeps them).
-    ``texture`` (OBJ only): a PNG/JPEG image, named (relative to the folder) by a
-    ``<stem>.mtl`` that every frame uses (:mod:`jellysim.io.texture`)."""
+    ``texture`` (OBJ only): a PNG/JPEG image, or ``{material name: image}`` for a skin of
+    several materials, named (relative to the folder) by a ``<stem>.mtl`` that every frame
+    uses; a skin of several materials writes its faces in one ``usemtl`` run per material
+    (:mod:`jellysim.io.texture`)."""
     import meshio
 
 
@@ -34,12 +36,12 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     if fmt not in ("obj", "ply"):
         raise JellysimError(f"mesh sequence format must be 'obj' or 'ply', got '{fmt}'")
     frames, faces = surface_of(traj)
-    from .texture import relative_to, texture_file
+    from .texture import face_groups, relative_to, textures_of
 
     if texture is not None and fmt != "obj":
         raise JellysimError("a texture goes with OBJ frames (their .mtl names it); PLY files "
                             "carry positions only")
-    texture = texture_file(traj, texture)
+    images, groups = textures_of(traj, texture), face_groups(traj)
     uv = surface_uv(traj) if fmt == "obj" else None
     if uv is not None:  # the distinct UVs, and each corner's among them
         vt, vt_index = np.unique(np.asarray(uv, np.float64).reshape(-1, 2), axis=0,
@@ -52,16 +54,19 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
                             "folder (one file per frame): give a folder name")
     pattern = f"{stem}_[0-9]*.{fmt}"
     guard_folder(directory, [pattern], overwrite, flag="overwrite=True")
-    mtl = None if texture is None else f"{stem}.mtl"
+    mtl = f"{stem}.mtl" if uv is not None and (images or len(groups) > 1) else None
+    runs = [("_".join(name.split()), rows) for name, rows in groups]   # (no spaces in OBJ)
     with staged_output(directory, [pattern] + ([mtl] if mtl else [])) as stage:
         if mtl:
-            (stage / mtl).write_text("# written by jellysim: the skin's texture\nnewmtl jello\n"
-                                     f"map_Kd {relative_to(texture, directory)}\n",
-                                     encoding="utf-8")
+            (stage / mtl).write_text("# written by jellysim: the skin's materials\n" + "".join(
+                f"newmtl {run}\n" + (f"map_Kd {relative_to(images[name], directory)}\n"
+                                     if name in images else "Kd 0.85 0.12 0.24\nd 0.7\n")
+                for (run, _), (name, _) in zip(runs, groups)), encoding="utf-8")
         for k, verts in enumerate(frames):
             if uv is not None:
                 with atomic_path(stage / f"{stem}_{k:05d}.{fmt}") as tmp:
-                    _write_obj(tmp, np.asarray(verts, dtype=np.float64), vt, corners, mtl)
+                    _write_obj(tmp, np.asarray(verts, dtype=np.float64), vt, corners, mtl,
+                               runs)
                 continue
             mesh = meshio.Mesh(np.asarray(verts, dtype=np.float64),
                                [("triangle", np.asarray(faces, dtype=np.int32))])
@@ -71,14 +76,17 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
 
 
 def _write_obj(path, verts: np.ndarray, vt: np.ndarray, corners: np.ndarray,
-               mtl: str | None = None) -> None:
+               mtl: str | None = None, runs=()) -> None:
     """An OBJ file of ``verts`` [m] (m, 3), texture coordinates ``vt`` (t, 2) and faces
     ``corners`` (f, 6): 1-based ``a ta b tb c tc``; ``mtl``: the material library its faces
-    use (material ``jello``)."""
+    use, in ``runs`` ``(material name, face rows)``."""
     with open(path, "w", encoding="utf-8") as fh:
         fh.write("# written by jellysim: the skin of one frame, metres\n")
         if mtl:
-            fh.write(f"mtllib {mtl}\nusemtl jello\n")
+            fh.write(f"mtllib {mtl}\n")
         np.savetxt(fh, verts, fmt="v %.9g %.9g %.9g")
         np.savetxt(fh, vt, fmt="vt %.9g %.9g")
-        np.savetxt(fh, corners, fmt="f %d/%d %d/%d %d/%d")
+        for name, rows in (runs if mtl else [(None, slice(None))]):
+            if name is not None:
+                fh.write(f"usemtl {name}\n")
+            np.savetxt(fh, corners[rows], fmt="f %d/%d %d/%d %d/%d")

@@ -1,10 +1,16 @@
-"""``--texture IMG``: an image mapped on the skin by its mesh file's UVs, in every export.
+"""``--texture``: images mapped on the skin by its mesh file's UVs, in every export.
 
-jellysim does not read a mesh file's materials (docs/visual.md); an artist names the texture
-image instead, and the exports reference it (USD: a ``UsdUVTexture`` reading ``st`` into the
-``UsdPreviewSurface``'s colour, the path relative to the stage; OBJ sequences: a ``.mtl`` with
-``map_Kd``), or embed it (glTF: ``baseColorTexture``).  The material is then opaque, its base
-colour the image's, instead of the renders' translucent red.
+jellysim does not read a mesh file's material images (docs/visual.md); an artist names them
+instead: one image for the whole skin (``--texture IMAGE``), or one per material of a file
+of several (``--texture NAME=IMAGE``, the names the file gives its materials).  The exports
+reference them (USD: a ``UsdUVTexture`` reading ``st`` into a ``UsdPreviewSurface``'s colour,
+the path relative to the stage; OBJ sequences: a ``.mtl`` with ``map_Kd``), or embed them
+(glTF: ``baseColorTexture``).  A textured material is opaque, its base colour the image's;
+the others keep the renders' translucent red.
+
+A skin of several materials (:class:`~jellysim.geometry.texcoords.Materials`) is exported
+as one group of faces per material (USD ``GeomSubset``s of the ``materialBind`` family, OBJ
+``usemtl`` runs, one glTF primitive each), each bound to a material of its own name.
 """
 from __future__ import annotations
 
@@ -13,30 +19,79 @@ from pathlib import Path
 
 from ..errors import JellysimError
 
-__all__ = ["TEXTURE_SUFFIXES", "relative_to", "texture_file"]
+__all__ = ["TEXTURE_SUFFIXES", "face_groups", "parse_textures", "relative_to", "textures_of"]
 
 TEXTURE_SUFFIXES = {".png": "image/png", ".jpg": "image/jpeg", ".jpeg": "image/jpeg"}
 """The image files a texture may be, with their MIME types (the two glTF allows)."""
 
 
-def texture_file(traj, texture) -> Path | None:
-    """``texture`` checked: an existing PNG or JPEG file, for a skin with texture coordinates
-    (``None`` stays ``None``)."""
-    if texture is None:
+def parse_textures(specs) -> dict | None:
+    """``--texture`` values: ``IMAGE`` (the whole skin, key ``None``) or ``NAME=IMAGE`` (one
+    material), as ``{name or None: path}``; ``None`` when none is given."""
+    if not specs:
         return None
+    out = {}
+    for spec in specs:
+        name, sep, image = str(spec).partition("=")
+        key, path = (name, image) if sep and not Path(spec).is_file() else (None, spec)
+        if key in out:
+            raise JellysimError(f"--texture {spec}: " + ("a second image for the whole skin; "
+                                "give one, or NAME=IMAGE per material" if key is None else
+                                f"a second image for material {key!r}"))
+        out[key] = path
+    return out
+
+
+def face_groups(traj):
+    """The skin's faces by material: ``[(name, face indices)]``; one group of every face,
+    named ``jello``, for a skin of one material (or without UVs)."""
+    import numpy as np
+
+    from .usd import surface_of
+
+    _, faces = surface_of(traj)
+    materials = None if traj.skin is None else traj.skin.materials
+    if materials is None:
+        return [("jello", np.arange(len(faces)))]
+    return [(name, np.flatnonzero(materials.index == k))
+            for k, name in enumerate(materials.names)]
+
+
+def textures_of(traj, texture) -> dict:
+    """``texture`` (an image for the whole skin, a ``{material name or None: image}``
+    mapping, or ``None``) checked, as ``{group name: Path}`` over :func:`face_groups`'
+    names: existing PNG or JPEG files, named materials that the skin has, and a skin with
+    texture coordinates."""
+    if texture is None:
+        return {}
     from .usd import surface_uv
 
-    path = Path(texture)
-    if path.suffix.lower() not in TEXTURE_SUFFIXES:
-        raise JellysimError(f"{path}: a texture must be a .png or .jpg image (what glTF and "
-                            "USD previews read)")
-    if not path.is_file():
-        raise JellysimError(f"{path}: texture image not found")
-    if surface_uv(traj) is None:
-        raise JellysimError(f"{path}: the run's skin has no texture coordinates to map it with "
-                            "(its mesh file had none, or they could not be read: the build or "
-                            "the run said so); a texture needs the mesh's UVs")
-    return path
+    mapping = texture if isinstance(texture, dict) else {None: texture}
+    groups = [name for name, _ in face_groups(traj)]
+    for name in mapping:
+        if name is not None and name not in groups:
+            raise JellysimError(f"--texture {name}=...: the skin has no material {name!r}; "
+                                + (f"its materials are {', '.join(map(repr, groups))}"
+                                   if groups != ["jello"] else "it has one material: give "
+                                   "--texture IMAGE"))
+    out = {}
+    for name, image in mapping.items():
+        path = Path(image)
+        if path.suffix.lower() not in TEXTURE_SUFFIXES:
+            raise JellysimError(f"{path}: a texture must be a .png or .jpg image (what glTF "
+                                "and USD previews read)")
+        if not path.is_file():
+            raise JellysimError(f"{path}: texture image not found")
+        if surface_uv(traj) is None:
+            raise JellysimError(f"{path}: the run's skin has no texture coordinates to map it "
+                                "with (its mesh file had none, or they could not be read: "
+                                "the build or the run said so); a texture needs the mesh's UVs")
+        if name is not None:
+            out[name] = path                     # (a material's own image wins)
+        else:
+            for group in groups:
+                out.setdefault(group, path)
+    return out
 
 
 def relative_to(texture: Path, folder) -> str:

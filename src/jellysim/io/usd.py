@@ -120,22 +120,23 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return n / np.where(length > 0, length, 1.0)[:, None]
 
 
-def _preview_material(stage, mesh, name: str, texture: str | None = None):
-    """A UsdPreviewSurface of the renders' jello red, translucent, bound to ``mesh``; with
-    ``texture`` (an asset path) opaque, its colour read from the image at the ``st`` UVs."""
+def _preview_material(stage, prim, where: str, texture: str | None = None):
+    """A UsdPreviewSurface (the material prim ``where``) of the renders' jello red,
+    translucent, bound to ``prim`` (the mesh, or a face subset of it); with ``texture`` (an
+    asset path) opaque, its colour read from the image at the ``st`` UVs."""
     from pxr import Gf, Sdf, UsdShade
 
-    material = UsdShade.Material.Define(stage, Sdf.Path(f"/{name}/jello_material"))
-    shader = UsdShade.Shader.Define(stage, Sdf.Path(f"/{name}/jello_material/surface"))
+    material = UsdShade.Material.Define(stage, Sdf.Path(where))
+    shader = UsdShade.Shader.Define(stage, Sdf.Path(f"{where}/surface"))
     shader.CreateIdAttr("UsdPreviewSurface")
     colour = shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
     if texture is None:
         colour.Set(Gf.Vec3f(0.85, 0.12, 0.24))
     else:
-        reader = UsdShade.Shader.Define(stage, Sdf.Path(f"/{name}/jello_material/st"))
+        reader = UsdShade.Shader.Define(stage, Sdf.Path(f"{where}/st"))
         reader.CreateIdAttr("UsdPrimvarReader_float2")
         reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
-        image = UsdShade.Shader.Define(stage, Sdf.Path(f"/{name}/jello_material/texture"))
+        image = UsdShade.Shader.Define(stage, Sdf.Path(f"{where}/texture"))
         image.CreateIdAttr("UsdUVTexture")
         image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(texture))
         image.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set("repeat")
@@ -147,15 +148,16 @@ def _preview_material(stage, mesh, name: str, texture: str | None = None):
     shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.25)
     shader.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.34)  # (mostly water)
     material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
-    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+    UsdShade.MaterialBindingAPI.Apply(prim).Bind(material)
 
 
 def export_usd(traj, path, *, fps: float | None = None, name: str = "jello",
                overwrite: bool = False, texture=None) -> Path:
     """Write the skin of a loaded trajectory as a USD stage with time-sampled points (an
-    existing ``path`` is refused unless ``overwrite``); ``texture``: a PNG/JPEG image its
-    material shows at the skin's UVs (:mod:`jellysim.io.texture`), named relative to the
-    stage."""
+    existing ``path`` is refused unless ``overwrite``); ``texture``: a PNG/JPEG image the
+    material shows at the skin's UVs, or ``{material name: image}`` for a skin of several
+    materials (:mod:`jellysim.io.texture`: their faces are ``GeomSubset``s, each bound to a
+    material of its own), named relative to the stage."""
     try:
         from pxr import Gf, Sdf, Usd, UsdGeom, Vt
     except ImportError as exc:
@@ -168,10 +170,10 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello",
 
     guard_file(path, overwrite, flag="overwrite=True")
     frames, faces = surface_of(traj)
-    from .texture import relative_to, texture_file
+    from .texture import face_groups, relative_to, textures_of
 
-    texture = texture_file(traj, texture)
-    asset = None if texture is None else relative_to(texture, path.parent)
+    images = {k: relative_to(p, path.parent) for k, p in textures_of(traj, texture).items()}
+    groups = face_groups(traj)
     fps = (frame_rate(traj.times) or 30.0) if fps is None else float(fps)  # real time
     with atomic_path(path) as tmp:
         tmp.unlink()
@@ -192,7 +194,18 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello",
         mesh.CreateDoubleSidedAttr(True)  # as the glTF export: an open skin shows its inside
         mesh.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(0.85, 0.12, 0.24)]))
         mesh.CreateDisplayOpacityAttr(Vt.FloatArray([0.7]))
-        _preview_material(stage, mesh, name, asset)
+        if len(groups) == 1:  # one material for the mesh
+            _preview_material(stage, mesh.GetPrim(), f"/{name}/jello_material",
+                              images.get(groups[0][0]))
+        else:  # a face subset per material of the file, each with its own
+            from pxr import Tf
+
+            for group, rows in groups:
+                subset = UsdGeom.Subset.CreateGeomSubset(
+                    mesh, Tf.MakeValidIdentifier(group), UsdGeom.Tokens.face,
+                    Vt.IntArray(rows.tolist()), "materialBind", UsdGeom.Tokens.partition)
+                _preview_material(stage, subset.GetPrim(), f"/{name}/materials/"
+                                  f"{Tf.MakeValidIdentifier(group)}", images.get(group))
         uv = surface_uv(traj)
         if uv is not None:  # per face corner: a seam vertex has one UV on each side
             st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(
