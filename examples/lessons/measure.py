@@ -7,7 +7,9 @@
     python examples/lessons/measure.py wobble  out/wobble     # sway frequency
     python examples/lessons/measure.py decay   out/wobble_damped   # damping ratio of the sway
 
-Everything is read from the run's saved trajectory through ``jellysim.plot.diagnostics``
+It reads runs made by ``jellysim run`` (or ``jellysim.runner.run_scene``): mu, E and the
+push come from the run's scene.  Everything is read from the run's saved trajectory through
+``jellysim.plot.diagnostics``
 (the same numbers as ``jellysim export RUN -o table.csv``): the centre of mass, its velocity
 and how far it moved along the ground, per frame.  The formulas take their inputs (v0, mu, g,
 E, nu, rho, the cube's side) from the run itself.  Each function returns
