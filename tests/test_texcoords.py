@@ -458,3 +458,17 @@ def test_texture_names_are_checked(two_material_run, tmp_path):
                                    "--texture", f"a={out / 'a.png'}", "--texture",
                                    f"b={out / 'b.png'}"])
     assert res.exit_code == 0, res.output
+
+
+def test_material_names_become_distinct_identifiers():
+    """USD prim names and OBJ usemtl allow no spaces or dots: names are mapped to distinct
+    identifiers (a clash after the mapping gets a suffix)."""
+    import re
+
+    from jellysim.io.texture import identifiers
+
+    names = ["Skin Mat.001", "a b", "a_b", "3d", "", "a b"]
+    ids = identifiers(names)
+    assert ids[0] == "Skin_Mat_001" and ids[1] == "a_b"
+    assert len(set(ids)) == len(ids)
+    assert all(re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", i) for i in ids)

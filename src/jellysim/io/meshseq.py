@@ -36,7 +36,7 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     if fmt not in ("obj", "ply"):
         raise JellysimError(f"mesh sequence format must be 'obj' or 'ply', got '{fmt}'")
     frames, faces = surface_of(traj)
-    from .texture import face_groups, relative_to, textures_of
+    from .texture import face_groups, identifiers, relative_to, textures_of
 
     if texture is not None and fmt != "obj":
         raise JellysimError("a texture goes with OBJ frames (their .mtl names it); PLY files "
@@ -55,7 +55,7 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     pattern = f"{stem}_[0-9]*.{fmt}"
     guard_folder(directory, [pattern], overwrite, flag="overwrite=True")
     mtl = f"{stem}.mtl" if uv is not None and (images or len(groups) > 1) else None
-    runs = [("_".join(name.split()), rows) for name, rows in groups]   # (no spaces in OBJ)
+    runs = list(zip(identifiers(n for n, _ in groups), (r for _, r in groups)))  # (no spaces)
     with staged_output(directory, [pattern] + ([mtl] if mtl else [])) as stage:
         if mtl:
             (stage / mtl).write_text("# written by jellysim: the skin's materials\n" + "".join(

@@ -19,7 +19,8 @@ from pathlib import Path
 
 from ..errors import JellysimError
 
-__all__ = ["TEXTURE_SUFFIXES", "face_groups", "parse_textures", "relative_to", "textures_of"]
+__all__ = ["TEXTURE_SUFFIXES", "face_groups", "identifiers", "parse_textures", "relative_to",
+           "textures_of"]
 
 TEXTURE_SUFFIXES = {".png": "image/png", ".jpg": "image/jpeg", ".jpeg": "image/jpeg"}
 """The image files a texture may be, with their MIME types (the two glTF allows)."""
@@ -55,6 +56,24 @@ def face_groups(traj):
         return [("jello", np.arange(len(faces)))]
     return [(name, np.flatnonzero(materials.index == k))
             for k, name in enumerate(materials.names)]
+
+
+def identifiers(names) -> list[str]:
+    """``names`` as distinct identifiers (letters, digits, ``_``; not starting with a digit),
+    for formats that allow no others (USD prim names, OBJ ``usemtl``): ``Skin Mat.001`` ->
+    ``Skin_Mat_001``; a clash gets ``_2``, ``_3`` ..."""
+    import re
+
+    out = []
+    for name in names:
+        base = re.sub(r"\W", "_", str(name), flags=re.ASCII) or "material"
+        base = "_" + base if base[0].isdigit() else base
+        ident, k = base, 1
+        while ident in out:
+            k += 1
+            ident = f"{base}_{k}"
+        out.append(ident)
+    return out
 
 
 def textures_of(traj, texture) -> dict:

@@ -198,14 +198,14 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello",
             _preview_material(stage, mesh.GetPrim(), f"/{name}/jello_material",
                               images.get(groups[0][0]))
         else:  # a face subset per material of the file, each with its own
-            from pxr import Tf
+            from .texture import identifiers
 
-            for group, rows in groups:
+            for (group, rows), ident in zip(groups, identifiers(g for g, _ in groups)):
                 subset = UsdGeom.Subset.CreateGeomSubset(
-                    mesh, Tf.MakeValidIdentifier(group), UsdGeom.Tokens.face,
-                    Vt.IntArray(rows.tolist()), "materialBind", UsdGeom.Tokens.partition)
-                _preview_material(stage, subset.GetPrim(), f"/{name}/materials/"
-                                  f"{Tf.MakeValidIdentifier(group)}", images.get(group))
+                    mesh, ident, UsdGeom.Tokens.face, Vt.IntArray(rows.tolist()),
+                    "materialBind", UsdGeom.Tokens.partition)
+                _preview_material(stage, subset.GetPrim(), f"/{name}/materials/{ident}",
+                                  images.get(group))
         uv = surface_uv(traj)
         if uv is not None:  # per face corner: a seam vertex has one UV on each side
             st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(
