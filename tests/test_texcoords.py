@@ -300,7 +300,8 @@ def test_a_texture_is_carried_into_each_export(cube_run, tmp_path):
     assert lines.index("usemtl jello") < min(k for k, w in enumerate(lines) if w[:2] == "f ")
     (line,) = [w for w in (tmp_path / "seq" / "skin.mtl").read_text().splitlines()
                if w.startswith("map_Kd ")]
-    assert Path(os.path.normpath(tmp_path / "seq" / line.split(" ", 1)[1])) == image
+    copy = tmp_path / "seq" / line.split(" ", 1)[1]     # (copied beside the frames)
+    assert copy.parent == tmp_path / "seq" and copy.read_bytes() == image.read_bytes()
 
     pytest.importorskip("pxr", reason="usd-core (the usd extra) is not installed")
     from pxr import Usd, UsdShade
@@ -386,8 +387,6 @@ def test_a_skin_of_two_materials_exports_a_group_per_material(two_material_run, 
     """The subdivided skin keeps each face's material (its parent's); OBJ frames write one
     usemtl run per material, glTF one primitive each, USD a GeomSubset each (a partition of
     the faces), each bound to its own material; NAME=IMAGE gives one material its image."""
-    import os
-
     from PIL import Image
 
     from jellysim.io.gltf import _accessor, export_glb, read_glb
@@ -414,7 +413,8 @@ def test_a_skin_of_two_materials_exports_a_group_per_material(two_material_run, 
     mtl = (tmp_path / "seq" / "skin.mtl").read_text()
     (kd,) = [w for w in mtl.splitlines() if w.startswith("map_Kd ")]
     assert mtl.index("newmtl b") < mtl.index(kd)            # b's image; a keeps the red
-    assert Path(os.path.normpath(tmp_path / "seq" / kd.split(" ", 1)[1])) == red
+    copy = tmp_path / "seq" / kd.split(" ", 1)[1]       # (copied beside the frames)
+    assert copy.parent == tmp_path / "seq" and copy.read_bytes() == red.read_bytes()
 
     doc, binary = read_glb(export_glb(traj, tmp_path / "a.glb", texture={"b": red}))
     prims = doc["meshes"][0]["primitives"]
@@ -448,7 +448,11 @@ def test_texture_names_are_checked(two_material_run, tmp_path):
 
     from jellysim.cli import cli
 
-    _, out = two_material_run
+    traj, out = two_material_run
+    res = CliRunner().invoke(cli, ["inspect", str(out / "run")])   # (the names to give)
+    (row,) = [w for w in res.output.splitlines() if w.strip().startswith("materials ")]
+    for k, name in enumerate(traj.skin.materials.names):
+        assert f"'{name}' ({(traj.skin.materials.index == k).sum()} faces)" in row
     res = CliRunner().invoke(cli, ["export", str(out / "run"), "-o", str(tmp_path / "a.glb"),
                                    "--texture", f"c={out / 'a.png'}"])
     assert res.exit_code != 0

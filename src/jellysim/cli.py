@@ -418,6 +418,8 @@ def _skin_row(body) -> str:
 
     v, f = body.skin_vertices, body.skin_faces
     uv = ", with its texture coordinates" if body.skin_uv is not None else ""
+    if body.materials is not None:
+        uv += ", materials " + ", ".join(map(repr, body.materials.names))
     row = f"{len(v)} vertices, {len(f)} faces{uv} (the mesh it was built from"
     fine_v, fine_f, _, _ = _fine_enough(v, f, body.points,
                                         body_tets(body.points, body.springs, body.tets))

@@ -80,4 +80,8 @@ def trajectory_rows(traj) -> list[tuple[str, str]]:
         rows.append(("skin", f"{s.vertex_count} vertices, {len(s.faces)} faces" + (
             ", with texture coordinates (export --texture IMAGE maps an image)"
             if s.uv is not None else ", no texture coordinates")))
+        if s.materials is not None:
+            rows.append(("materials", ", ".join(
+                f"{n!r} ({int((s.materials.index == k).sum())} faces)"
+                for k, n in enumerate(s.materials.names)) + ": --texture NAME=IMAGE each"))
     return rows

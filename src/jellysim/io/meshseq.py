@@ -26,9 +26,10 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     stay mixed with the new ones) is refused unless ``overwrite``; then the old files are
     replaced only once every new frame is written (an interrupted export keeps them).
     ``texture`` (OBJ only): a PNG/JPEG image, or ``{material name: image}`` for a skin of
-    several materials, named (relative to the folder) by a ``<stem>.mtl`` that every frame
-    uses; a skin of several materials writes its faces in one ``usemtl`` run per material
-    (:mod:`jellysim.io.texture`)."""
+    several materials, copied into the folder and named by a ``<stem>.mtl`` that every frame
+    uses (so the folder holds all a DCC tool needs, and tools that read only files beside the
+    .mtl find them); a skin of several materials writes its faces in one ``usemtl`` run per
+    material (:mod:`jellysim.io.texture`)."""
     import meshio
 
 
@@ -36,7 +37,7 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     if fmt not in ("obj", "ply"):
         raise JellysimError(f"mesh sequence format must be 'obj' or 'ply', got '{fmt}'")
     frames, faces = surface_of(traj)
-    from .texture import face_groups, identifiers, relative_to, textures_of
+    from .texture import face_groups, identifiers, textures_of
 
     if texture is not None and fmt != "obj":
         raise JellysimError("a texture goes with OBJ frames (their .mtl names it); PLY files "
@@ -56,10 +57,20 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     guard_folder(directory, [pattern], overwrite, flag="overwrite=True")
     mtl = f"{stem}.mtl" if uv is not None and (images or len(groups) > 1) else None
     runs = list(zip(identifiers(n for n, _ in groups), (r for _, r in groups)))  # (no spaces)
-    with staged_output(directory, [pattern] + ([mtl] if mtl else [])) as stage:
+    copies = {}                                  # image -> its file name in the folder
+    for image in images.values():
+        if image not in copies:
+            taken = image.name in copies.values()
+            copies[image] = f"{stem}_{len(copies)}_{image.name}" if taken else image.name
+    with staged_output(directory, [pattern] + ([mtl] if mtl else []) + list(copies.values())
+                       ) as stage:
+        for image, copy in copies.items():
+            import shutil
+
+            shutil.copyfile(image, stage / copy)
         if mtl:
             (stage / mtl).write_text("# written by jellysim: the skin's materials\n" + "".join(
-                f"newmtl {run}\n" + (f"map_Kd {relative_to(images[name], directory)}\n"
+                f"newmtl {run}\n" + (f"map_Kd {copies[images[name]]}\n"
                                      if name in images else "Kd 0.85 0.12 0.24\nd 0.7\n")
                 for (run, _), (name, _) in zip(runs, groups)), encoding="utf-8")
         for k, verts in enumerate(frames):

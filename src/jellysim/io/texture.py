@@ -4,8 +4,8 @@ jellysim does not read a mesh file's material images (docs/visual.md); an artist
 instead: one image for the whole skin (``--texture IMAGE``), or one per material of a file
 of several (``--texture NAME=IMAGE``, the names the file gives its materials).  The exports
 reference them (USD: a ``UsdUVTexture`` reading ``st`` into a ``UsdPreviewSurface``'s colour,
-the path relative to the stage; OBJ sequences: a ``.mtl`` with ``map_Kd``), or embed them
-(glTF: ``baseColorTexture``).  A textured material is opaque, its base colour the image's;
+the path relative to the stage; OBJ sequences: the image copied beside the frames and named
+by a ``.mtl`` with ``map_Kd``), or embed them (glTF: ``baseColorTexture``).  A textured material is opaque, its base colour the image's;
 the others keep the renders' translucent red.
 
 A skin of several materials (:class:`~jellysim.geometry.texcoords.Materials`) is exported
@@ -35,6 +35,8 @@ def parse_textures(specs) -> dict | None:
     for spec in specs:
         name, sep, image = str(spec).partition("=")
         key, path = (name, image) if sep and not Path(spec).is_file() else (None, spec)
+        if not str(path).strip():
+            raise JellysimError(f"--texture {spec}: no image after '='; give NAME=IMAGE")
         if key in out:
             raise JellysimError(f"--texture {spec}: " + ("a second image for the whole skin; "
                                 "give one, or NAME=IMAGE per material" if key is None else

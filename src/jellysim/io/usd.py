@@ -135,7 +135,7 @@ def _preview_material(stage, prim, where: str, texture: str | None = None):
     else:
         reader = UsdShade.Shader.Define(stage, Sdf.Path(f"{where}/st"))
         reader.CreateIdAttr("UsdPrimvarReader_float2")
-        reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
+        reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
         image = UsdShade.Shader.Define(stage, Sdf.Path(f"{where}/texture"))
         image.CreateIdAttr("UsdUVTexture")
         image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(texture))
