@@ -68,9 +68,9 @@ def attach_skin(body, mesh) -> None:
 def trimesh_corner_uv(trimesh, loaded, path, name: str):
     """``(uv, materials)``: the UVs of each corner of ``loaded``'s faces (f, 3, 2), or
     ``None`` when the file has none, and its faces' :class:`Materials` when it has several
-    (else ``None``).  ``loaded`` is the file read as one mesh; its own UVs are not used: trimesh merges a
-    file of several materials into one mesh by packing their textures into a new atlas and
-    rescaling the UVs into it, and keeps one UV per seam vertex of an OBJ read in order.  So
+    (else ``None``).  ``loaded`` is the file read as one mesh; its own UVs are not used:
+    trimesh merges a file of several materials into one mesh by packing their textures into
+    a new atlas and rescaling the UVs into it, and keeps one UV per seam vertex of an OBJ read in order.  So
     the file is read once more as its parts (one per material, each split along its seams, in
     the order the merged mesh has them), and their corners are taken where they are the same
     points as ``loaded``'s.  UVs that cannot be read are said (``name``: the file) and dropped,

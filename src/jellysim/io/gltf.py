@@ -48,7 +48,7 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
 
     guard_file(path, overwrite, flag="overwrite=True")
     frames, faces = surface_of(traj)
-    from .texture import TEXTURE_SUFFIXES, face_groups, textures_of
+    from .texture import JELLO_RGBA, TEXTURE_SUFFIXES, face_groups, textures_of
 
     images, groups = textures_of(traj, texture), face_groups(traj)
     times = np.asarray(traj.times, dtype=np.float64)
@@ -125,7 +125,7 @@ def export_glb(traj, path, *, max_frames: int | None = None, overwrite: bool = F
         materials.append({"name": name, "doubleSided": True,
                           "alphaMode": "BLEND" if image is None else "OPAQUE",
                           "pbrMetallicRoughness": {
-                              "baseColorFactor": [0.85, 0.12, 0.24, 0.7] if image is None
+                              "baseColorFactor": list(JELLO_RGBA) if image is None
                               else [1.0, 1.0, 1.0, 1.0],
                               **({} if image is None else {"baseColorTexture": {
                                   "index": embedded.index(image), "texCoord": 0}}),

@@ -37,7 +37,9 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     if fmt not in ("obj", "ply"):
         raise JellysimError(f"mesh sequence format must be 'obj' or 'ply', got '{fmt}'")
     frames, faces = surface_of(traj)
-    from .texture import face_groups, identifiers, textures_of
+    import shutil
+
+    from .texture import JELLO_RGBA, face_groups, identifiers, textures_of
 
     if texture is not None and fmt != "obj":
         raise JellysimError("a texture goes with OBJ frames (their .mtl names it); PLY files "
@@ -65,13 +67,12 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     with staged_output(directory, [pattern] + ([mtl] if mtl else []) + list(copies.values())
                        ) as stage:
         for image, copy in copies.items():
-            import shutil
-
             shutil.copyfile(image, stage / copy)
         if mtl:
             (stage / mtl).write_text("# written by jellysim: the skin's materials\n" + "".join(
                 f"newmtl {run}\n" + (f"map_Kd {copies[images[name]]}\n"
-                                     if name in images else "Kd 0.85 0.12 0.24\nd 0.7\n")
+                                     if name in images else "Kd {:g} {:g} {:g}\nd {:g}\n"
+                                     .format(*JELLO_RGBA))
                 for (run, _), (name, _) in zip(runs, groups)), encoding="utf-8")
         for k, verts in enumerate(frames):
             if uv is not None:

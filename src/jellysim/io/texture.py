@@ -5,8 +5,9 @@ instead: one image for the whole skin (``--texture IMAGE``), or one per material
 of several (``--texture NAME=IMAGE``, the names the file gives its materials).  The exports
 reference them (USD: a ``UsdUVTexture`` reading ``st`` into a ``UsdPreviewSurface``'s colour,
 the path relative to the stage; OBJ sequences: the image copied beside the frames and named
-by a ``.mtl`` with ``map_Kd``), or embed them (glTF: ``baseColorTexture``).  A textured material is opaque, its base colour the image's;
-the others keep the renders' translucent red.
+by a ``.mtl`` with ``map_Kd``), or embed them (glTF: ``baseColorTexture``).  A textured
+material is opaque, its base colour the image's; the others keep the renders' translucent red
+(:data:`JELLO_RGBA`).
 
 A skin of several materials (:class:`~jellysim.geometry.texcoords.Materials`) is exported
 as one group of faces per material (USD ``GeomSubset``s of the ``materialBind`` family, OBJ
@@ -19,9 +20,11 @@ from pathlib import Path
 
 from ..errors import JellysimError
 
-__all__ = ["TEXTURE_SUFFIXES", "face_groups", "identifiers", "parse_textures", "relative_to",
+__all__ = ["JELLO_RGBA", "TEXTURE_SUFFIXES", "face_groups", "identifiers", "parse_textures", "relative_to",
            "textures_of"]
 
+JELLO_RGBA = (0.85, 0.12, 0.24, 0.7)
+"""The exports' untextured material: the renders' jello red (linear RGB) and its opacity."""
 TEXTURE_SUFFIXES = {".png": "image/png", ".jpg": "image/jpeg", ".jpeg": "image/jpeg"}
 """The image files a texture may be, with their MIME types (the two glTF allows)."""
 

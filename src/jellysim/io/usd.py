@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import JellysimError
 from .atomic import atomic_path
+from .texture import JELLO_RGBA
 from .timing import frame_rate
 
 __all__ = ["export_usd", "surface_of", "surface_uv", "vertex_normals"]
@@ -131,7 +132,7 @@ def _preview_material(stage, prim, where: str, texture: str | None = None):
     shader.CreateIdAttr("UsdPreviewSurface")
     colour = shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
     if texture is None:
-        colour.Set(Gf.Vec3f(0.85, 0.12, 0.24))
+        colour.Set(Gf.Vec3f(*JELLO_RGBA[:3]))
     else:
         reader = UsdShade.Shader.Define(stage, Sdf.Path(f"{where}/st"))
         reader.CreateIdAttr("UsdPrimvarReader_float2")
@@ -144,7 +145,8 @@ def _preview_material(stage, prim, where: str, texture: str | None = None):
         image.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(
             reader.ConnectableAPI(), "result")
         colour.ConnectToSource(image.CreateOutput("rgb", Sdf.ValueTypeNames.Float3))
-    shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(0.7 if texture is None else 1.0)
+    shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(
+        JELLO_RGBA[3] if texture is None else 1.0)
     shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.25)
     shader.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.34)  # (mostly water)
     material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
@@ -192,8 +194,8 @@ def export_usd(traj, path, *, fps: float | None = None, name: str = "jello",
         mesh.CreateFaceVertexIndicesAttr(Vt.IntArray(faces.ravel().tolist()))
         mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
         mesh.CreateDoubleSidedAttr(True)  # as the glTF export: an open skin shows its inside
-        mesh.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(0.85, 0.12, 0.24)]))
-        mesh.CreateDisplayOpacityAttr(Vt.FloatArray([0.7]))
+        mesh.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(*JELLO_RGBA[:3])]))
+        mesh.CreateDisplayOpacityAttr(Vt.FloatArray([JELLO_RGBA[3]]))
         if len(groups) == 1:  # one material for the mesh
             _preview_material(stage, mesh.GetPrim(), f"/{name}/jello_material",
                               images.get(groups[0][0]))
