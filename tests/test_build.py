@@ -506,3 +506,18 @@ def test_a_delaunay_body_with_far_more_points_than_asked_says_why():
         coarse = build_body(mesh, points=500, connect="marching", size=0.1)
     assert coarse.point_count < 1000
     assert not [w for w in caught if "asked" in str(w.message)]
+
+
+def test_a_radius_body_with_many_surface_samples_says_its_point_count():
+    """Body.from_mesh(connect='radius') adds surface samples (session 24's default): on a
+    slender shape they outnumber the points asked (Spot: 600 asked, 3,297 made, unsaid in
+    session 26's trial): said, with the fix."""
+    import trimesh
+
+    import jellysim as js
+
+    bar = trimesh.creation.box(extents=(0.2, 0.02, 0.02))
+    with pytest.warns(UserWarning, match=r"points for the 60 asked \(its surface samples"):
+        body = js.Body.from_mesh((bar.vertices, bar.faces), size=None, points=60,
+                                 connect="radius", base=(0, 0, 0))
+    assert body.point_count > 120

@@ -92,7 +92,7 @@ def _mesh_of(mesh, size: float | None = None):
     else:
         raise BuildError(f"mesh must be a file path, a Mesh, a (vertices, faces) pair or an "
                          f"object with .vertices and .faces, got {type(mesh).__name__}")
-    if size is None:
+    if size is None:  # (the mesh as it is)
         return m
     if not (np.isfinite(size) and size > 0):
         raise BuildError(f"size must be a positive length in metres, got {size}")
@@ -117,8 +117,7 @@ def shell_overlap(mesh, query=None, *, seed: int = 0) -> tuple[bool, float, floa
     """For a closed mesh of several shells: (do the shells overlap or nest so that the inside
     rule disagrees with the signed volume?, the inside rule's volume, the signed volume).
     ``None`` for a single shell or an open mesh (nothing to compare)."""
-    d = mesh.defects
-    if not d.watertight or d.shells < 2:
+    if not (d := mesh.defects).watertight or d.shells < 2:
         return None
     from .geometry.inside import InsideQuery
 
@@ -265,18 +264,20 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
 
 
 def _say_point_count(body: Body, name: str, connect, points: int, mesh) -> None:
-    """Warn when a ``delaunay`` body has over twice the points asked: it keeps every vertex
-    of the surface (a new user asked Spot for 500 points and got 3,206, unsaid; ``tetgen``
-    says the same in :func:`_build_body`)."""
+    """Warn when a ``delaunay`` body (all surface vertices kept: Spot, 500 asked, 3,206 made)
+    or a radius one with surface samples has over twice the points asked (tetgen: below)."""
     connect = getattr(connect, "value", connect)
-    if connect != "delaunay" or points is None or body.point_count <= 2 * points:
+    radius = connect == "radius" and body.meta.get("surface_samples")
+    if (connect != "delaunay" and not radius) or not points or body.point_count <= 2 * points:
         return
-    nv = len(mesh.vertices) if mesh is not None else 0
-    why = f"the mesh's {nv:,} vertices are all kept"
+    why, fix = (f"the mesh's {len(mesh.vertices) if mesh is not None else 0:,} vertices are "
+                "all kept", "a mesh with fewer vertices") if not radius else (  # (600 -> 3,297)
+        "its surface samples, one spacing apart on the mesh, come on top of them: a slender or "
+        "detailed shape has much surface for its volume", "surface_samples=False (exactly the "
+        "points asked, the report's way)")
     warnings.warn(f"{name}: the {connect!r} body has {body.point_count:,} points for the "
                   f"{points:,} asked ({why}); for a coarser body use connect='marching' (its "
-                  f"points follow points=) or a mesh with fewer vertices", UserWarning,
-                  stacklevel=3)
+                  f"points follow points=) or {fix}", UserWarning, stacklevel=3)
 
 
 def _say_parts(body: Body, name: str) -> None:

@@ -67,7 +67,10 @@ def select_points(points: np.ndarray, *, box=None, sphere=None, indices=None,
         except (TypeError, ValueError):
             raise SceneError(f"{what}: box must be [[x0, y0, z0], [x1, y1, z1]] in metres") \
                 from None
-        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))) or np.any(lo > hi):
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+            raise SceneError(f"{what}: box corners must be finite numbers (m), got lower "
+                             f"{lo.tolist()}, upper {hi.tolist()}")
+        if np.any(lo > hi):
             raise SceneError(f"{what}: box lower {lo.tolist()} must not exceed upper "
                              f"{hi.tolist()} in any axis (m); swap them")
         out = np.flatnonzero(np.all((p >= lo) & (p <= hi), axis=1))
@@ -184,6 +187,14 @@ class Handles:
         return cls(np.ones(n), np.zeros((n, 3)), np.zeros(n, dtype=np.int8), np.zeros((n, 3)),
                    np.zeros((n, 3)), np.zeros((n, 3)), np.array([-1.0, 0, 0, 0, 0, 0]),
                    np.zeros(n), np.zeros((n, 3)))
+
+    def clear(self) -> None:
+        """Drop every handle, in place (the arrays the kernels hold stay the same objects)."""
+        empty = Handles.empty(len(self.pinned))
+        for name in ("gravity_scale", "point_force", "pinned", "pin_anchor", "pin_from",
+                     "pin_to", "drag", "drag_weight", "drag_offset"):
+            getattr(self, name)[...] = getattr(empty, name)
+        self.paths.clear()
 
     @property
     def active(self) -> bool:

@@ -31,7 +31,11 @@ class InternalState:
         list/tuple of arrays as ``name.i`` (``_cg.0``), ``_last`` when set, and the CG counters.
         A new private array is therefore checkpointed without touching this method, unless
         named in :attr:`_SCRATCH`.  With :attr:`state` (x, v, a, t, step) it is everything a
-        bitwise resume needs."""
+        bitwise resume needs, except the handles (pins and their paths, point forces, gravity
+        scales, the drag spring): a simulator restored from it keeps the handles it has, so
+        give it the same ones (a scene's ``[[handle]]`` tables are re-applied on ``--resume``;
+        a pin's path re-given after its start time is refused: pin with the path's remaining
+        keyframes).  :meth:`reset` starts over instead."""
         out: dict[str, np.ndarray] = {}
         for name, value in vars(self).items():
             if not name.startswith("_") or name in self._SCRATCH:

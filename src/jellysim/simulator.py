@@ -22,6 +22,7 @@ from .params import (MAX_ALL_PAIRS_POINTS, GroundModel, GroundParams, ImplicitPa
                      ImplicitScheme, Integrator, ProvotOrder, ProvotPairs, ProvotParams)
 from .handles import HandleMethods
 from .physical_stepping import PhysicalStepping, blowup_error, travel_error
+from .sim_control import Control
 from .sim_state import InternalState
 from .physics.contact import start_checks
 from .stability import (MAX_AUTO_SUBSTEPS, StabilityEstimate, estimate_stability,  # noqa: F401
@@ -110,7 +111,7 @@ def auto_threads(point_count: int, spring_count: int | None = None) -> int:
     return 1 if load > 2.0 * (os.cpu_count() or 1) else most
 
 
-class Simulator(HandleMethods, PhysicalStepping, InternalState):
+class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
     """Time-steps one :class:`~jellysim.model.Model`.
 
     Parameters
@@ -361,6 +362,7 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState):
         self.stability: StabilityEstimate | None = None
         if check_stability and not self.physical:
             self.check_stability()
+        self._remember_start()  # (what reset() restores)
 
     def _springs_auto_substeps(self, model, dt) -> int:
         """:func:`springs_auto_substeps`, its estimate kept for :meth:`check_stability`."""
@@ -401,6 +403,7 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState):
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
             raise SceneError(f"advance(steps): steps must be a whole number >= 0, got {steps!r}")
         check_state(self.state, self.model.point_count, "advance")
+        self._check_below_ground()  # (a state moved there by hand: refused, as when made)
         self._advance_scheduled(int(steps))  # (split where a timed handle ends: handles.py)
 
     def _advance_chunk(self, steps: int) -> None:

@@ -221,7 +221,8 @@ def check_ground_placement(x0, height: float) -> None:
             f"y = {low:.4g} m, the ground at y = {height:g} m; {below} of {len(x0)} points "
             f"below): the ground would throw it out.  Lift it: [body] base = [0, {height:g}, "
             f"0] (mesh and file bodies) or [body] lower with y >= {height:g} (box fields) in a "
-            f"scene; Body.from_mesh(..., base=(0, {height:g}, 0)) in Python; or disable the ground")
+            f"scene; in Python Body.from_mesh(..., base=(0, {height:g}, 0)) or Body.box(lower=(x, "
+            f"{height:g}, z), ...); or disable the ground")
     if low > height + max(10.0, 100.0 * extent):
         import warnings
 

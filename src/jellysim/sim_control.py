@@ -1,0 +1,135 @@
+"""Changing a running simulator from outside (:class:`Control`, a mixin of
+:class:`~jellysim.simulator.Simulator`): start over (:meth:`Control.reset`), change gravity
+(:attr:`Control.gravity`), and the checks that catch a state moved by hand.
+
+A game developer's trial (session 26) found three silent traps: writing a fresh state into
+``sim.state`` kept the damping branch's strain, the contact slip and doubled substeps (the
+"reset" body drifted 3.2 cm with no force on it and ran 32x slower); ``sim.gravity = ...`` was
+accepted and did nothing; and a body moved below the ground between two ``advance`` calls was
+shot out of it (5 cm under: 15 J, 1.2 m high), where the same body at construction is refused.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import SceneError
+
+__all__ = ["Control"]
+
+
+class Control:
+    """:meth:`reset`, :attr:`gravity` / :meth:`set_gravity`, :attr:`dt` (read-only)."""
+
+    @property
+    def dt(self) -> float:
+        """The time step [s] of one :meth:`advance` step, fixed when the simulator is made
+        (its substeps and stability follow from it)."""
+        return self._dt
+
+    @dt.setter
+    def dt(self, value) -> None:
+        if "_dt" in vars(self):
+            raise SceneError(f"dt is fixed when the Simulator is made (its substeps and stable "
+                             f"step follow from it), got sim.dt = {value!r}: make a new "
+                             f"Simulator(model, dt=..., state=sim.state)")
+        self._dt = float(value)
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """Gravitational acceleration [m/s^2], shape (3,) (a read-only copy); assign a vector
+        to change it from the next :meth:`advance` on (:meth:`set_gravity`)."""
+        g = np.array(self.model.gravity, dtype=np.float64)
+        g.flags.writeable = False
+        return g
+
+    @gravity.setter
+    def gravity(self, value) -> None:
+        self.set_gravity(value)
+
+    def set_gravity(self, gravity) -> None:
+        """Change gravity to ``gravity`` [m/s^2], shape (3,), from the next :meth:`advance`
+        on: tilt the world (a slope without tilting the ground), or 0 for weightless.  The
+        simulator's model becomes a copy of its model with that gravity (``sim.model``; the
+        model passed in is unchanged); nothing else changes (the contact's resting speed
+        stays the one set when the simulator was made)."""
+        import dataclasses
+
+        from .kernels import Backend
+        from .model import _frozen
+        from .physics.contact import check_gravity_meets_ground
+
+        try:
+            g = np.asarray(gravity, dtype=np.float64).reshape(3)
+        except (TypeError, ValueError):
+            g = None
+        if g is None or not np.all(np.isfinite(g)):
+            raise SceneError(f"gravity must be 3 finite accelerations [m/s^2], e.g. (0, -9.81, "
+                             f"0) (y is up), got {gravity!r}")
+        if self.backend is Backend.WARP:  # (its gravity is on the device, set when made)
+            raise SceneError("set_gravity: not on the warp backend; make a new Simulator("
+                             "dataclasses.replace(sim.model, gravity=...), state=sim.state)")
+        self.model = dataclasses.replace(self.model, gravity=_frozen(g, np.float64))
+        from .kernels import records as rec
+
+        self._points = rec.point_arrays(self.model)
+        if self.ground.enabled:
+            check_gravity_meets_ground(g)
+
+    def reset(self, state=None) -> None:
+        """Start over, as a new simulator of the same model and settings would: the body at
+        ``state`` (its positions, velocities and accelerations; default: the model at rest),
+        the clock at t = 0, step 0, and everything the simulator keeps between steps as when
+        it was made: the damping branch's strain, the contacts' slip, substeps doubled after
+        an impact or a blow-up, the implicit solver's warm start.  Handles are dropped (pins,
+        point forces, gravity scales, the drag spring); the gravity set last stays.  Writing a
+        state into ``sim.state`` instead keeps all of that (right for resuming a run, wrong
+        for starting again).  A body below the ground is refused, as when the simulator is
+        made."""
+        from .physics.contact import check_ground_placement
+        from .state import check_state
+
+        n = self.model.point_count
+        new = self.model.state() if state is None else check_state(state, n, "reset(state=)")
+        if self.ground.enabled:
+            check_ground_placement(new.x, float(self.ground.height))
+        s = self.state
+        s.x[:], s.v[:], s.a[:] = new.x, new.v, new.a
+        s.t, s.step = 0.0, 0
+        self.restore_internal_state(self._made)
+        self.handles.clear()
+        self.__dict__.pop("_releases", None)
+        if self.physical:
+            self.min_tet_volume_ratio = 1.0
+            self.substeps_taken = self.substeps
+            self.__dict__.pop("_warned_inverted", None)
+
+    def _remember_start(self) -> None:
+        """Keep what :meth:`reset` restores (called once, at the end of ``__init__``)."""
+        self._made = self.internal_state()
+        self._size = float(np.ptp(self.model.point_x0, axis=0).max()) if (
+            self.model.point_count) else 0.0
+
+    def _check_below_ground(self) -> None:
+        """Refuse to step a body whose free points were moved below the ground from outside
+        (``sim.state.x`` written between advances): the contact would throw them out at once.
+        The steps themselves never leave a point below it (it is put on the plane), so this
+        allows 1 % of the body's size (under it: a harmless nudge, 0.5-1 mm on a 10 cm body
+        gave 3-10 mJ)."""
+        g = self.ground
+        if not g.enabled or self.model.point_count == 0:
+            return
+        y = self.state.x[:, 1]
+        free = self.handles.pinned == 0
+        if not free.any():
+            return
+        height = float(g.height)
+        low = float(y[free].min())
+        if not low < height - 0.01 * self._size:  # (NaN: said by the step's own check)
+            return
+        below = int(np.sum(y[free] < height))
+        raise SceneError(
+            f"advance: {below} of {len(y)} points are below the ground, the lowest "
+            f"{height - low:.4g} m under it (y = {low:.4g} m, the ground at y = {height:g} m): "
+            "the state was moved there from outside (sim.state.x written?), and the ground "
+            "would throw them out at once.  Move the body above the ground first; "
+            "sim.reset(state) starts over from a state (its history cleared)")
