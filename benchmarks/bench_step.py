@@ -359,9 +359,17 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     if args.backend == "warp":
         return main_warp(args)
+    import jellysim  # noqa: F401  (first: it chooses numba's target before anything compiles)
+
     bw = stream_triad()
+    features = set((numba.config.CPU_FEATURES or "").split(","))
     result = {"machine": {"cpu_count": os.cpu_count(),
                           "numba_threads": numba.config.NUMBA_NUM_THREADS,
+                          "jellysim_cpu": os.environ.get("JELLYSIM_CPU", "auto"),
+                          "omp_wait_policy": os.environ.get("OMP_WAIT_POLICY", "(OpenMP's)"),
+                          "codegen": ("no AVX-512" if "-avx512f" in features else
+                                      "prefer-no-gather" if "+prefer-no-gather" in features
+                                      else "native"),
                           "python": platform.python_version(), "numba": numba.__version__,
                           "numpy": np.__version__, "load_average": os.getloadavg()},
               "stream_triad": bw, "layout_bytes_per_spring": LAYOUT_BYTES,
