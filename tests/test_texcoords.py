@@ -25,7 +25,7 @@ def _uv_of(points, centre):
     return np.stack([u + 2.0 * a[..., None], v + side[..., None]], axis=-1)
 
 
-def _cube_obj(path: Path, *, inside_out=False, materials=False):
+def _cube_obj(path: Path, *, inside_out=False, materials=False, flipped=()):
     """An OBJ cube of side 2 HALF centred at the origin: 8 shared vertices, 6 quads, each
     corner with its own ``vt`` (the planar UVs of :func:`_uv_of`); ``materials``: the first
     three quads use one textured material and the others another (an .mtl and two PNGs)."""
@@ -35,7 +35,7 @@ def _cube_obj(path: Path, *, inside_out=False, materials=False):
     lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in corners]
     faces = []
     for k, quad in enumerate(quads):
-        quad = quad[::-1] if inside_out else quad
+        quad = quad[::-1] if inside_out != (k in flipped) else quad
         uv = _uv_of(corners[list(quad)][None], np.zeros(3))[0]
         lines += [f"vt {u:.17g} {v:.17g}" for u, v in uv]
         if materials and k in (0, 3):
@@ -91,6 +91,16 @@ def test_a_cube_keeps_its_uvs_through_welding_and_turning_outward(tmp_path, insi
     with pytest.warns(UserWarning, match="inside out") if inside_out else _no_warning():
         m = outward(m, "cube.obj")
     assert m.defects.volume > 0
+    np.testing.assert_allclose(m.uv, _uv_of(m.vertices[m.faces], np.zeros(3)), atol=1e-15)
+
+
+def test_faces_wound_against_their_neighbours_are_turned_with_their_uvs(tmp_path):
+    """Two of the cube's six quads wound the wrong way (session 26's hostile-mesh trial: the
+    winding rule then called 44 % of a box's inside outside): turned on load, the cube is a
+    closed oriented manifold of the right volume, and each turned corner keeps its UV."""
+    m = load_mesh(_cube_obj(tmp_path / "cube.obj", flipped=(1, 4)))
+    d = m.defects
+    assert d.turned_faces == 4 and d.watertight and d.volume == pytest.approx(8 * HALF**3)
     np.testing.assert_allclose(m.uv, _uv_of(m.vertices[m.faces], np.zeros(3)), atol=1e-15)
 
 

@@ -153,7 +153,7 @@ def enclosed_volume(mesh, query=None, *, seed: int = 0) -> tuple[float, bool]:
 def _warn_defects(m, name: str) -> None:
     fixed = m.defects.repairs()
     if fixed:
-        warnings.warn(f"{name}: removed on load: {', '.join(fixed)}", UserWarning, stacklevel=4)
+        warnings.warn(f"{name}: repaired on load: {', '.join(fixed)}", UserWarning, stacklevel=4)
 
 
 MARCHING_FILL_WARNING = 0.8

@@ -80,6 +80,8 @@ class MeshDefects:
     """Extra copies of a face with the same vertices and orientation (removed)."""
     reversed_duplicate_faces: int = 0
     """Extra copies of a face with the same vertices and the opposite orientation (removed)."""
+    turned_faces: int = 0
+    """Faces wound against their neighbours, turned to agree (:mod:`.orient`)."""
     boundary_edges: int = 0
     """Undirected edges used by exactly one face."""
     non_manifold_edges: int = 0
@@ -117,14 +119,16 @@ class MeshDefects:
         return out
 
     def repairs(self) -> list[str]:
-        """Short phrases naming the faces :func:`load_mesh` had to remove."""
+        """Short phrases naming the faces :func:`load_mesh` had to remove or turn."""
         out = []
         for count, what in ((self.duplicate_faces, "duplicate faces"),
                             (self.reversed_duplicate_faces, "reversed duplicate faces"),
                             (self.repeated_index_faces, "faces repeating a vertex"),
                             (self.zero_area_faces, "zero-area faces")):
             if count:
-                out.append(f"{count} {what}")
+                out.append(f"{count} {what} removed")
+        if self.turned_faces:
+            out.append(f"{self.turned_faces} faces wound against their neighbours (turned)")
         return out
 
     def describe(self) -> str:
@@ -147,6 +151,7 @@ class MeshDefects:
             f"reversed duplicates:     {self.reversed_duplicate_faces} (removed)",
             f"repeated-index faces:    {self.repeated_index_faces} (removed)",
             f"zero-area faces:         {self.zero_area_faces} (removed)",
+            f"faces turned to agree:   {self.turned_faces}",
             f"welded vertices:         {self.welded_vertices}",
             f"unreferenced vertices:   {self.unreferenced_vertices} (dropped)",
         ]
@@ -491,6 +496,15 @@ def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol:
     f = remap[f].astype(np.int64)
 
     _edge_report(f, d)
+    if d.inconsistent_edges:  # (a few flipped faces: wound to agree, then the rule is exact)
+        from .orient import consistent_winding
+
+        turn = consistent_winding(f)
+        f[turn] = f[turn, ::-1]
+        uv = None if uv is None or not turn.any() else np.where(turn[:, None, None],
+                                                                uv[:, ::-1], uv)
+        d.turned_faces = int(turn.sum())
+        _edge_report(f, d)
     d.shells, shell = _shell_of_faces(f, len(v))
     from .shells import face_volumes_x6
 
