@@ -463,3 +463,28 @@ def test_mirrored_grid_split_is_conforming_and_mirror_symmetric():
             image = np.array([index[tuple(np.round(p * 6).astype(int))] for p in flipped])
             same = {tuple(r) for r in np.sort(image[tets], axis=1).tolist()} == key
             assert same is symmetric
+
+
+def test_a_self_intersecting_surface_refused_by_tetgen_leaves_the_process_alive():
+    """TetGen refusing a self-intersecting surface with nomergefacet corrupted its heap: the
+    clean BuildError was followed by an abort ("free(): invalid pointer", exit 134) later in
+    the same process (session 26's hostile-mesh trial; a notebook kernel would die), and on
+    this sphere TetGen itself crashes.  It runs in a child process now: the error comes, and
+    the process goes on, builds a good surface and exits 0."""
+    import subprocess
+    import sys
+
+    code = ("import numpy as np, trimesh\n"
+            "from jellysim.errors import BuildError\n"
+            "from jellysim.geometry.tetra import tetgen_body\n"
+            "s = trimesh.creation.icosphere(3, radius=0.05)\n"
+            "v = s.vertices.copy(); v[v[:, 2] > 0.02, 2] -= 0.1\n"
+            "try:\n    tetgen_body(v, s.faces)\nexcept BuildError as e:\n"
+            "    assert 'intersects itself' in str(e) or 'TetGen crashed' in str(e), e\n"
+            "else:\n    raise SystemExit('built')\n"
+            "b = tetgen_body(s.vertices, s.faces)\n"
+            "junk = [np.random.rand(1000) for _ in range(2000)]\n"
+            "print('alive', len(b.points))\n")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=300)
+    assert res.returncode == 0 and "alive" in res.stdout, res.stderr[-500:]

@@ -4,7 +4,6 @@ that module."""
 from __future__ import annotations
 
 import math
-import os
 import tempfile
 from pathlib import Path
 
@@ -125,46 +124,42 @@ def tetgen_body(vertices, faces, *, max_volume: float | None = None, quality: bo
                 + ", ".join(bad) + f"; repair the mesh or {hint}"
             )
     try:
-        import tetgen
+        import tetgen  # noqa: F401  (the child process imports it again to run it)
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise BuildError(
             "tetgen_body needs the optional package 'tetgen' (pip install 'jellysim[mesh]'); "
             f"or {hint}"
         ) from exc
 
-    tg = tetgen.TetGen(v, f.astype(np.int32))
-    for hp in np.asarray(holes if holes is not None else np.empty((0, 3)), float).reshape(-1, 3):
-        tg.add_hole(hp)
-    # TetGen writes the faces it found intersecting to ./_skipped.{node,face}; run it in a
-    # scratch directory so nothing lands in the caller's working directory, and use the file
-    # to say how many faces are involved.
-    old_cwd = os.getcwd()
-    scratch = tempfile.TemporaryDirectory(prefix="jellysim-tetgen-")
-    os.chdir(scratch.name)
-    try:
-        res = tg.tetrahedralize(
-            quality=quality,
-            regionattrib=True,
-            maxvolume=float(max_volume) if max_volume is not None else -1.0,
-            fixedvolume=max_volume is not None,  # without it TetGen ignores maxvolume
-            nomergefacet=True,  # merged near-coplanar facets would move the surface
-            quiet=True,
-            nowarning=True,
-        )
-    except RuntimeError as exc:
-        msg = str(exc)
-        if "self-intersection" in msg:
-            defect = "the surface intersects itself (TetGen: " + msg.strip()
-            n_bad = _count_skipped_faces(Path(scratch.name) / "_skipped.face")
-            defect += f"; {n_bad} faces involved)" if n_bad else ")"
-        elif "manifold" in msg:
-            defect = "the surface is not a closed manifold (TetGen: " + msg.strip() + ")"
-        else:
-            defect = "TetGen failed: " + msg.strip()
-        raise BuildError(f"tetgen could not tetrahedralize the surface: {defect}; {hint}") from exc
-    finally:
-        os.chdir(old_cwd)
-        scratch.cleanup()
+    # TetGen runs in a child process: refusing a self-intersecting surface corrupts its heap
+    # (tetgen 0.8.4), and the process that called it aborted later ("free(): invalid
+    # pointer", exit 134: a notebook's kernel would die; session 26's hostile-mesh trial).
+    # The child runs in a scratch directory, where TetGen writes the faces it found
+    # intersecting (_skipped.face: their count goes into the message).
+    options = dict(quality=quality, regionattrib=True,
+                   maxvolume=float(max_volume) if max_volume is not None else -1.0,
+                   fixedvolume=max_volume is not None,  # without it TetGen ignores maxvolume
+                   nomergefacet=True,  # merged near-coplanar facets would move the surface
+                   quiet=True, nowarning=True)
+    holes = np.asarray(holes if holes is not None else np.empty((0, 3)), float).reshape(-1, 3)
+    with tempfile.TemporaryDirectory(prefix="jellysim-tetgen-") as scratch:
+        try:
+            res = _tetrahedralize(Path(scratch), v, f, holes, options)
+        except RuntimeError as exc:
+            msg = str(exc)
+            if "self-intersection" in msg:
+                defect = "the surface intersects itself (TetGen: " + msg.strip()
+                n_bad = _count_skipped_faces(Path(scratch) / "_skipped.face")
+                defect += f"; {n_bad} faces involved)" if n_bad else ")"
+            elif msg.startswith("it crashed"):  # (seen on a self-intersecting sphere)
+                defect = ("TetGen crashed on it (" + msg[len("it crashed ("):].rstrip(")")
+                          + "), as it does on some self-intersecting surfaces")
+            elif "manifold" in msg:
+                defect = "the surface is not a closed manifold (TetGen: " + msg.strip() + ")"
+            else:
+                defect = "TetGen failed: " + msg.strip()
+            raise BuildError(f"tetgen could not tetrahedralize the surface: {defect}; "
+                             f"{hint}") from None
     nodes = np.asarray(res[0], dtype=np.float64)
     elem = np.asarray(res[1], dtype=np.int64)
     attr = np.asarray(res[2]).reshape(elem.shape[0], -1)
@@ -200,3 +195,44 @@ def tetgen_body(vertices, faces, *, max_volume: float | None = None, quality: bo
         "surface_faces": int(f.shape[0]),
     }
     return _finish(nodes, elem[keep], density, meta)
+
+
+_CHILD = """
+import json, os, sys
+import numpy as np
+import tetgen
+d = np.load("in.npz")
+tg = tetgen.TetGen(d["v"], d["f"])
+for hole in d["holes"]:
+    tg.add_hole(hole)
+try:
+    res = tg.tetrahedralize(**json.load(open("options.json")))
+except RuntimeError as exc:  # (then out at once: TetGen's teardown may crash after it)
+    sys.stderr.write(str(exc))
+    sys.stderr.flush()
+    os._exit(3)
+np.savez("out.npz", *[np.asarray(r) for r in res[:3]])
+sys.stdout.flush()
+os._exit(0)
+"""
+
+
+def _tetrahedralize(scratch: Path, v, f, holes, options: dict):
+    """TetGen's ``tetrahedralize(**options)`` on the surface ``(v, f)`` in a child process
+    working in ``scratch``: its (nodes, tets, attributes), or a ``RuntimeError`` with TetGen's
+    message (or the child's end, if it crashed)."""
+    import json
+    import subprocess
+    import sys
+
+    np.savez(scratch / "in.npz", v=np.asarray(v, np.float64), f=np.asarray(f, np.int32),
+             holes=holes)
+    (scratch / "options.json").write_text(json.dumps(options))
+    run = subprocess.run([sys.executable, "-c", _CHILD], cwd=scratch, capture_output=True,
+                         text=True)
+    if run.returncode != 0:
+        said = (run.stderr.strip().splitlines() or [f"exit status {run.returncode}"])[-1]
+        raise RuntimeError(said if run.returncode == 3 else
+                           f"it crashed (exit status {run.returncode}: {said})")
+    with np.load(scratch / "out.npz") as out:
+        return [out[f"arr_{i}"] for i in range(3)]
