@@ -389,3 +389,33 @@ def test_a_mesh_reader_that_is_not_installed_is_named_with_the_install(tmp_path,
     monkeypatch.setitem(sys.modules, missing, None)
     with pytest.raises(MeshError, match=rf"tex.obj: .*{said}.*pip install 'jellysim\[mesh\]'"):
         load_mesh(path)
+
+
+def test_hostile_coordinates_are_named_by_line_or_refused(tmp_path):
+    """Session 26's hostile-mesh trial: a NaN vertex was refused without its line, and
+    coordinates of 1e200 ended in a scipy traceback naming nothing."""
+    from jellysim.errors import MeshError
+    from jellysim.geometry import Mesh, load_mesh
+
+    p = tmp_path / "nan.obj"
+    p.write_text("v 0 0 0\nv 1 0 0\nv 0 nan 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n")
+    with pytest.raises(MeshError, match=r"nan.obj:3: vertex 3 has a coordinate that is not a "
+                                        r"finite number"):
+        load_mesh(p)
+    with pytest.raises(MeshError, match=r"vertex coordinates up to 1e\+200: beyond"):
+        Mesh.from_arrays(np.array([[0, 0, 0], [1e200, 0, 0], [0, 1, 0], [0, 0, 1.0]]),
+                         np.array([[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]]))
+
+
+def test_a_plate_thinner_than_the_grid_names_the_file_and_the_builder_that_follows_it(
+        tmp_path):
+    import trimesh
+
+    from jellysim.build import build_body
+    from jellysim.errors import BuildError
+
+    path = tmp_path / "plate.obj"
+    trimesh.creation.box([0.1, 0.001, 0.1]).export(path)
+    with pytest.raises(BuildError, match=r"plate.obj: marching_grid: no tetrahedron was kept"
+                                         r".*connect = 'delaunay' follows thin parts"):
+        build_body(path, points=300, connect="marching")

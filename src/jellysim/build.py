@@ -38,7 +38,7 @@ import numpy as np
 from .body import Body
 from .errors import BuildError, did_you_mean
 from .geometry.sampling import Sampling
-from .geometry.tet_marching import aligned_edge, fit_height
+from .geometry.tet_marching import aligned_edge, fit_height, marching_grid
 from .params import REPORT_DENSITY
 from .resources import check_body_memory
 
@@ -141,8 +141,9 @@ def enclosed_volume(mesh, query=None, *, seed: int = 0) -> tuple[float, bool]:
                       f"shells overlap or nest: the inside rule encloses {over[1]:.6g}, the "
                       f"signed volume says {over[2]:.6g}; the mass follows the inside rule, "
                       "which counts a point inside an odd number of shells (where two shells "
-                      "overlap the body is hollow: merge the parts into one closed surface, "
-                      "e.g. a boolean union in Blender, for a solid body)",
+                      "overlap the body is hollow: rule='winding' in Python counts any point "
+                      "the shells wrap as inside, one solid; or merge the parts into one "
+                      "closed surface, e.g. a boolean union in Blender)",
                       UserWarning, stacklevel=2)
         return over[1], False
     from .geometry.inside import InsideQuery
@@ -515,9 +516,10 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
 
 def _marching(m, query, h, density, snap, name) -> Body:
     """The marching grid body of edge ``h`` [m], warped onto the surface with ``snap``."""
-    from .geometry.tetra import marching_grid
-
-    body = marching_grid(m.vertices, m.faces, query.query, h=h, density=density, warp=snap)
+    try:
+        body = marching_grid(m.vertices, m.faces, query.query, h=h, density=density, warp=snap)
+    except BuildError as exc:  # (a 1 mm plate: name the file, and the builder that follows it)
+        raise BuildError(f"{name}: {exc}; connect = 'delaunay' follows thin parts") from None
     body.meta.update(source=name, connect="marching", h=float(h), snapped=bool(snap))
     return body
 

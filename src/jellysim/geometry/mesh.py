@@ -329,6 +329,9 @@ def _obj_problem(p: Path) -> str | None:
                 xyz = []
             if len(xyz) != 3:
                 return (f"{k}: a vertex needs three numbers (v x y z), got {line.strip()!r}")
+            if not all(abs(c) < 1e30 for c in xyz):  # (NaN, inf, 1e200: nothing finite to build)
+                return (f"{k}: vertex {count + 1} has a coordinate that is not a finite number "
+                        f"below 1e30 ({line.strip()!r}): fix or remove it")
             count += 1
         elif words[0] == "f":
             if len(words) < 4:
@@ -457,8 +460,13 @@ def _clean(v: np.ndarray, f: np.ndarray, name: str, path: Path | None, weld_tol:
         raise MeshError(f"{name}: no vertices")
     if f.min() < 0 or f.max() >= len(v):
         raise MeshError(f"{name}: face vertex index out of range (0..{len(v) - 1})")
-    if not np.all(np.isfinite(v[np.unique(f)])):
+    used = v[np.unique(f)]
+    if not np.all(np.isfinite(used)):
         raise MeshError(f"{name}: non-finite (NaN or infinite) vertex coordinates")
+    if np.abs(used).max() >= 1e30:  # (1e200 ended in a scipy traceback: a slip of units)
+        raise MeshError(f"{name}: vertex coordinates up to {np.abs(used).max():.3g}: beyond "
+                        "what the exact inside test and the builders handle (1e30); the mesh "
+                        "is likely in the wrong units, or corrupt")
 
     # weld by exact position (+0.0 turns -0.0 into 0.0)
     used = np.zeros(len(v), bool)
