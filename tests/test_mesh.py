@@ -419,3 +419,34 @@ def test_a_plate_thinner_than_the_grid_names_the_file_and_the_builder_that_follo
     with pytest.raises(BuildError, match=r"plate.obj: marching_grid: no tetrahedron was kept"
                                          r".*connect = 'delaunay' follows thin parts"):
         build_body(path, points=300, connect="marching")
+
+
+L_PRISM = ("v 0 0 0\nv 0.1 0 0\nv 0.1 0.04 0\nv 0.04 0.04 0\nv 0.04 0.1 0\nv 0 0.1 0\n"
+           "v 0 0 0.05\nv 0.1 0 0.05\nv 0.1 0.04 0.05\nv 0.04 0.04 0.05\nv 0.04 0.1 0.05\n"
+           "v 0 0.1 0.05\nf 6 5 4 3 2 1\nf 7 8 9 10 11 12\nf 1 2 8 7\nf 2 3 9 8\nf 3 4 10 9\n"
+           "f 4 5 11 10\nf 5 6 12 11\nf 6 1 7 12\n")
+
+
+def test_a_concave_polygon_is_split_inside_its_outline(tmp_path):
+    """An L-shaped prism with 6-gon caps: split as fans from the first corner, two cap
+    triangles lay outside the L and overlapped the others (TetGen: self-intersecting; a T's
+    collinear fan triangle opened a crack; session 26's hostile-mesh trial).  Read through
+    meshio (VTK polygons) it is now split inside its outline: closed, exactly its volume, and
+    the inside test right everywhere; an OBJ (read by trimesh, which fans) is said, by line."""
+    import meshio
+
+    lines = [w.split() for w in L_PRISM.splitlines()]
+    v = np.array([[float(x) for x in w[1:]] for w in lines if w[0] == "v"])
+    faces = [[int(x) - 1 for x in w[1:]] for w in lines if w[0] == "f"]
+    meshio.write(tmp_path / "L.vtk", meshio.Mesh(v, [("polygon", np.array(faces[:2])),
+                                                     ("quad", np.array(faces[2:]))]))
+    m = load_mesh(tmp_path / "L.vtk")
+    assert m.defects.watertight and m.defects.zero_area_faces == 0
+    assert m.defects.volume == pytest.approx((0.1 * 0.04 + 0.04 * 0.06) * 0.05, rel=1e-12)
+    from jellysim.geometry import inside
+
+    p = np.random.default_rng(4).uniform([0, 0, 0], [0.1, 0.1, 0.05], (20000, 3))
+    assert np.array_equal(inside(m, p), (p[:, 0] < 0.04) | (p[:, 1] < 0.04))
+    (tmp_path / "L.obj").write_text(L_PRISM)
+    with pytest.warns(UserWarning, match=r"L.obj:13: 2 polygon face\(s\) not convex"):
+        load_mesh(tmp_path / "L.obj")

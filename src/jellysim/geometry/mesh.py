@@ -3,7 +3,8 @@
 :func:`load_mesh` reads OBJ, PLY, STL, OFF and GLB/GLTF through ``trimesh`` and VTK, VTU and VTP
 through ``meshio`` (both imported inside the function, never at package import), then
 
-1. fan-splits polygons (quads) into triangles,
+1. splits polygons (quads) into triangles (fans where convex, else ear clipping:
+   :mod:`.polygons`; trimesh fans an OBJ's, and a concave one is said),
 2. welds vertices that have exactly the same position (``-0.0`` and ``0.0`` are the same),
 3. drops vertices no face uses,
 4. removes faces that repeat a vertex index, faces with zero area (collinear vertices, decided
@@ -29,6 +30,8 @@ import numpy as np
 from jellysim.errors import MeshError
 from jellysim.geometry import texcoords
 from jellysim.geometry.duplicate_faces import remove_duplicates
+from jellysim.geometry.polygons import first_concave_obj_face, triangulate
+from jellysim.params import _user_stacklevel
 from jellysim.geometry.shells import _shell_of_faces, outward  # (outward: re-exported)
 
 __all__ = ["Mesh", "MeshDefects", "MESH_SUFFIXES", "SHIPPED", "UP_AXES", "load_mesh", "outward",
@@ -201,7 +204,7 @@ class Mesh:
             raise MeshError(
                 f"{name}: faces must be an (m, k>=3) integer array, got {f.shape} {f.dtype}"
             )
-        tris = _fan_split([row for row in f]) if f.shape[1] > 3 else f.astype(np.int64)
+        tris = triangulate(list(f), v) if f.shape[1] > 3 else f.astype(np.int64)
         return _clean(v, tris, name, None, weld_tol)
 
     @property
@@ -303,6 +306,13 @@ def _read_trimesh(p: Path, name: str):
     where = _obj_problem(p) if p.suffix.lower() == ".obj" else None
     if where is not None:  # e.g. 0-based face indices, which the loader wraps around silently
         raise MeshError(f"{name}:{where}")
+    concave = first_concave_obj_face(_lines(p)) if p.suffix.lower() == ".obj" else None
+    if concave:  # (trimesh fans every polygon: across a concave outline the fan overlaps)
+        warnings.warn(f"{name}:{concave[0]}: {concave[1]} polygon face(s) not convex, read as "
+                      "fans from their first corner, which overlap outside the outline (the "
+                      "surface intersects itself: TetGen refuses it); triangulate them before "
+                      "export (Blender: Triangulate Faces, Beauty)", UserWarning,
+                      stacklevel=_user_stacklevel())
     if not isinstance(loaded, trimesh.Trimesh):
         raise MeshError(f"{name}: the file holds no triangle mesh (got {type(loaded).__name__})")
     v = np.asarray(loaded.vertices, dtype=np.float64)
@@ -310,15 +320,18 @@ def _read_trimesh(p: Path, name: str):
     return v, f, texcoords.trimesh_corner_uv(trimesh, loaded, p, name)
 
 
+def _lines(p: Path) -> list[str]:
+    try:
+        return p.read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError:
+        return []
+
+
 def _obj_problem(p: Path) -> str | None:
     """The first line of an OBJ file that cannot be read, as ``"LINE: what, fix"`` (1-based
     line and vertex numbers, as the format counts them), or ``None``."""
     count = 0
-    try:
-        lines = p.read_text(encoding="utf-8", errors="replace").splitlines()
-    except OSError:
-        return None
-    for k, line in enumerate(lines, start=1):
+    for k, line in enumerate(_lines(p), start=1):
         words = line.split("#", 1)[0].split()
         if not words:
             continue
@@ -364,7 +377,7 @@ def _read_meshio(p: Path, name: str):
         data = np.asarray(block.data)
         if block.type in ("triangle", "quad") or block.type.startswith("polygon"):
             polys.extend(list(data))
-    tris = _fan_split(polys) if polys else np.zeros((0, 3), np.int64)
+    tris = triangulate(polys, v) if polys else np.zeros((0, 3), np.int64)
     return v, tris
 
 
@@ -403,7 +416,7 @@ def _read_vtp(p: Path, name: str):
         v = np.concatenate(pts).astype(np.float64) if pts else np.zeros((0, 3))
     except Exception as exc:
         raise MeshError(f"{name}: could not parse the file ({type(exc).__name__}: {exc})") from exc
-    return v, (_fan_split(polys) if polys else np.zeros((0, 3), np.int64))
+    return v, (triangulate(polys, v) if polys else np.zeros((0, 3), np.int64))
 
 
 def _vtp_array(el, order: str, header: np.dtype, compressed: bool) -> np.ndarray:
@@ -434,15 +447,6 @@ def _vtp_array(el, order: str, header: np.dtype, compressed: bool) -> np.ndarray
         out.append(zlib.decompress(body[pos:pos + int(size)]))
         pos += int(size)
     return np.frombuffer(b"".join(out), dtype).copy()
-
-
-def _fan_split(polys) -> np.ndarray:
-    out = []
-    for poly in polys:
-        poly = [int(i) for i in poly]
-        for k in range(1, len(poly) - 1):
-            out.append((poly[0], poly[k], poly[k + 1]))
-    return np.asarray(out, dtype=np.int64).reshape(-1, 3)
 
 
 # --------------------------------------------------------------------------- cleaning

@@ -1,0 +1,99 @@
+"""Polygon faces of a mesh file split into triangles: fans where convex, ear clipping where not.
+
+A fan from a polygon's first corner is right only when the polygon is convex: across a
+concave outline (an L-shaped cap) some fan triangles lie outside the polygon and overlap the
+others, so the surface intersects itself (TetGen refuses it) or, where a fan triangle comes
+out collinear and is dropped as zero-area, opens a crack (session 26's hostile-mesh trial: an
+L and a T prism).  :func:`triangulate` keeps fans for convex polygons (all of a file's quads,
+usually, and the fast path) and splits the others with mapbox's earcut on the polygon's plane,
+each triangle wound as the polygon is.  OBJ files are read by trimesh, which fans every
+polygon: :func:`first_concave_obj_face` finds such a face for the loader to say so.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["triangulate", "first_concave_obj_face", "convex"]
+
+
+def _newell(p: np.ndarray) -> np.ndarray:
+    """Polygons' normals (not unit) by Newell's method, robust for any simple polygon:
+    ``p`` (..., k, 3) -> (..., 3)."""
+    q = np.roll(p, -1, axis=-2)
+    return np.stack([np.sum((p[..., 1] - q[..., 1]) * (p[..., 2] + q[..., 2]), axis=-1),
+                     np.sum((p[..., 2] - q[..., 2]) * (p[..., 0] + q[..., 0]), axis=-1),
+                     np.sum((p[..., 0] - q[..., 0]) * (p[..., 1] + q[..., 1]), axis=-1)],
+                    axis=-1)
+
+
+def convex(p: np.ndarray) -> np.ndarray:
+    """Whether each polygon of ``p`` (..., k, 3) turns the same way at every corner (a fan
+    then covers it exactly): bool (...)."""
+    n = _newell(p)
+    e = np.roll(p, -1, axis=-2) - p
+    turns = np.einsum("...kc,...c->...k", np.cross(e, np.roll(e, -1, axis=-2)), n)
+    scale = np.maximum(np.abs(turns).max(axis=-1), 1e-300)
+    return np.all(turns >= -1e-12 * scale[..., None], axis=-1)
+
+
+def triangulate(polys, vertices) -> np.ndarray:
+    """Triangles (m, 3) int64 of ``polys`` (a list of index sequences into ``vertices``
+    (n, 3)): each convex polygon as a fan from its first corner, each other one by earcut
+    on its plane, wound as the polygon (in the polygons' order)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    polys = [np.asarray(poly, dtype=np.int64) for poly in polys]
+    fan = np.ones(len(polys), dtype=bool)
+    sizes = np.array([len(q) for q in polys])
+    for k in np.unique(sizes[sizes > 3]):  # (vectorised per polygon size)
+        rows = np.flatnonzero(sizes == k)
+        idx = np.stack([polys[r] for r in rows])
+        ok = (idx.min(axis=1) >= 0) & (idx.max(axis=1) < len(v))
+        fan[rows[ok]] = convex(v[idx[ok]])
+    out = []
+    for poly, is_fan in zip(polys, fan):
+        if is_fan:
+            out.extend((poly[0], poly[j], poly[j + 1]) for j in range(1, len(poly) - 1))
+        else:
+            out.extend(_earcut(poly, v[poly]))
+    return np.asarray(out, dtype=np.int64).reshape(-1, 3)
+
+
+def _earcut(idx: np.ndarray, p: np.ndarray) -> list:
+    import mapbox_earcut
+
+    n = _newell(p)
+    drop = int(np.argmax(np.abs(n)))
+    flat = np.ascontiguousarray(np.delete(p, drop, axis=1), dtype=np.float64)
+    tri = np.asarray(mapbox_earcut.triangulate_float64(flat, np.array([len(p)], np.uint32)),
+                     dtype=np.int64).reshape(-1, 3)
+    if len(tri) != len(p) - 2:  # (earcut could not: a self-crossing outline) -> the fan
+        return [(idx[0], idx[j], idx[j + 1]) for j in range(1, len(p) - 1)]
+    a, b, c = p[tri[:, 0]], p[tri[:, 1]], p[tri[:, 2]]
+    wrong = np.cross(b - a, c - a) @ n < 0
+    tri[wrong] = tri[wrong][:, ::-1]
+    return [tuple(idx[t]) for t in tri]
+
+
+def first_concave_obj_face(lines) -> tuple[int, int] | None:
+    """(1-based line, count) of the first polygon face of an OBJ file's ``lines`` that is not
+    convex, and how many there are; ``None`` when every polygon is convex (or the file is
+    unreadable: the loader says that)."""
+    verts, polys, where = [], [], []
+    try:
+        for k, line in enumerate(lines, start=1):
+            words = line.split("#", 1)[0].split()
+            if words and words[0] == "v":
+                verts.append([float(w) for w in words[1:4]])
+            elif words and words[0] == "f" and len(words) > 4:
+                idx = [int(w.split("/")[0]) for w in words[1:]]
+                polys.append([i - 1 if i > 0 else len(verts) + i for i in idx])
+                where.append(k)
+        v = np.asarray(verts, dtype=np.float64).reshape(-1, 3)
+        bad = []
+        sizes = np.array([len(q) for q in polys])
+        for n in np.unique(sizes):
+            rows = np.flatnonzero(sizes == n)
+            bad.extend(rows[~convex(v[np.array([polys[r] for r in rows])])].tolist())
+    except (ValueError, IndexError):
+        return None
+    return (where[min(bad)], len(bad)) if bad else None
