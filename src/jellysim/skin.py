@@ -323,6 +323,16 @@ def bind_body_skin(body, vertices: np.ndarray, faces: np.ndarray, uv=None,
     vertices, faces, uv, parent = _fine_enough(
         np.asarray(vertices, dtype=np.float64).reshape(-1, 3),
         np.asarray(faces, dtype=np.int64).reshape(-1, 3), body.points, tets, uv)
+    if len(vertices) > LARGE_SKIN_VERTICES:  # (a 500k-face torus: 9 MB a frame, unsaid)
+        import warnings
+
+        from .params import _user_stacklevel
+
+        warnings.warn(f"the skin has {len(vertices):,} vertices: a run writes them whole into "
+                      f"every frame's ParaView skin file (about {len(vertices) * 36 / 1e6:.0f} "
+                      "MB a frame; --no-vtu, [output] vtu = false, skips those files); a "
+                      "simplified mesh (Blender: Decimate) looks the same on a jello of "
+                      f"{len(body.points):,} points", UserWarning, stacklevel=_user_stacklevel())
     skin = bind_skin(body.points, tets, vertices, faces)
     if materials is not None and parent is not None:  # (subdivided: each face its parent's)
         materials = materials.rows(parent)
@@ -331,6 +341,9 @@ def bind_body_skin(body, vertices: np.ndarray, faces: np.ndarray, uv=None,
 
 MAX_SKIN_FACES = 200_000
 """A coarse skin is subdivided to at most about this many triangles."""
+
+LARGE_SKIN_VERTICES = 150_000
+"""A skin of more vertices is said to be heavy (stored whole every frame)."""
 
 
 def _fine_enough(vertices, faces, points, tets, uv=None):
