@@ -50,11 +50,10 @@ SURFACE_GAP = 0.5
 are dropped (they would make flat tets with the surface points)."""
 
 FITTED_GRID_GAIN = (1.25, 1.05, 1.25)
-"""``marching`` (``h`` not given): the grid fitted to the mesh's height replaces the centred
-one when it is no shorter and its tets hold ``[0]`` times the volume (a box: 1.95x), or
-``[1]`` times with at most ``[2]`` times the points (a 5 cm cube at 200 points: 1.11x, same
-points).  One refused for too many points is built once more with its edge scaled to the
-asked count (a 10 cm cube at 5,000 points: 82 % -> 100 % of its volume)."""
+"""``marching`` (``h`` not given): a grid aligned to the box's faces, or fitted to the mesh's
+height, replaces the centred one when no shorter and its tets hold ``[0]`` times the volume,
+or ``[1]`` times with at most ``[2]`` times the points (a 5 cm cube at 200 points: 1.11x).
+A fitted one refused for too many points is built again at the asked count (82 -> 100 %)."""
 
 RELAX_PASSES = 10
 """Default Lloyd passes of a ``delaunay`` body's interior points (with surface samples)."""
@@ -115,10 +114,10 @@ def _inside_volume(mesh, query, seed: int) -> tuple[float, float]:
 
 
 def shell_overlap(mesh, query=None, *, seed: int = 0) -> tuple[bool, float, float] | None:
-    """For a closed mesh of several shells: (do the shells overlap or nest so that the inside
-    rule disagrees with the signed volume?, the inside rule's volume, the signed volume).
-    ``None`` for a single shell or an open mesh (nothing to compare)."""
-    if not (d := mesh.defects).watertight or d.shells < 2:
+    """For a closed mesh: (do its shells overlap or nest, or its one shell cross itself, so
+    that the inside rule disagrees with the signed volume?, the inside rule's volume, the
+    signed volume).  ``None`` for an open mesh (nothing to compare)."""
+    if not (d := mesh.defects).watertight:
         return None
     from .geometry.inside import InsideQuery
 
@@ -130,16 +129,18 @@ def shell_overlap(mesh, query=None, *, seed: int = 0) -> tuple[bool, float, floa
 
 def enclosed_volume(mesh, query=None, *, seed: int = 0) -> tuple[float, bool]:
     """(volume [m^3], exact?) enclosed by ``mesh`` as the inside test counts it: the signed
-    volume when it is closed (exact), else, and also when its shells overlap or nest so that
-    the inside rule leaves out what the signed volume counts (:func:`shell_overlap`; warned),
-    a seeded Monte-Carlo estimate over its bounding box with the inside test."""
+    volume when it is closed (exact), else, and also when its shells overlap or nest (or it
+    crosses itself) so that the inside rule disagrees (:func:`shell_overlap`; warned), a
+    seeded Monte-Carlo estimate over its bounding box with the inside test."""
     if mesh.defects.watertight:
         over = shell_overlap(mesh, query, seed=seed)
         if over is None or not over[0]:
             return abs(float(mesh.defects.volume)), True
-        warnings.warn(f"{getattr(mesh, 'path', None) or 'mesh'}: its {mesh.defects.shells} "
-                      f"shells overlap or nest: the inside rule encloses {over[1]:.6g}, the "
-                      f"signed volume says {over[2]:.6g}; the mass follows the inside rule, "
+        warnings.warn(f"{getattr(mesh, 'path', None) or 'mesh'}: " + (f"its {n} shells overlap "
+                      "or nest" if (n := mesh.defects.shells) > 1 else "its surface passes "
+                      "through itself") + ": the "
+                      f"inside rule encloses {over[1]:.6g}, the signed volume says "
+                      f"{over[2]:.6g}; the mass follows the inside rule, "
                       "which counts a point inside an odd number of shells (where two shells "
                       "overlap the body is hollow: rule='winding' in Python counts any point "
                       "the shells wrap as inside, one solid; or merge the parts into one "
@@ -456,8 +457,7 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
                           "apart", UserWarning, stacklevel=3)
         return _rescale_masses(body, density, volume)
     try:
-        pts = sample_inside(query.query, lo, hi, points, method=sampling, seed=seed,
-                            volume=volume)
+        pts = sample_inside(query.query, lo, hi, points, method=sampling, seed=seed, volume=volume)
     except ValueError as exc:
         raise BuildError(f"{name}: {exc}") from None
     add_surface = (connect is Connect.DELAUNAY) if surface_vertices is None else surface_vertices
