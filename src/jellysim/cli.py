@@ -512,11 +512,13 @@ def inspect(path, settings=()) -> None:
             from .geometry.mesh import outward
 
             mesh = outward(mesh, str(path))  # (as build does: said, via the CLI's warnings)
-            if mesh.defects.watertight and mesh.defects.shells > 1:
+            if mesh.defects.watertight:  # (one shell: does it pass through itself?)
                 from .build import shell_overlap
 
                 over, inside_vol, signed = shell_overlap(mesh)
-                click.echo(f"shells overlap/nest:     {'yes' if over else 'no'} (inside-rule "
+                label = ("shells overlap/nest:    " if mesh.defects.shells > 1 else
+                         "passes through itself:  ")
+                click.echo(f"{label} {'yes' if over else 'no'} (inside-rule "
                            f"volume {inside_vol:.6g}, signed {signed:.6g}"
                            + ("; bodies take the inside rule's volume)" if over else ")"))
     except JellysimError as exc:

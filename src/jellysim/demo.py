@@ -264,7 +264,10 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
         body, skin = build_demo_body(scene, points, mesh, up)
     except BuildError as exc:  # (its fixes name build options: the demo's is --points)
         what = f"--mesh {mesh}" if mesh is not None else f"--scene {scene}"
-        raise BuildError(f"{what}: {exc} (demo: a larger --points gives a finer grid)"
+        said = str(exc)  # (without the builder's own naming of the file: --mesh names it)
+        if mesh is not None and said.partition(": ")[0].endswith(Path(str(mesh)).name):
+            said = said.partition(": ")[2]
+        raise BuildError(f"{what}: {said} (demo: a larger --points gives a finer grid)"
                          ) from None
     # only checked here: run_scene deletes an earlier demo run once this one can start, and
     # the video and USD below replace the old ones atomically (a failed demo keeps them)

@@ -35,6 +35,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .errors import BuildError
+from .params import _user_stacklevel
 
 __all__ = ["Skin", "bind_body_skin", "bind_skin", "body_tets", "box_skin", "box_surface", "default_skin",
            "identity_skin", "outer_skin"]
@@ -325,8 +326,6 @@ def bind_body_skin(body, vertices: np.ndarray, faces: np.ndarray, uv=None,
         np.asarray(faces, dtype=np.int64).reshape(-1, 3), body.points, tets, uv)
     if len(vertices) > LARGE_SKIN_VERTICES:  # (a 500k-face torus: 9 MB a frame, unsaid)
         import warnings
-
-        from .params import _user_stacklevel
 
         warnings.warn(f"the skin has {len(vertices):,} vertices: a run writes them whole into "
                       f"every frame's ParaView skin file (about {len(vertices) * 36 / 1e6:.0f} "

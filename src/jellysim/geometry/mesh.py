@@ -343,8 +343,8 @@ def _obj_problem(p: Path) -> str | None:
             if len(xyz) != 3:
                 return (f"{k}: a vertex needs three numbers (v x y z), got {line.strip()!r}")
             if not all(abs(c) < 1e30 for c in xyz):  # (NaN, inf, 1e200: nothing finite to build)
-                return (f"{k}: vertex {count + 1} has a coordinate that is not a finite number "
-                        f"below 1e30 ({line.strip()!r}): fix or remove it")
+                return (f"{k}: vertex {count + 1} has a non-finite or huge coordinate (NaN, "
+                        f"inf or beyond 1e30: {line.strip()!r}): fix or remove it")
             count += 1
         elif words[0] == "f":
             if len(words) < 4:
