@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -432,7 +433,8 @@ def test_a_concave_polygon_is_split_inside_its_outline(tmp_path):
     triangles lay outside the L and overlapped the others (TetGen: self-intersecting; a T's
     collinear fan triangle opened a crack; session 26's hostile-mesh trial).  Read through
     meshio (VTK polygons) it is now split inside its outline: closed, exactly its volume, and
-    the inside test right everywhere; an OBJ (read by trimesh, which fans) is said, by line."""
+    the inside test right everywhere; so is an OBJ (split before trimesh, which fans, reads
+    it), unless it has UVs: then it is said, by line."""
     import meshio
 
     lines = [w.split() for w in L_PRISM.splitlines()]
@@ -447,6 +449,13 @@ def test_a_concave_polygon_is_split_inside_its_outline(tmp_path):
 
     p = np.random.default_rng(4).uniform([0, 0, 0], [0.1, 0.1, 0.05], (20000, 3))
     assert np.array_equal(inside(m, p), (p[:, 0] < 0.04) | (p[:, 1] < 0.04))
-    (tmp_path / "L.obj").write_text(L_PRISM)
-    with pytest.warns(UserWarning, match=r"L.obj:13: 2 polygon face\(s\) not convex"):
-        load_mesh(tmp_path / "L.obj")
+    (tmp_path / "L.obj").write_text(L_PRISM)  # (an OBJ: split here before trimesh reads it)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        obj = load_mesh(tmp_path / "L.obj")
+    assert obj.defects.watertight and obj.defects.volume == pytest.approx(m.defects.volume)
+    assert np.array_equal(inside(obj, p), (p[:, 0] < 0.04) | (p[:, 1] < 0.04))
+    uv = L_PRISM.replace("f 6 5 4 3 2 1", "vt 0 0\nf 6/1 5/1 4/1 3/1 2/1 1/1")
+    (tmp_path / "Luv.obj").write_text(uv)  # (with UVs trimesh reads it and fans: said)
+    with pytest.warns(UserWarning, match=r"Luv.obj:14: 2 polygon face\(s\) not convex"):
+        load_mesh(tmp_path / "Luv.obj")

@@ -4,7 +4,7 @@
 through ``meshio`` (both imported inside the function, never at package import), then
 
 1. splits polygons (quads) into triangles (fans where convex, else ear clipping:
-   :mod:`.polygons`; trimesh fans an OBJ's, and a concave one is said),
+   :mod:`.polygons`; an OBJ with UVs or materials is fanned by trimesh: a concave one is said),
 2. welds vertices that have exactly the same position (``-0.0`` and ``0.0`` are the same),
 3. drops vertices no face uses,
 4. removes faces that repeat a vertex index, faces with zero area (collinear vertices, decided
@@ -30,7 +30,7 @@ import numpy as np
 from jellysim.errors import MeshError
 from jellysim.geometry import texcoords
 from jellysim.geometry.duplicate_faces import remove_duplicates
-from jellysim.geometry.polygons import first_concave_obj_face, triangulate
+from jellysim.geometry.polygons import obj_source, triangulate
 from jellysim.params import _user_stacklevel
 from jellysim.geometry.shells import _shell_of_faces, outward  # (outward: re-exported)
 
@@ -291,9 +291,12 @@ def _read_trimesh(p: Path, name: str):
         # maintain_order keeps the OBJ's vertex list as written, so that vertices no face uses
         # are counted (and then dropped) here rather than silently by the loader
         kwargs = {"maintain_order": True} if p.suffix.lower() == ".obj" else {}
+        source, concave = obj_source(p)  # (concave polygons split here: trimesh fans them)
+        if not isinstance(source, str):
+            kwargs["file_type"] = "obj"
         with warnings.catch_warnings():  # (its texture code's NaN medians: not the user's)
             warnings.simplefilter("ignore", RuntimeWarning)
-            loaded = trimesh.load(str(p), force="mesh", process=False, **kwargs)
+            loaded = trimesh.load(source, force="mesh", process=False, **kwargs)
     except Exception as exc:  # trimesh raises many different types
         where = _obj_problem(p) if p.suffix.lower() == ".obj" else None
         if where is not None:
@@ -306,8 +309,7 @@ def _read_trimesh(p: Path, name: str):
     where = _obj_problem(p) if p.suffix.lower() == ".obj" else None
     if where is not None:  # e.g. 0-based face indices, which the loader wraps around silently
         raise MeshError(f"{name}:{where}")
-    concave = first_concave_obj_face(_lines(p)) if p.suffix.lower() == ".obj" else None
-    if concave:  # (trimesh fans every polygon: across a concave outline the fan overlaps)
+    if concave and isinstance(source, str):  # (with UVs or materials: trimesh's fans kept)
         warnings.warn(f"{name}:{concave[0]}: {concave[1]} polygon face(s) not convex, read as "
                       "fans from their first corner, which overlap outside the outline (the "
                       "surface intersects itself: TetGen refuses it); triangulate them before "

@@ -7,13 +7,15 @@ out collinear and is dropped as zero-area, opens a crack (session 26's hostile-m
 L and a T prism).  :func:`triangulate` keeps fans for convex polygons (all of a file's quads,
 usually, and the fast path) and splits the others with mapbox's earcut on the polygon's plane,
 each triangle wound as the polygon is.  OBJ files are read by trimesh, which fans every
-polygon: :func:`first_concave_obj_face` finds such a face for the loader to say so.
+polygon: :func:`obj_source` gives it the file's text with those split here instead (unless
+the file has texture coordinates or materials, which trimesh's own reading keeps: then the
+loader says which line is concave).
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["triangulate", "first_concave_obj_face", "convex"]
+__all__ = ["triangulate", "first_concave_obj_face", "split_concave_obj", "obj_source", "convex"]
 
 
 def _newell(p: np.ndarray) -> np.ndarray:
@@ -74,10 +76,9 @@ def _earcut(idx: np.ndarray, p: np.ndarray) -> list:
     return [tuple(idx[t]) for t in tri]
 
 
-def first_concave_obj_face(lines) -> tuple[int, int] | None:
-    """(1-based line, count) of the first polygon face of an OBJ file's ``lines`` that is not
-    convex, and how many there are; ``None`` when every polygon is convex (or the file is
-    unreadable: the loader says that)."""
+def _obj_polygons(lines):
+    """(vertices (n, 3), polygons as 0-based index lists, their 1-based lines, which are not
+    convex) of an OBJ file's ``lines``; ``None`` when it cannot be read (the loader says)."""
     verts, polys, where = [], [], []
     try:
         for k, line in enumerate(lines, start=1):
@@ -89,11 +90,56 @@ def first_concave_obj_face(lines) -> tuple[int, int] | None:
                 polys.append([i - 1 if i > 0 else len(verts) + i for i in idx])
                 where.append(k)
         v = np.asarray(verts, dtype=np.float64).reshape(-1, 3)
-        bad = []
+        bad = np.zeros(len(polys), dtype=bool)
         sizes = np.array([len(q) for q in polys])
         for n in np.unique(sizes):
             rows = np.flatnonzero(sizes == n)
-            bad.extend(rows[~convex(v[np.array([polys[r] for r in rows])])].tolist())
+            bad[rows] = ~convex(v[np.array([polys[r] for r in rows])])
     except (ValueError, IndexError):
         return None
-    return (where[min(bad)], len(bad)) if bad else None
+    return v, polys, where, bad
+
+
+def first_concave_obj_face(lines) -> tuple[int, int] | None:
+    """(1-based line, count) of the first polygon face of an OBJ file's ``lines`` that is not
+    convex, and how many there are; ``None`` when every polygon is convex (or the file is
+    unreadable: the loader says that)."""
+    read = _obj_polygons(lines)
+    if read is None or not read[3].any():
+        return None
+    return read[2][int(np.argmax(read[3]))], int(read[3].sum())
+
+
+def split_concave_obj(lines) -> str:
+    """The OBJ file's text with each concave polygon face replaced by its triangles
+    (:func:`triangulate`; each corner keeps its ``v/vt/vn`` token), for a reader that would
+    fan it."""
+    v, polys, where, bad = _obj_polygons(lines)
+    out = list(lines)
+    for poly, k, concave in zip(polys, where, bad):
+        if not concave:
+            continue
+        tokens = lines[k - 1].split("#", 1)[0].split()[1:]
+        at = {i: t for i, t in zip(poly, tokens)}
+        out[k - 1] = "\n".join("f " + " ".join(at[int(i)] for i in tri)
+                               for tri in triangulate([poly], v))
+    return "\n".join(out) + "\n"
+
+
+def obj_source(p):
+    """What trimesh should read for the OBJ file ``p`` (a ``Path``), and its first concave
+    polygon face (line, count) or ``None``: with concave polygons and no texture coordinates
+    or materials, the text with those split inside their outline (:func:`split_concave_obj`,
+    as a file object); else the path as a string (trimesh fans the polygons)."""
+    import io
+
+    if p.suffix.lower() != ".obj":
+        return str(p), None
+    try:
+        lines = p.read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError:
+        return str(p), None
+    concave = first_concave_obj_face(lines)
+    if concave is None or any(w.split()[:1] in (["vt"], ["usemtl"]) for w in lines):
+        return str(p), concave
+    return io.BytesIO(split_concave_obj(lines).encode()), concave
