@@ -575,3 +575,35 @@ def test_a_surface_through_itself_weighs_what_the_inside_rule_encloses():
     assert body.masses.sum() == pytest.approx(1141.0 * reference, rel=0.04)
     assert abs(body.masses.sum() - 1141.0 * abs(trimesh.Trimesh(v, s.faces).volume)) > (
         0.2 * body.masses.sum())
+
+
+def test_the_inside_rule_is_a_scene_key_and_a_build_option(tmp_path):
+    """Overlapping shells: parity leaves the overlap hollow (and says so), 'winding' makes
+    them one solid (their union, unsaid: asked for).  Offered only in Python before (session
+    26's hostile-mesh trial); now `[body] rule` and `jellysim build --rule` too, each giving
+    the body build_body gives."""
+    import jellysim as js
+    from jellysim.geometry.jellyfile import read_body
+
+    mesh = mesh_path("overlapping_spheres.obj")
+    masses = {}
+    for rule in ("parity", "winding"):
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            body = build_body(mesh, points=300, connect="delaunay", rule=rule)
+        overlap = [w for w in said if "shells overlap" in str(w.message)]
+        assert bool(overlap) == (rule == "parity")
+        masses[rule] = body.masses.sum()
+        scene = js.Scene.from_dict({"body": {"type": "mesh", "path": str(mesh), "points": 300,
+                                             "rule": rule},
+                                    "springs": {"connect": "delaunay", "stiffness": 10.0}, "integrator": {
+                                        "dt": 1e-3, "steps": 1}})
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            assert scene.build_body().masses.sum() == pytest.approx(masses[rule], rel=1e-12)
+        out = tmp_path / f"{rule}.jello"
+        r = CliRunner().invoke(cli, ["build", str(mesh), "--points", "300", "--connect",
+                                     "delaunay", "--rule", rule, "-o", str(out)])
+        assert r.exit_code == 0, r.output
+        assert read_body(out).masses.sum() == pytest.approx(masses[rule], rel=1e-12)
+    assert masses["winding"] > 1.3 * masses["parity"]  # (the overlap filled)

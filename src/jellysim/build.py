@@ -136,16 +136,15 @@ def enclosed_volume(mesh, query=None, *, seed: int = 0) -> tuple[float, bool]:
         over = shell_overlap(mesh, query, seed=seed)
         if over is None or not over[0]:
             return abs(float(mesh.defects.volume)), True
-        warnings.warn(f"{getattr(mesh, 'path', None) or 'mesh'}: " + (f"its {n} shells overlap "
-                      "or nest" if (n := mesh.defects.shells) > 1 else "its surface passes "
-                      "through itself") + ": the "
-                      f"inside rule encloses {over[1]:.6g}, the signed volume says "
-                      f"{over[2]:.6g}; the mass follows the inside rule, "
-                      "which counts a point inside an odd number of shells (where two shells "
-                      "overlap the body is hollow: rule='winding' in Python counts any point "
-                      "the shells wrap as inside, one solid; or merge the parts into one "
-                      "closed surface, e.g. a boolean union in Blender)",
-                      UserWarning, stacklevel=2)
+        if getattr(query, "rule", None) != "winding":  # (winding asked: their union, as meant)
+            warnings.warn(f"{getattr(mesh, 'path', None) or 'mesh'}: " + (
+                f"its {n} shells overlap or nest" if (n := mesh.defects.shells) > 1 else
+                "its surface passes through itself") + f": the inside rule encloses "
+                f"{over[1]:.6g}, the signed volume says {over[2]:.6g}; the mass follows the "
+                "inside rule, which counts a point inside an odd number of shells (where two "
+                "overlap the body is hollow: rule 'winding', [body] rule or --rule, makes them "
+                "one solid; or merge the parts into one surface, e.g. a boolean union in "
+                "Blender)", UserWarning, stacklevel=2)
         return over[1], False
     from .geometry.inside import InsideQuery
 

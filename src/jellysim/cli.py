@@ -321,6 +321,10 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
                    "default: 1 % of the median nearest-neighbour distance).")
 @click.option("--density", type=click.FloatRange(min=0, min_open=True), default=REPORT_DENSITY,
               show_default=True, help="Density [kg/m^3].")
+@click.option("--rule", type=click.Choice(["auto", "parity", "winding"]), default="auto",
+              show_default=True, help="Inside rule: parity (overlapping shells leave the "
+              "overlap hollow), winding (overlapping shells are one solid), auto (parity when "
+              "closed).")
 @click.option("--size", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Scale the mesh so its largest extent is SIZE metres (default: its "
                    "coordinates are read as metres).")
@@ -332,7 +336,7 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 @click.option("--overwrite", is_flag=True, help="Replace OUT_FILE if it exists.")
 def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h, snap,
           surface_vertices, surface_samples, relax, density, size, seed, up="y",
-          max_memory=None, overwrite=False, epsilon=None) -> None:
+          max_memory=None, overwrite=False, epsilon=None, rule="auto") -> None:
     """Build a jello body from MESH_FILE and write it to a .jello or .npz file.
 
     The mesh's coordinates are read as metres unless --size scales it."""
@@ -366,7 +370,7 @@ def build(mesh_file, out_file, points, connect, sampling, radius, neighbours, h,
                               surface_vertices=surface_vertices,
                               surface_samples=surface_samples, relax=relax, density=density,
                               seed=seed, size=size, snap=snap, up=up,
-                              epsilon=epsilon)
+                              epsilon=epsilon, rule=rule)
             if getattr(body, "skin_vertices", None) is not None:  # as a run will bind it:
                 from .skin import bind_body_skin  # says which parts the points cannot carry
 

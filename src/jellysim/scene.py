@@ -383,7 +383,7 @@ class Scene:
                                       sampling=b["sampling"], radius=s["radius"],
                                       neighbours=s["neighbours"], h=s["h"], density=density,
                                       seed=b["seed"], surface_samples=b["surface_samples"],
-                                      relax=b["relax"], snap=s["snap"] is not False)
+                                      relax=b["relax"], snap=s["snap"] is not False, rule=b["rule"])
             except BuildError as exc:  # name the scene keys, not the call
                 keys = ", ".join(f"[{t}] {k} = {json.dumps(v)}" for t, k, v in (
                     ("springs", "connect", s["connect"]), ("body", "points", b["points"]),

@@ -42,6 +42,11 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                       "points make far fewer flat tets: fewer substeps and far fewer inverted "
                       "tets on hard drops (docs/physics.md section 0).", lambda v: v >= 0,
                       "an integer >= 0"),
+        "rule": Spec("str", "auto", "Type 'mesh': the inside rule: 'parity' (a point inside "
+                     "an odd number of shells: overlapping shells leave the overlap hollow, a "
+                     "cavity stays one), 'winding' (any point the surface wraps: overlapping "
+                     "shells are one solid), 'auto' (parity for closed meshes, winding for "
+                     "open ones).", choices=("auto", "parity", "winding")),
         "size": Spec("float", None, "Type 'mesh': scale the mesh so its largest extent is this "
                      "[m].", lambda v: v > 0, "a number > 0 (m)"),
         "base": Spec("vec3", None, "Types 'mesh'/'file': move the body so the bottom centre of "

@@ -241,9 +241,10 @@ def grid_radius(points, lower, upper) -> float | None:
 
 
 UNUSED_BY_TYPE = {
-    "file": {"body": ("size", "points", "lower", "upper", "distribution", "sampling", "up"),
+    "file": {"body": ("size", "points", "lower", "upper", "distribution", "sampling", "up",
+                      "rule"),
              "springs": ("connect", "radius", "neighbours", "h")},
-    "box": {"body": ("path", "size", "sampling", "base", "up"),
+    "box": {"body": ("path", "size", "sampling", "base", "up", "rule"),
             "springs": ("neighbours", "h")},
     "mesh": {"body": ("lower", "upper", "distribution"), "springs": ()},
 }
