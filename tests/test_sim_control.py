@@ -162,3 +162,48 @@ def test_a_stiff_material_says_its_frames_will_be_slow():
         soft = js.Simulator(js.physical_model(body, js.material("gelatin")), dt=1 / 60)
     assert stiff.substeps > 1000 > soft.substeps
     assert stiff.substeps / soft.substeps == pytest.approx(100.0, rel=0.05)  # sqrt(1e8 / 1e4)
+
+
+def test_a_state_moved_into_an_obstacle_is_refused_on_advance_and_reset(jello):
+    """The re-trial: with a plane obstacle instead of a ground, a body moved 5 cm into it by
+    hand (or reset there) was thrown out with 15 J; refused now, as when the simulator is
+    made with that state."""
+    sim = js.Simulator(jello, dt=1 / 60, obstacles=[js.Plane()])
+    start = jello.state()
+    start.x[:, 1] -= 0.05
+    with pytest.raises(SceneError, match=r"reset\(state=\): obstacle #1"):
+        sim.reset(start)
+    sim.state.x[:, 1] -= 0.05
+    with pytest.raises(SceneError, match=r"advance: obstacle #1 .*moved there from outside"):
+        sim.advance(1)
+    with pytest.raises(SceneError, match="must be finite"):
+        sim.reset(js.State(np.full_like(jello.point_x0, np.nan), np.zeros_like(start.x),
+                           np.zeros_like(start.x)))
+
+
+def test_gravity_changed_under_the_report_s_step_acts_from_its_next_step():
+    """The report's step moves velocities by the stored accelerations first: a gravity change
+    reached only its second step (one step short in x, one of the old -9.8 in y).  The stored
+    accelerations now shift with it: the momentum gained is M g t exactly (free flight, no
+    damping)."""
+    model = js.finalize(js.Body.box(points=64, distribution="uniform", radius=0.4, seed=2),
+                        stiffness=20.0, damping=0.0)
+    sim = js.Simulator(model, dt=1e-4, integrator="paper")
+    sim.advance(3)
+    m = model.point_mass
+    p0 = m @ sim.state.v
+    sim.gravity = (2.0, 0.0, 0.0)
+    sim.advance(10)
+    np.testing.assert_allclose(m @ sim.state.v - p0, m.sum() * np.array([2.0, 0, 0]) * 1e-3,
+                               rtol=1e-9, atol=1e-12)
+
+
+def test_the_step_and_gravity_refuse_what_they_cannot_mean(jello):
+    sim = js.Simulator(jello, dt=1 / 60)
+    with pytest.raises(SceneError, match="dt_step is dt / substeps"):
+        sim.dt_step = 0.1
+    for bad in ([[0, -9.8, 0]], np.zeros((3, 1))):
+        with pytest.raises(SceneError, match="gravity must be 3 finite accelerations"):
+            sim.gravity = bad
+    with pytest.warns(UserWarning, match=r"is 1e\+05 g: accelerations are in m/s\^2"):
+        sim.gravity = (9.81e5, 0.0, 0.0)

@@ -170,7 +170,8 @@ class PhysicalStepping:
 
         if not self.physical:
             raise SceneError("settle is for the physical path (a body with a FEM material)")
-        if self.state.step != 0:  # (it sets the clock back: timed pins and releases replay)
+        if self.state.step != 0 or self.state.t != 0:  # (it sets the clock back: timed pins
+            # and releases would replay)
             raise SceneError(f"settle is for the start of a run: it sets the clock back to t = "
                              f"0, and this simulator is at t = {self.state.t:.4g} s (step "
                              f"{self.state.step}); call it before the first advance, or "

@@ -35,6 +35,18 @@ class Control:
         self._dt = float(value)
 
     @property
+    def dt_step(self) -> float:
+        """The kernels' step [s]: ``dt / substeps`` (read-only: it follows the substeps)."""
+        return self._dt / self.substeps
+
+    @dt_step.setter
+    def dt_step(self, value) -> None:
+        if abs(float(value) - self._dt / self.substeps) > 1e-12 * abs(float(value)):
+            raise SceneError(f"dt_step is dt / substeps ({self._dt:g} s / {self.substeps}), "
+                             f"got sim.dt_step = {value!r}: make a new Simulator(model, dt=..., "
+                             "substeps=..., state=sim.state)")
+
+    @property
     def gravity(self) -> np.ndarray:
         """Gravitational acceleration [m/s^2], shape (3,) (a read-only copy); assign a vector
         to change it from the next :meth:`advance` on (:meth:`set_gravity`)."""
@@ -51,23 +63,37 @@ class Control:
         on: tilt the world (a slope without tilting the ground), or 0 for weightless.  The
         simulator's model becomes a copy of its model with that gravity (``sim.model``; the
         model passed in is unchanged); nothing else changes (the contact's resting speed
-        stays the one set when the simulator was made)."""
+        stays the one set when the simulator was made).  The report's step (``paper``) moves
+        velocities by the stored accelerations first: those are shifted by the change, so its
+        next step sees the new gravity (tested: free flight gains M g t exactly); the implicit
+        BDF2 scheme, a two-step method, lags it by about half a step."""
         import dataclasses
 
         from .kernels import Backend
         from .model import _frozen
+        from .params import Integrator
         from .physics.contact import check_gravity_meets_ground
 
         try:
-            g = np.asarray(gravity, dtype=np.float64).reshape(3)
+            g = np.asarray(gravity, dtype=np.float64)
         except (TypeError, ValueError):
             g = None
-        if g is None or not np.all(np.isfinite(g)):
+        if g is None or g.shape != (3,) or not np.all(np.isfinite(g)):
             raise SceneError(f"gravity must be 3 finite accelerations [m/s^2], e.g. (0, -9.81, "
                              f"0) (y is up), got {gravity!r}")
+        if np.linalg.norm(g) > 1e3:  # (1e300 blew up, blamed on an impact)
+            import warnings
+
+            from .params import _user_stacklevel
+
+            warnings.warn(f"gravity {g.tolist()} m/s^2 is {np.linalg.norm(g) / 9.81:.3g} g: "
+                          "accelerations are in m/s^2 (Earth: 9.81)", UserWarning,
+                          stacklevel=_user_stacklevel())
         if self.backend is Backend.WARP:  # (its gravity is on the device, set when made)
             raise SceneError("set_gravity: not on the warp backend; make a new Simulator("
                              "dataclasses.replace(sim.model, gravity=...), state=sim.state)")
+        if self.integrator is Integrator.PAPER:  # (its next step uses the stored a: shifted
+            self.state.a += g - self.model.gravity  # so it sees the new gravity at once)
         self.model = dataclasses.replace(self.model, gravity=_frozen(g, np.float64))
         from .kernels import records as rec
 
@@ -85,13 +111,20 @@ class Control:
         state into ``sim.state`` instead keeps all of that (right for resuming a run, wrong
         for starting again).  A body below the ground is refused, as when the simulator is
         made."""
-        from .physics.contact import check_ground_placement
+        from .physics.contact import check_ground_placement, user_obstacles
         from .state import check_state
 
         n = self.model.point_count
         new = self.model.state() if state is None else check_state(state, n, "reset(state=)")
+        if not all(np.all(np.isfinite(a)) for a in (new.x, new.v, new.a)):
+            raise SceneError("reset(state=): its positions, velocities and accelerations must "
+                             "be finite (NaN or infinite values found)")
         if self.ground.enabled:
             check_ground_placement(new.x, float(self.ground.height))
+        try:  # (inside an obstacle: refused, as when the simulator is made)
+            user_obstacles(self.obstacles, new.x)
+        except ValueError as exc:
+            raise SceneError(f"reset(state=): {exc}") from None
         s = self.state
         s.x[:], s.v[:], s.a[:] = new.x, new.v, new.a
         s.t, s.step = 0.0, 0
@@ -109,27 +142,33 @@ class Control:
         self._size = float(np.ptp(self.model.point_x0, axis=0).max()) if (
             self.model.point_count) else 0.0
 
-    def _check_below_ground(self) -> None:
-        """Refuse to step a body whose free points were moved below the ground from outside
-        (``sim.state.x`` written between advances): the contact would throw them out at once.
-        The steps themselves never leave a point below it (it is put on the plane), so this
-        allows 1 % of the body's size (under it: a harmless nudge, 0.5-1 mm on a 10 cm body
-        gave 3-10 mJ)."""
+    def _check_moved_inside(self) -> None:
+        """Refuse to step a body whose free points were moved below the ground or into an
+        obstacle from outside (``sim.state.x`` written between advances): the contact would
+        throw them out at once (5 cm into a plane: 15 J).  The steps themselves never leave a
+        point inside (it is put on the surface), so this allows 1 % of the body's size (under
+        it: a harmless nudge, 0.5-1 mm on a 10 cm body gave 3-10 mJ)."""
+        if self.model.point_count == 0 or not (free := self.handles.pinned == 0).any():
+            return
+        x = self.state.x[free]
+        if not np.all(np.isfinite(x)):
+            return  # (said by the step's own check)
         g = self.ground
-        if not g.enabled or self.model.point_count == 0:
-            return
-        y = self.state.x[:, 1]
-        free = self.handles.pinned == 0
-        if not free.any():
-            return
         height = float(g.height)
-        low = float(y[free].min())
-        if not low < height - 0.01 * self._size:  # (NaN: said by the step's own check)
-            return
-        below = int(np.sum(y[free] < height))
-        raise SceneError(
-            f"advance: {below} of {len(y)} points are below the ground, the lowest "
-            f"{height - low:.4g} m under it (y = {low:.4g} m, the ground at y = {height:g} m): "
-            "the state was moved there from outside (sim.state.x written?), and the ground "
-            "would throw them out at once.  Move the body above the ground first; "
-            "sim.reset(state) starts over from a state (its history cleared)")
+        low = float(x[:, 1].min())
+        if g.enabled and low < height - 0.01 * self._size:
+            raise SceneError(
+                f"advance: {int(np.sum(x[:, 1] < height))} of {len(self.state.x)} points are "
+                f"below the ground, the lowest {height - low:.4g} m under it (y = {low:.4g} m, "
+                f"the ground at y = {height:g} m): the state was moved there from outside "
+                "(sim.state.x written?), and the ground would throw them out at once.  Move the "
+                "body above the ground first; sim.reset(state) starts over from a state (its "
+                "history cleared)")
+        if self.obstacles:
+            from .physics.contact import user_obstacles
+
+            try:
+                user_obstacles(self.obstacles, x, tol=0.01 * self._size)
+            except ValueError as exc:
+                raise SceneError(f"advance: {exc} (moved there from outside: sim.state.x "
+                                 "written?; sim.reset(state) starts over from a state)") from None

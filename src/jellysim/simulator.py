@@ -403,7 +403,7 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
             raise SceneError(f"advance(steps): steps must be a whole number >= 0, got {steps!r}")
         check_state(self.state, self.model.point_count, "advance")
-        self._check_below_ground()  # (a state moved there by hand: refused, as when made)
+        self._check_moved_inside()  # (a state moved there by hand: refused, as when made)
         self._advance_scheduled(int(steps))  # (split where a timed handle ends: handles.py)
 
     def _advance_chunk(self, steps: int) -> None:

@@ -166,11 +166,12 @@ def ground_plane(ground) -> Plane:
                  no_slip=ground.no_slip)
 
 
-def user_obstacles(obstacles, x0=None) -> tuple:
+def user_obstacles(obstacles, x0=None, tol: float | None = None) -> tuple:
     """``obstacles`` (one :class:`Plane`/:class:`Sphere`/:class:`Box` or a sequence of them)
     as a tuple, checked: anything else is a ``TypeError``; with ``x0`` (the body's starting
     positions [m], (n, 3)) a body starting inside an obstacle is a ``ValueError`` (the
-    contact would throw its points out at once), saying by how much."""
+    contact would throw its points out at once), saying by how much (deeper than ``tol`` [m];
+    default a millionth of the body's size)."""
     if isinstance(obstacles, _Surface):
         obstacles = (obstacles,)
     try:
@@ -185,7 +186,7 @@ def user_obstacles(obstacles, x0=None) -> tuple:
     if x0 is None or not len(obstacles):
         return obstacles
     x = np.asarray(x0, dtype=np.float64)
-    tol = max(1e-9, 1e-6 * float(np.ptp(x, axis=0).max()))
+    tol = max(1e-9, 1e-6 * float(np.ptp(x, axis=0).max())) if tol is None else tol
     for k, o in enumerate(obstacles):
         kind, v = o.row()
         if kind == 0:
