@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import SceneError
+from .params import Integrator, _user_stacklevel
 
 __all__ = ["Control"]
 
@@ -71,7 +72,6 @@ class Control:
 
         from .kernels import Backend
         from .model import _frozen
-        from .params import Integrator
         from .physics.contact import check_gravity_meets_ground
 
         try:
@@ -83,8 +83,6 @@ class Control:
                              f"0) (y is up), got {gravity!r}")
         if np.linalg.norm(g) > 1e3:  # (1e300 blew up, blamed on an impact)
             import warnings
-
-            from .params import _user_stacklevel
 
             warnings.warn(f"gravity {g.tolist()} m/s^2 is {np.linalg.norm(g) / 9.81:.3g} g: "
                           "accelerations are in m/s^2 (Earth: 9.81)", UserWarning,
