@@ -515,7 +515,10 @@ def inspect(path, settings=()) -> None:
             click.echo(mesh.defects.describe())
             from .geometry.mesh import outward
 
+            read = mesh.defects.volume
             mesh = outward(mesh, str(path))  # (as build does: said, via the CLI's warnings)
+            if mesh.defects.volume != read:  # (else the two volumes below seemed to disagree)
+                click.echo(f"volume, turned outward:  {mesh.defects.volume:.6g}")
             if mesh.defects.watertight:  # (one shell: does it pass through itself?)
                 from .build import shell_overlap
 
