@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import SceneError
-from .params import Integrator, _user_stacklevel
+from .params import GroundModel, Integrator, _user_stacklevel
 
 __all__ = ["Control"]
 
@@ -120,7 +120,7 @@ class Control:
         if self.ground.enabled:
             check_ground_placement(new.x, float(self.ground.height))
         try:  # (inside an obstacle: refused, as when the simulator is made)
-            user_obstacles(self.obstacles, new.x)
+            user_obstacles(self._others(), new.x)
         except ValueError as exc:
             raise SceneError(f"reset(state=): {exc}") from None
         s = self.state
@@ -133,6 +133,13 @@ class Control:
             self.min_tet_volume_ratio = 1.0
             self.substeps_taken = self.substeps
             self.__dict__.pop("_warned_inverted", None)
+
+    def _others(self) -> tuple:
+        """The obstacles besides the ground (a contact ground is the first of
+        ``self.obstacles``; the ground is checked on its own, with its own message)."""
+        g = self.ground
+        contact = g.enabled and GroundModel(g.model) is GroundModel.CONTACT
+        return self.obstacles[1:] if contact else self.obstacles
 
     def _remember_start(self) -> None:
         """Keep what :meth:`reset` restores (called once, at the end of ``__init__``)."""
@@ -162,11 +169,11 @@ class Control:
                 "(sim.state.x written?), and the ground would throw them out at once.  Move the "
                 "body above the ground first; sim.reset(state) starts over from a state (its "
                 "history cleared)")
-        if self.obstacles:
+        if others := self._others():
             from .physics.contact import user_obstacles
 
             try:
-                user_obstacles(self.obstacles, x, tol=0.01 * self._size)
+                user_obstacles(others, x, tol=0.01 * self._size)
             except ValueError as exc:
                 raise SceneError(f"advance: {exc} (moved there from outside: sim.state.x "
                                  "written?; sim.reset(state) starts over from a state)") from None

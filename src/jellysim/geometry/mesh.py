@@ -291,14 +291,15 @@ def _read_trimesh(p: Path, name: str):
         # maintain_order keeps the OBJ's vertex list as written, so that vertices no face uses
         # are counted (and then dropped) here rather than silently by the loader
         kwargs = {"maintain_order": True} if p.suffix.lower() == ".obj" else {}
-        source, concave = obj_source(p)  # (concave polygons split here: trimesh fans them)
+        lines = _lines(p) if p.suffix.lower() == ".obj" else []  # (read once: checks below)
+        source, concave = obj_source(p, lines)  # (concave polygons split: trimesh fans them)
         if not isinstance(source, str):
             kwargs["file_type"] = "obj"
         with warnings.catch_warnings():  # (its texture code's NaN medians: not the user's)
             warnings.simplefilter("ignore", RuntimeWarning)
             loaded = trimesh.load(source, force="mesh", process=False, **kwargs)
     except Exception as exc:  # trimesh raises many different types
-        where = _obj_problem(p) if p.suffix.lower() == ".obj" else None
+        where = _obj_problem(lines) if p.suffix.lower() == ".obj" else None
         if where is not None:
             raise MeshError(f"{name}:{where}") from None
         if isinstance(exc, ImportError):  # e.g. PIL for an OBJ's texture coordinates
@@ -306,7 +307,7 @@ def _read_trimesh(p: Path, name: str):
             raise MeshError(f"{name}: reading this file needs the optional package {what}: "
                             "pip install 'jellysim[mesh]'") from None
         raise MeshError(f"{name}: could not parse the file ({type(exc).__name__}: {exc})") from exc
-    where = _obj_problem(p) if p.suffix.lower() == ".obj" else None
+    where = _obj_problem(lines) if p.suffix.lower() == ".obj" else None
     if where is not None:  # e.g. 0-based face indices, which the loader wraps around silently
         raise MeshError(f"{name}:{where}")
     if concave and isinstance(source, str):  # (with UVs or materials: trimesh's fans kept)
@@ -329,11 +330,11 @@ def _lines(p: Path) -> list[str]:
         return []
 
 
-def _obj_problem(p: Path) -> str | None:
-    """The first line of an OBJ file that cannot be read, as ``"LINE: what, fix"`` (1-based
-    line and vertex numbers, as the format counts them), or ``None``."""
+def _obj_problem(lines: list[str]) -> str | None:
+    """The first of an OBJ file's ``lines`` that cannot be read, as ``"LINE: what, fix"``
+    (1-based line and vertex numbers, as the format counts them), or ``None``."""
     count = 0
-    for k, line in enumerate(_lines(p), start=1):
+    for k, line in enumerate(lines, start=1):
         words = line.split("#", 1)[0].split()
         if not words:
             continue

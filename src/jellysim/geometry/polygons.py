@@ -100,21 +100,21 @@ def _obj_polygons(lines):
     return v, polys, where, bad
 
 
-def first_concave_obj_face(lines) -> tuple[int, int] | None:
+def first_concave_obj_face(lines, read=None) -> tuple[int, int] | None:
     """(1-based line, count) of the first polygon face of an OBJ file's ``lines`` that is not
     convex, and how many there are; ``None`` when every polygon is convex (or the file is
-    unreadable: the loader says that)."""
-    read = _obj_polygons(lines)
+    unreadable: the loader says that).  ``read``: :func:`_obj_polygons` of them, if made."""
+    read = _obj_polygons(lines) if read is None else read
     if read is None or not read[3].any():
         return None
     return read[2][int(np.argmax(read[3]))], int(read[3].sum())
 
 
-def split_concave_obj(lines) -> str:
+def split_concave_obj(lines, read=None) -> str:
     """The OBJ file's text with each concave polygon face replaced by its triangles
     (:func:`triangulate`; each corner keeps its ``v/vt/vn`` token), for a reader that would
-    fan it."""
-    v, polys, where, bad = _obj_polygons(lines)
+    fan it.  ``read``: :func:`_obj_polygons` of ``lines``, if made."""
+    v, polys, where, bad = _obj_polygons(lines) if read is None else read
     out = list(lines)
     for poly, k, concave in zip(polys, where, bad):
         if not concave:
@@ -126,20 +126,19 @@ def split_concave_obj(lines) -> str:
     return "\n".join(out) + "\n"
 
 
-def obj_source(p):
-    """What trimesh should read for the OBJ file ``p`` (a ``Path``), and its first concave
-    polygon face (line, count) or ``None``: with concave polygons and no texture coordinates
-    or materials, the text with those split inside their outline (:func:`split_concave_obj`,
-    as a file object); else the path as a string (trimesh fans the polygons)."""
+def obj_source(p, lines):
+    """What trimesh should read for the OBJ file ``p`` (a ``Path``) of text ``lines``, and
+    its first concave polygon face (line, count) or ``None``: with concave polygons and no
+    texture coordinates or materials, the text with those split inside their outline
+    (:func:`split_concave_obj`, as a file object); else the path as a string (trimesh fans
+    the polygons).  Files without polygons of four or more corners are not parsed here."""
     import io
 
-    if p.suffix.lower() != ".obj":
+    if p.suffix.lower() != ".obj" or not any(
+            w[:2] == "f " and len(w.split("#", 1)[0].split()) > 4 for w in lines):
         return str(p), None
-    try:
-        lines = p.read_text(encoding="utf-8", errors="replace").splitlines()
-    except OSError:
-        return str(p), None
-    concave = first_concave_obj_face(lines)
+    read = _obj_polygons(lines)
+    concave = first_concave_obj_face(lines, read)
     if concave is None or any(w.split()[:1] in (["vt"], ["usemtl"]) for w in lines):
         return str(p), concave
-    return io.BytesIO(split_concave_obj(lines).encode()), concave
+    return io.BytesIO(split_concave_obj(lines, read).encode()), concave

@@ -76,14 +76,7 @@ def marching_grid(vertices, faces, inside_fn: InsideFn, *, h: float,
         raise BuildError(f"h must be a positive finite length [m], got {h!r}")
     lo, hi = v.min(axis=0), v.max(axis=0)
     ext = hi - lo
-    # (an extent within 1e-5 of a whole number of cells is that many: build_body may fit
-    # the grid to the box so that its outer nodes lie a hair inside it)
-    ncell = np.maximum(1, np.ceil(ext / h * (1.0 - 1e-5)).astype(np.int64))
-    if warp:  # the mirrored split is symmetric under a reflection through the box's centre
-        # only across an even number of cells (an odd count puts one unmirrorable cell in the
-        # middle): so across x and z, the horizontal axes, the count is made even (a body
-        # dropped straight then has no preferred side to slide to)
-        ncell[[0, 2]] += ncell[[0, 2]] % 2
+    ncell = grid_cells(ext, h, warp)
     if int(np.prod(ncell + 1)) > 50_000_000:
         raise BuildError(f"h={h} gives a {tuple(int(c) for c in ncell)} grid; too many nodes")
     origin = lo - (ncell * h - ext) / 2.0
@@ -140,19 +133,31 @@ def fit_height(h: float, height: float) -> float:
     return height * (1.0 - 2e-6) / cells
 
 
+def grid_cells(extents, h: float, warp: bool = True) -> np.ndarray:
+    """Cells of :func:`marching_grid` along each axis (int64 (3,)) for a bounding box of
+    ``extents`` [m] and cube edge ``h`` [m]: ``ceil(extent / h)`` (an extent within 1e-5 of
+    a whole number of cells is that many: build_body may fit the grid to the box so that its
+    outer nodes lie a hair inside it).  Warped, the mirrored split is symmetric under a
+    reflection through the box's centre only across an even number of cells (an odd count
+    puts one unmirrorable cell in the middle): so across x and z, the horizontal axes, the
+    count is made even (a body dropped straight then has no preferred side to slide to)."""
+    ext = np.asarray(extents, dtype=np.float64)
+    ncell = np.maximum(1, np.ceil(ext / h * (1.0 - 1e-5)).astype(np.int64))
+    if warp:
+        ncell[[0, 2]] += ncell[[0, 2]] % 2
+    return ncell
+
+
 def missed_fraction(h: float, extents) -> float:
     """The fraction of a box of ``extents`` [m] (3,) that a warped grid of edge ``h`` misses
-    (as :func:`marching_grid` lays it out: ``ceil(extent / h)`` cells, even across x and z,
-    centred): where a face lies between grid nodes with the outer node more than
+    (as :func:`marching_grid` lays it out: :func:`grid_cells`, centred): where a face lies between grid nodes with the outer node more than
     ``WARP_ALPHA_OUTSIDE`` of an edge outside and the inner one more than ``1 - WARP_ALPHA``
     inside, neither moves onto it and a layer up to 0.55 h thick on that side is lost (a
     10 x 6 x 10 cm box at h = 9.7 mm: 5.8 mm top and bottom, 20 % of its volume)."""
     from .snap import WARP_ALPHA, WARP_ALPHA_OUTSIDE
 
     ext = np.asarray(extents, dtype=np.float64)
-    cells = np.maximum(1, np.ceil(ext / h * (1.0 - 1e-5)))
-    cells[[0, 2]] += cells[[0, 2]] % 2
-    over = (cells * h - ext) / 2.0                    # each side's outer node beyond the face
+    over = (grid_cells(ext, h) * h - ext) / 2.0  # each side's outer node beyond the face
     missed = (over >= WARP_ALPHA_OUTSIDE * h) & (over <= (1.0 - WARP_ALPHA) * h)
     lost = np.where(missed, 2.0 * (h - over), 0.0)
     return float(1.0 - np.prod(np.clip(1.0 - lost / np.maximum(ext, 1e-300), 0.0, 1.0)))

@@ -123,13 +123,12 @@ def tetgen_body(vertices, faces, *, max_volume: float | None = None, quality: bo
                 "tetgen needs a closed, manifold, consistently oriented surface; this one has "
                 + ", ".join(bad) + f"; repair the mesh or {hint}"
             )
-    try:
-        import tetgen  # noqa: F401  (the child process imports it again to run it)
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise BuildError(
+    import importlib.util
+
+    if importlib.util.find_spec("tetgen") is None:  # (the child process imports it to run it)
+        raise BuildError(  # pragma: no cover - depends on the environment
             "tetgen_body needs the optional package 'tetgen' (pip install 'jellysim[mesh]'); "
-            f"or {hint}"
-        ) from exc
+            f"or {hint}")
 
     # TetGen runs in a child process: refusing a self-intersecting surface corrupts its heap
     # (tetgen 0.8.4), and the process that called it aborted later ("free(): invalid
