@@ -772,6 +772,7 @@ def test_a_run_that_will_be_slow_says_how_long_and_why(tmp_path, monkeypatch):
     run_scene(Scene.from_text(text), tmp_path / "a", notify=said.append)
     assert not [m for m in said if "at this pace" in m]
     monkeypatch.setattr(notes, "SLOW_RUN_SECONDS", 0.0)
+    monkeypatch.setattr(notes, "PACE_STEPS", 1)
     said.clear()
     result = run_scene(Scene.from_text(text), tmp_path / "b", notify=said.append)
     (line,) = [m for m in said if "at this pace" in m]
@@ -780,6 +781,25 @@ def test_a_run_that_will_be_slow_says_how_long_and_why(tmp_path, monkeypatch):
     assert f"({model.point_count:,} points, {substeps} substeps per step of" in line
     assert substeps > 1 and "Ctrl-C stops it" in line
     assert result.steps == 6  # (said, not stopped)
+
+
+def test_the_pace_is_judged_over_several_steps_not_one_slow_frame():
+    """A radius cow's second step took 2.2 s (its first contact), its next 58 steps 0.12 s
+    each: judged on that one step the run said "about 2 min more" and ended 7 s later.  The
+    pace is now judged over PACE_STEPS steps (or PACE_SECONDS): one slow step is no verdict,
+    five steps at the true pace say nothing, five slow ones say how long."""
+    from types import SimpleNamespace
+
+    import jellysim.run_notes as notes
+
+    sim = SimpleNamespace(substeps=88, dt=1 / 60, model=SimpleNamespace(point_count=1478))
+    said = []
+    assert notes._say_if_slow(said.append, sim, 2.2, 1, 58) is False and not said
+    assert notes._say_if_slow(said.append, sim, 2.2 + 4 * 0.12, 5, 54) is True and not said
+    assert notes._say_if_slow(said.append, sim, 5 * 3.0, 5, 54) is True
+    (line,) = said
+    assert "about 3 min more" in line and "88 substeps per step" in line
+    assert notes._say_if_slow(said.append, sim, 11.0, 1, 54) is True and len(said) == 2
 
 
 def test_docs_scene_md_is_what_scene_help_prints():
