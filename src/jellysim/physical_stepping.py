@@ -52,7 +52,7 @@ class PhysicalStepping:
         as symplectic Euler does: it swings by about omega h (a mode's angular frequency times
         the substep) around a conserved value, without drift, when gravity is off.  Under
         gravity it also falls steadily by ``1/2 M |g|^2 h`` per second (the scheme's free
-        fall lags the parabola by ``g h t / 2``: 1.3e-3 of a tumbling brick's energy in 2 s
+        fall runs ``g h t / 2`` ahead of (below) the parabola: 1.3e-3 of a tumbling brick's energy in 2 s
         at h = 1/6240 s; ``total + h/2 sum m g . v`` is the conserved one)."""
         m, x, v = self.model, self.state.x, self.state.v
         mass = np.asarray(m.point_mass, dtype=np.float64)
