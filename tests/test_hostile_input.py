@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import math
 import random
+import re
 import time
 import tracemalloc
 import zipfile
@@ -1304,3 +1305,28 @@ def test_session_23_trial_mistakes_are_said(tmp_path):
     write_body(tmp_path / "b.jello", body)
     with pytest.warns(UserWarning, match=r"own masses .* replaced by the material"):
         Scene.load(tmp_path / "s.toml").build_model()
+
+
+def test_a_tiny_body_that_needs_too_many_substeps_is_told_its_size_first():
+    """The artist trial: a 0.1 mm mesh read as metres was refused for needing 40,108
+    substeps, with fixes (modulus, density, fewer points, 'marching') none of which was the
+    real one, although it was already marching.  The substeps go as 1 / size (the smallest
+    tet's pressure wave), so a body under 1 cm across is told its size and how to scale it,
+    and 'marching' is no longer offered to a marching body."""
+    import jellysim as js
+
+    sphere = Path(__file__).parent / "data" / "sphere.obj"
+    with pytest.warns(UserWarning):  # (a body under 1 mm is warned of at build: units)
+        body = js.Body.from_mesh(sphere, size=1e-4, points=60, base=(0, 0, 0),
+                                 connect="marching")
+    with pytest.raises(SceneError) as info:
+        js.Simulator(js.physical_model(body, js.material("gelatin")), dt=1 / 60)
+    msg = str(info.value)
+    assert re.search(r"the body is only 0\.09\d* mm across", msg) and "[body] size = 0.1" in msg
+    assert "connect = 'marching'" not in msg and "youngs_modulus" in msg
+    # a body of ordinary size with too stiff a material is not told about its size
+    body = js.Body.from_mesh(sphere, size=0.04, points=60, base=(0, 0, 0), connect="delaunay")
+    with pytest.raises(SceneError) as info:
+        js.Simulator(js.physical_model(body, js.material("gelatin", youngs_modulus=1e12)),
+                     dt=1 / 60)
+    assert "mm across" not in str(info.value) and "connect = 'marching'" in str(info.value)

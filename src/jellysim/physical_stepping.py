@@ -35,6 +35,30 @@ on a slope at 0.9 atan(mu) broke away and, once sliding, did not stop (docs/phys
 section 2: friction-induced hopping)."""
 
 
+
+SMALL_BODY = 0.01
+"""[m] A body smaller than this across that needs too many substeps is said to be small: a
+mesh in millimetres read as metres (the artist trial's 0.1 mm mesh: 40,108 substeps)."""
+
+
+def _substep_fixes(model) -> str:
+    """What makes a physical body need fewer substeps, for an error: the size first when the
+    body is tiny (a mesh's unit), the builder only when it is not already 'marching'."""
+    x = np.asarray(model.point_x0, dtype=np.float64)
+    extent = float(np.max(x.max(axis=0) - x.min(axis=0))) if len(x) else 0.0
+    fixes = []
+    if extent < SMALL_BODY:
+        fixes.append(f"the body is only {extent * 1e3:.3g} mm across (a mesh's coordinates "
+                     "are read as metres: [body] size = 0.1, jellysim build --size 0.1 or "
+                     "size=0.1 scales it to 10 cm)")
+    fixes.append("check the material's youngs_modulus [Pa] and density [kg/m^3] (gelatin: 1e4 "
+                 "and 1141)")
+    connect = model.body.meta.get("connect") if getattr(model, "body", None) is not None \
+        else None
+    fixes.append("use fewer points (larger tets)" + (
+        "" if connect == "marching" else " or connect = 'marching' (well-shaped tets)"))
+    return "; ".join(fixes) + ", or a smaller dt"
+
 class PhysicalStepping:
     """Mixin: needs ``model``, ``state``, ``handles``, ``dt``, ``substeps``, ``backend``,
     ``_k`` (the backend), ``_obstacle_kind``/``_obstacle_data``, ``rest_speed``, ``center``,
@@ -274,10 +298,8 @@ class PhysicalStepping:
                 f"the physical (FEM) material needs {need} substeps per step of dt = "
                 f"{float(dt):g} s (stable limit {2.0 / omega:.3g} s: its fastest vibration, "
                 f"{omega:.4g} rad/s, is a pressure wave sqrt((lam + 2 mu) / rho) across its "
-                f"smallest tet; more than {MAX_AUTO_SUBSTEPS} is refused): check the material's "
-                "youngs_modulus [Pa] and density [kg/m^3] (gelatin: 1e4 and 1141), use fewer "
-                "points (larger tets) or connect = 'marching' (well-shaped tets), or a smaller "
-                "dt")
+                f"smallest tet; more than {MAX_AUTO_SUBSTEPS} is refused): "
+                + _substep_fixes(model))
         if need > SLOW_SUBSTEPS:  # (1e8 Pa on a 216-point box: 1,841 substeps, 77 ms a frame)
             warnings.warn(
                 f"the physical (FEM) material needs {need} substeps per step of dt = "
