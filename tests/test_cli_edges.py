@@ -478,3 +478,30 @@ def test_a_serial_run_says_it_ignores_partition(tmp_path):
     res = _run(tmp_path, tmp_path / "p", 10, "--partition", "metis")
     assert res.exit_code == 0, res.output
     assert "--partition metis applies under mpiexec only" in res.output
+
+
+def test_an_output_path_through_a_file_or_a_read_only_folder_is_named_as_given(traj_path,
+                                                                              tmp_path):
+    """The artist trial: `run --out afile/r` and `export --sequence obj afile/seq` said "Not a
+    directory" (render and export said which part was a file); a read-only folder's error
+    named a hidden staging folder (`rofs/.new-ec9frqa1`).  Every command now names the path
+    given and the part that is a file; an error on a staging folder names its folder."""
+    import errno
+
+    from jellysim.io.atomic import describe_os_error
+
+    afile = tmp_path / "afile"
+    afile.write_text("not a folder")
+    res = _run(tmp_path, afile / "r", 2)
+    assert res.exit_code == 2 and f"{afile} is a file, not a folder" in res.output
+    res = CliRunner().invoke(cli, ["export", str(traj_path), "--sequence", "obj",
+                                   str(afile / "seq")])
+    assert res.exit_code == 2 and f"{afile} is a file, not a folder" in res.output
+    assert afile.read_text() == "not a folder"
+    rofs = tmp_path / "rofs"
+    line = describe_os_error(OSError(errno.EROFS, "Read-only file system",
+                                     str(rofs / ".new-ec9frqa1")))
+    assert line.startswith(f"{rofs}: Read-only file system (") and ".new-" not in line
+    res = CliRunner().invoke(cli, ["render", str(tmp_path / "no_run"), "-o",
+                                   str(tmp_path / "x.png")])
+    assert res.exit_code == 2 and "jellysim run SCENE --out FOLDER" in res.output

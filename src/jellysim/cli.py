@@ -74,8 +74,9 @@ class _Group(click.Group):
                 pass
             sys.exit(141)  # (128 + SIGPIPE, as a shell's own tools end)
         except OSError as exc:
-            where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-            _fail(f"{where}{exc.strerror or exc}")
+            from .io.atomic import describe_os_error
+
+            _fail(describe_os_error(exc))
 
 
 @click.group(cls=_Group)

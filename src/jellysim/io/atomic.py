@@ -14,7 +14,32 @@ from pathlib import Path
 
 from ..errors import OutputError
 
-__all__ = ["atomic_path", "atomic_write", "guard_file", "guard_folder"]
+__all__ = ["atomic_path", "atomic_write", "describe_os_error", "guard_file", "guard_folder"]
+
+
+def describe_os_error(exc: OSError) -> str:
+    """One line for an operating-system error met writing or reading ``exc.filename``: the
+    path the user gave (not a hidden staging folder ``.new-*``), what is wrong
+    with it, and what would fix it (the artist trial: "afile/r: Not a directory",
+    "/proc/r: No such file or directory", "rofs/.new-ec9frqa1: Read-only file system")."""
+    import errno
+
+    name = getattr(exc, "filename", None)
+    why = exc.strerror or str(exc)
+    if not name:
+        return why
+    path = Path(name)
+    if path.name.startswith(".new-"):  # (a staging folder of ours: name its folder)
+        path = path.parent
+    if exc.errno == errno.ENOTDIR:
+        for up in [path, *path.parents]:
+            if up.exists() and not up.is_dir():
+                return f"{path}: {up} is a file, not a folder (choose another path)"
+    if exc.errno == errno.EROFS:
+        return f"{path}: {why} (write somewhere else: a folder you can write to)"
+    if exc.errno in (errno.EACCES, errno.EPERM):
+        return f"{path}: {why} (check the permissions of {path} and of its folder)"
+    return f"{path}: {why}"
 
 
 def _final_mode(path: Path) -> int:

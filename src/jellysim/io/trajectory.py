@@ -309,11 +309,13 @@ def resolve_trajectory(path) -> Path:
         for cand in (path / STREAM_DIR, path / "trajectory.npz"):
             if cand.exists() and (cand.suffix == ".npz" or (cand / "meta.npz").is_file()):
                 return cand
-        raise JellysimError(f"{path}: directory holds no trajectory.npz and no {STREAM_DIR}")
+        raise JellysimError(f"{path}: directory holds no trajectory.npz and no {STREAM_DIR} "
+                            "(not a run's folder: `jellysim run SCENE --out FOLDER` makes one)")
     if not path.exists() and (path.parent / STREAM_DIR / "meta.npz").is_file():
         return path.parent / STREAM_DIR
     if not path.exists():
-        raise JellysimError(f"{path}: trajectory file not found")
+        raise JellysimError(f"{path}: trajectory file not found (give a run's folder or its "
+                            "trajectory.npz: `jellysim run SCENE --out FOLDER` makes one)")
     return path
 
 
