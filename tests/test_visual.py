@@ -1370,3 +1370,10 @@ def test_render_clock_and_labels_write_text_in_their_corners_only(run_dir, tmp_p
     res = CliRunner().invoke(cli, ["render", str(run_dir), str(run_dir), "-o",
                                    str(tmp_path / "two.png"), "--label", "one"])
     assert res.exit_code != 0 and "1 --label given for 2 run(s)" in res.output
+    # captioned panels side by side: the clock goes to each panel's foot (at the top right
+    # it ran into the next panel's caption: "time 0.500 s  torus", the artist trial)
+    two = [render(str(run_dir), "--label", "one", "--label", "two", *clock)
+           for clock in ((), ("--clock",))]
+    rows, cols = np.nonzero(np.abs(two[1] - two[0]).max(axis=2) > 0)
+    assert rows.size > 20 and rows.min() > 3 * 180 // 4           # at the foot only
+    assert (cols < 320).sum() > 10 and (cols >= 320).sum() > 10    # of both panels

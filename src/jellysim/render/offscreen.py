@@ -312,6 +312,7 @@ class Renderer:
             p.add_mesh(self.springs, color="#5a1020", opacity=0.35, line_width=1.0,
                        name="springs")
         self.camera.apply(p)
+        self._beside = bool(frame_with) and bool(label)  # (a panel of several, captioned)
         if label:
             p.add_text(label, position="upper_left", font_size=max(8, self.size[1] // 40),
                        color="#3a3530", name="label")
@@ -383,8 +384,11 @@ class Renderer:
         if self.springs is not None:
             self.springs.points = x
         if self.options.clock:  # (a text actor of the same name replaces the last)
+            # in captioned panels side by side, at the foot: at the top right it ran into
+            # the next panel's caption ("time 0.500 s  torus", the artist trial)
             self.plotter.add_text(f"time {float(self.traj.times[f]):.3f} s ",
-                                  position="upper_right", name="clock", color="#3a3530",
+                                  position="lower_right" if self._beside else "upper_right",
+                                  name="clock", color="#3a3530",
                                   font_size=max(8, self.size[1] // 40))
 
     def render(self, f: int) -> np.ndarray:
