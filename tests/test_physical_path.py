@@ -900,3 +900,36 @@ def test_a_body_hanging_on_the_drag_spring_overshoots_as_a_damped_oscillator(bac
     assert (-low - static) / static == pytest.approx(expect, abs=0.015)
     sim.drag(None)
     assert sim.drag_spring is None
+
+
+def test_a_hanging_bar_carries_the_weight_below_each_section_as_its_stress():
+    """The researcher trial: no stress was read out.  ``sim.tet_stresses()`` gives each tet's
+    Cauchy stress; a 2 x 10 x 2 cm bar (E = 100 kPa: strains of 1e-3) hanging at rest from its
+    pinned top carries, at a height s above its free end, the weight below over the section:
+    sigma_yy = rho g s (layer means within 2 % away from the ends, where the pins and the free
+    face perturb it), no sideways stress (under 3 % of it), and von Mises = |sigma_yy|."""
+    import jellysim as js
+    from jellysim.physics.fem import von_mises
+
+    L, a, rho, g = 0.1, 0.02, 1141.0, 9.8
+    body = js.Body.box(lower=(0, 0.2, 0), upper=(a, 0.2 + L, a), points=5 * 5 * 21)
+    model = js.physical_model(body, js.material("gelatin", youngs_modulus=1e5,
+                                                damping_ratio=0.3))
+    x0 = np.asarray(model.point_x0)
+    sim = js.Simulator(model, dt=1 / 60)
+    sim.pin(np.nonzero(x0[:, 1] > 0.2 + L - 1e-9)[0])
+    sim.settle()
+    sigma = sim.tet_stresses()
+    assert sigma.shape == (model.fem.tet_count, 3, 3)
+    np.testing.assert_allclose(sigma, np.transpose(sigma, (0, 2, 1)), atol=1e-9)
+    s = x0[model.fem.tets, 1].mean(axis=1) - 0.2            # rest height above the free end
+    checked = 0
+    for lo in np.arange(0.3, 0.7, 0.05) * L:
+        layer = (s >= lo) & (s < lo + 0.05 * L)
+        want = rho * g * s[layer].mean()
+        assert sigma[layer, 1, 1].mean() == pytest.approx(want, rel=0.02)  # (0.4-0.8 %)
+        for k in (0, 2):
+            assert abs(sigma[layer, k, k].mean()) < 0.03 * want
+        assert von_mises(sigma[layer]).mean() == pytest.approx(want, rel=0.05)
+        checked += 1
+    assert checked == 8

@@ -172,6 +172,21 @@ class PhysicalStepping:
         fem = self.model.fem
         return tet_signed_volumes(self.state.x, fem.tets) / fem.rest_volume
 
+    def tet_stresses(self) -> np.ndarray:
+        """Each tet's Cauchy (true) stress now [Pa], shape (t, 3, 3), tension positive: the
+        Stable Neo-Hookean stress plus the damping branch's (zero at rest); NaN for a tet
+        inside out.  ``jellysim.physics.fem.von_mises(sim.tet_stresses())`` gives the von
+        Mises stress (t,) [Pa].  Checked: a bar hanging from its pinned top carries
+        ``rho g s`` at a height ``s`` above its free end (``tests/test_physical_path.py``).
+        Physical path only."""
+        from .errors import SceneError
+        from .physics.fem import tet_stresses
+
+        if not self.physical:
+            raise SceneError("tet_stresses: this body has no tets on the physical path (a "
+                             "FEM material); it runs on springs")
+        return tet_stresses(self.model.fem, self.state.x, self._q)
+
     def settle(self, *, max_seconds: float = 10.0, speed: float = 1e-4) -> int:
         """Let the body come to rest where it is (under gravity, on its ground and obstacles,
         its handles on) before the run: it is stepped with a strong extra viscous damping

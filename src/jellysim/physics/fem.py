@@ -219,6 +219,51 @@ def elastic_energy(fem: FemArrays, x: np.ndarray) -> float:
     return float(np.sum(fem.rest_volume * psi))
 
 
+def tet_stresses(fem: FemArrays, x: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
+    """Cauchy (true) stress [Pa] of every tet at positions ``x`` [m] (n, 3): shape (t, 3, 3),
+    symmetric, tension positive, ``sigma = P F^T / J`` with ``P`` the first Piola-Kirchhoff
+    stress of the Stable Neo-Hookean energy (``kernels/fem_numpy.py``) plus, with the damping
+    branch's internal strains ``q`` (t, 6) given, the branch's stress ``F g 2 mu_L dev(E_G -
+    Q)`` (zero at rest).  A tet turned inside out (``J <= 0``) gets NaN: no true stress."""
+    t = fem.tets
+    x = np.asarray(x, dtype=np.float64)
+    x0 = x[t[:, 0]]
+    ds = np.stack([x[t[:, c]] - x0 for c in (1, 2, 3)], axis=2)
+    F = ds @ fem.rest_inverse
+    ic = np.einsum("tij,tij->t", F, F)
+    c0, c1, c2 = F[:, :, 0], F[:, :, 1], F[:, :, 2]
+    cof = np.stack([np.cross(c1, c2), np.cross(c2, c0), np.cross(c0, c1)], axis=2)
+    J = np.einsum("ti,ti->t", c0, cof[:, :, 0])
+    P = (fem.mu * (1.0 - 1.0 / (ic + 1.0)))[:, None, None] * F \
+        + (fem.lam * (J - fem.alpha))[:, None, None] * cof
+    if q is not None and fem.branch_ratio > 0.0:
+        e = 0.5 * (np.einsum("tki,tkj->tij", F, F) - np.eye(3))
+        d = e - _full_strain(np.asarray(q, dtype=np.float64))
+        d -= (np.trace(d, axis1=1, axis2=2) / 3.0)[:, None, None] * np.eye(3)
+        P = P + fem.branch_ratio * (F @ ((2.0 * fem.mu_lame)[:, None, None] * d))
+    sigma = P @ np.transpose(F, (0, 2, 1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sigma = np.where((J > 0.0)[:, None, None], sigma / J[:, None, None], np.nan)
+    return 0.5 * (sigma + np.transpose(sigma, (0, 2, 1)))
+
+
+def von_mises(sigma: np.ndarray) -> np.ndarray:
+    """The von Mises equivalent stress [Pa] of Cauchy stresses ``sigma`` (..., 3, 3):
+    ``sqrt(3/2 s:s)``, ``s`` the deviator (uniaxial tension sigma gives sigma)."""
+    sigma = np.asarray(sigma, dtype=np.float64)
+    s = sigma - (np.trace(sigma, axis1=-2, axis2=-1) / 3.0)[..., None, None] * np.eye(3)
+    return np.sqrt(1.5 * np.einsum("...ij,...ij->...", s, s))
+
+
+def _full_strain(q: np.ndarray) -> np.ndarray:
+    """(t, 6) strains (xx yy zz xy yz xz) as (t, 3, 3) symmetric tensors."""
+    out = np.empty((len(q), 3, 3))
+    for a, (i, j) in enumerate(((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))):
+        out[:, i, j] = q[:, a]
+        out[:, j, i] = q[:, a]
+    return out
+
+
 def scale_light_masses(mass: np.ndarray, fem: FemArrays, fraction: float) -> np.ndarray:
     """Point masses [kg], shape (n,), with ``fraction`` of the total moved onto the points that
     are lightest for their stiffness (selective nodal mass scaling; the total is kept).
