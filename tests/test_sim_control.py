@@ -207,3 +207,38 @@ def test_the_step_and_gravity_refuse_what_they_cannot_mean(jello):
             sim.gravity = bad
     with pytest.warns(UserWarning, match=r"is 1e\+05 g: accelerations are in m/s\^2"):
         sim.gravity = (9.81e5, 0.0, 0.0)
+
+
+def test_a_copied_or_pickled_simulator_goes_on_as_the_original(jello):
+    """``copy.deepcopy(sim)`` and ``pickle`` failed ("cannot pickle 'module' object": the
+    kernels' module), so one moment could not be branched into two futures nor a running
+    simulation handed to another process.  A copy made mid-run, with a pin moving along a
+    path, a point force with a release time and a landing behind it (damping strain, slip),
+    goes on bitwise as the original; the copies are independent of it; the same for the
+    report's springs step."""
+    import copy
+    import pickle
+
+    sim = js.Simulator(jello, dt=1 / 60, ground=G)
+    sim.pin([0, 1], path=[[0.0, 0.0, 0.0, 0.0], [1.0, 0.02, 0.01, 0.0]])
+    sim.apply_force([10, 11], [0.0, 0.05, 0.0], until=0.4)
+    sim.advance(15)
+    copies = [copy.deepcopy(sim), pickle.loads(pickle.dumps(sim))]
+    before = sim.state.x.copy()
+    copies[0].advance(7)
+    assert np.array_equal(sim.state.x, before)            # the original is untouched
+    copies[0] = copy.deepcopy(sim)
+    for s in (sim, *copies):
+        s.advance(30)                                      # past the force's release
+    for c in copies:
+        assert np.array_equal(c.state.x, sim.state.x) and np.array_equal(c.state.v, sim.state.v)
+        assert c.state.t == sim.state.t and c.state.step == sim.state.step
+        np.testing.assert_array_equal(c.pin_force(), sim.pin_force())
+    model = js.finalize(js.Body.box(points=125, distribution="uniform", radius=0.35, seed=3),
+                        stiffness=50.0)
+    paper = js.Simulator(model, dt=1e-3, integrator="paper", ground=js.GroundParams())
+    paper.advance(10)
+    twin = pickle.loads(pickle.dumps(paper))
+    paper.advance(20)
+    twin.advance(20)
+    assert np.array_equal(twin.state.x, paper.state.x)

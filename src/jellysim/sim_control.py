@@ -19,7 +19,27 @@ __all__ = ["Control"]
 
 
 class Control:
-    """:meth:`reset`, :attr:`gravity` / :meth:`set_gravity`, :attr:`dt` (read-only)."""
+    """:meth:`reset`, :attr:`gravity` / :meth:`set_gravity`, :attr:`dt` (read-only), and
+    copying: ``copy.deepcopy(sim)`` and ``pickle`` give a simulator that goes on exactly as
+    the original would (its state, history, handles and clock), e.g. to try two futures from
+    one moment, or to hand a running simulation to another process."""
+
+    def __getstate__(self):
+        from .kernels import Backend
+
+        if self.backend is Backend.WARP:  # (its state lives on the device)
+            raise SceneError("a simulator on backend 'warp' cannot be copied or pickled (its "
+                             "arrays are on the device): save sim.state and "
+                             "sim.internal_state() and make a new Simulator from them")
+        state = dict(vars(self))
+        state["_k"] = None  # (the kernels' module: imported again on the other side)
+        return state
+
+    def __setstate__(self, state) -> None:
+        from .kernels import get_backend
+
+        vars(self).update(state)
+        self._k = get_backend(self.backend, precision=self.precision)
 
     @property
     def dt(self) -> float:
