@@ -998,3 +998,33 @@ def test_a_run_resumes_from_its_folder_alone(tmp_path, monkeypatch):
     assert res.exit_code == 2 and "no such folder" in res.output
     res = runner.invoke(cli, ["run"])
     assert res.exit_code == 2 and "give a scene" in res.output and "--resume DIR" in res.output
+
+
+def test_an_extension_killed_before_its_first_checkpoint_resumes_to_its_own_length(tmp_path):
+    """The reliability trial: a finished 900-step run extended to 1800 steps and killed
+    (SIGKILL) before the extension wrote a checkpoint, then `--resume` without --steps, was
+    "resumed" to the first run's 900 steps from its final state: the 402 frames past it that
+    render, plot and export had shown were deleted unsaid.  The extension records its length
+    in its stream when it starts: a plain resume finishes it (bitwise the longer run).  A
+    damaged stream is said before the resume takes a step (it failed with a traceback after
+    simulating everything)."""
+    scene = Scene.from_text(EXPLICIT, name="scene.toml")
+    n = scene.steps
+    ref = load_trajectory(run_scene(scene, tmp_path / "full", progress=False,
+                                    steps=3 * n).trajectory)
+    out = tmp_path / "run"
+    run_scene(scene, out, progress=False)
+    with pytest.raises(RunInterrupted):
+        run_scene(scene, out, progress=False, resume=True, steps=3 * n, stop_after=2 * n)
+    (out / CHECKPOINT).unlink()  # (as a SIGKILL before the extension's first checkpoint)
+    (out / STREAM_DIR / "status.txt").unlink(missing_ok=True)  # (killed: still "running")
+    assert load_trajectory(out).frame_count > n // scene.frame_every + 1
+    res = run_scene(scene, out, progress=False, resume=True)
+    traj = load_trajectory(res.trajectory)
+    assert traj.steps[-1] == 3 * n and traj.status == "complete"
+    _same(traj, ref)
+    with pytest.raises(RunInterrupted):
+        run_scene(scene, tmp_path / "cut", progress=False, stop_after=n // 2)
+    (tmp_path / "cut" / STREAM_DIR / "meta.npz").write_text("garbage")
+    with pytest.raises(CheckpointError, match=r"meta\.npz: damaged .*--overwrite"):
+        run_scene(scene, tmp_path / "cut", progress=False, resume=True)

@@ -32,7 +32,7 @@ from .errors import (BuildError, CheckpointError, JellysimError, NothingToResume
 from .io.checkpoint import (CHECKPOINT, FINAL_CHECKPOINT, mpiexec_interruption,
                             read_checkpoint, write_checkpoint)
 from .io.lock import claim, refuse_if_held
-from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream, reopen_stream
+from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream, reopen_stream, stream_steps
 from .io.trajectory import load_trajectory, skin_bounds, trajectory_meta
 from .run_notes import _resume_command, _say_if_slow
 from .io.vtk import FrameWriter, PVDSeries
@@ -391,6 +391,8 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                 f"finished ({npz_path}) and kept no final state to extend it from (it ran "
                 "under mpiexec, whose runs keep none, or it failed, or an older jellysim "
                 "wrote it); run it again with --overwrite (and the steps asked)")
+        if stream_dir.exists():
+            stream_steps(stream_dir)  # (a damaged stream said now, not after every step)
         # an extension interrupted before its first checkpoint continues from the final state
         from_final = not ckpt_path.exists() and final_path.exists()
         ck = read_checkpoint(final_path if from_final else ckpt_path, scene=scene, model=model)
@@ -399,6 +401,8 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
         if (steps is None and ck.total_steps is not None and not steps_set
                 and scene.steps == ck.scene_steps):
             total = ck.total_steps  # finish the run that was asked (its --steps)
+            if from_final and stream_dir.exists():  # an extension killed before its first
+                total = max(total, stream_steps(stream_dir))  # checkpoint: its own steps
         if finished and total <= ck.step:
             raise NothingToResume(
                 f"{out_dir}: nothing to resume: the run has finished at step {ck.step} "

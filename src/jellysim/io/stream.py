@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["STREAM_DIR", "GrowingNpy", "TrajectoryStream", "read_stream", "stream_frames",
+           "stream_steps",
            "finalize_stream", "reopen_stream", "write_replace"]
 
 STREAM_DIR = "trajectory.stream"
@@ -228,6 +229,25 @@ def stream_frames(directory) -> int:
         finally:
             os.close(fd)
     return min(counts)
+
+
+def stream_steps(directory) -> int:
+    """The steps the run writing stream ``directory`` was asked for (its recorded
+    ``[integrator] steps``: an extension records its new length when it starts), read to
+    check the stream: a damaged ``meta.npz`` raises :class:`~jellysim.errors.CheckpointError`
+    (a resume says so before it steps, not after every step: the reliability trial)."""
+    import json
+
+    from ..errors import CheckpointError
+
+    meta = Path(directory) / "meta.npz"
+    try:
+        with np.load(meta, allow_pickle=False) as z:
+            return int(json.loads(str(z["params_json"]))["integrator"]["steps"])
+    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as exc:
+        raise CheckpointError(f"{meta}: damaged ({type(exc).__name__}: {exc}): the run's "
+                              "frames cannot be continued; run it again with --overwrite"
+                              ) from None
 
 
 def read_stream(directory, *, mmap: bool = False) -> dict:
