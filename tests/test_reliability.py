@@ -1028,3 +1028,44 @@ def test_an_extension_killed_before_its_first_checkpoint_resumes_to_its_own_leng
     (tmp_path / "cut" / STREAM_DIR / "meta.npz").write_text("garbage")
     with pytest.raises(CheckpointError, match=r"meta\.npz: damaged .*--overwrite"):
         run_scene(scene, tmp_path / "cut", progress=False, resume=True)
+
+
+def test_a_disk_full_while_copying_the_frames_resumes_by_copying_them(tmp_path, monkeypatch):
+    """The reliability trial: the disk filled while a finished run's frames were copied into
+    trajectory.npz.  The 93 MB ``.partial`` was left on the full disk, and the resume, once
+    space was freed, was refused for the room its own frames already took ("needs about 0.214
+    GiB, 0.184 free" with 0.11 more needed), then simulated the whole run again from its
+    first checkpoint.  Now the partial copy goes, the error says how to go on, the resume
+    counts only the room still needed and takes no step: it copies the frames (bitwise the
+    uninterrupted run)."""
+    import errno
+
+    import jellysim.runner as runner
+    from jellysim.errors import OutputError
+    from jellysim.run_disk import _check_disk
+
+    scene = Scene.from_text(EXPLICIT, name="scene.toml")
+    ref = load_trajectory(run_scene(scene, tmp_path / "ref", progress=False).trajectory)
+    real = runner.finalize_stream
+
+    def full(directory, npz_path, status):
+        npz_path.with_name(npz_path.name + ".partial").write_bytes(b"x" * 1000)
+        raise OSError(errno.ENOSPC, "No space left on device", str(npz_path) + ".partial")
+
+    monkeypatch.setattr(runner, "finalize_stream", full)
+    out = tmp_path / "full"
+    with pytest.raises(OutputError, match=r"No space left on device .*all 300 steps done, "
+                                          r"copying the frames.*free space.*--resume"):
+        run_scene(scene, out, progress=False, checkpoint_every=40)
+    assert not list(out.glob("*.partial")) and not (out / CHECKPOINT).exists()
+    monkeypatch.setattr(runner, "finalize_stream", real)
+    res = run_scene(scene, out, progress=False, resume=True)
+    assert res.resumed_from == scene.steps          # nothing simulated again
+    _same(load_trajectory(res.trajectory), ref)
+    # the room a resume needs: what its stream does not hold yet, and the .npz copy
+    frames = scene.steps // scene.frame_every + 1
+    free = __import__("shutil").disk_usage(tmp_path).free
+    points = int(1.5 * free / (2 * frames * 48))   # stream + copy: 1.5x the free space
+    with pytest.raises(Exception, match="needs about"):
+        _check_disk(tmp_path, scene.steps, scene.frame_every, points, [])
+    _check_disk(tmp_path, scene.steps, scene.frame_every, points, [], have=frames)  # (0.75x)

@@ -28,12 +28,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .errors import (BuildError, CheckpointError, JellysimError, NothingToResume, OutputError,
-                     ParameterError, ResourceError, RunInterrupted, SimulationError)
+                     ParameterError, RunInterrupted, SimulationError)
 from .io.checkpoint import (CHECKPOINT, FINAL_CHECKPOINT, mpiexec_interruption,
                             read_checkpoint, write_checkpoint)
 from .io.lock import claim, refuse_if_held
-from .io.stream import STREAM_DIR, TrajectoryStream, finalize_stream, reopen_stream, stream_steps
+from .io.stream import (STREAM_DIR, TrajectoryStream, finalize_stream, reopen_stream,
+                        stream_frames, stream_steps)
 from .io.trajectory import load_trajectory, skin_bounds, trajectory_meta
+from .run_disk import _check_disk, _disk_full, _vtu_frame_bound
 from .run_notes import _resume_command, _say_if_slow
 from .io.vtk import FrameWriter, PVDSeries
 from .skin import default_skin
@@ -171,61 +173,6 @@ def _clean(out_dir: Path) -> None:
         import shutil
 
         shutil.rmtree(partial)
-
-
-LARGE_TRAJECTORY_BYTES = 1 << 30
-"""A run whose trajectory will exceed this says so before it starts."""
-
-
-def _check_disk(out_dir: Path, total: int, every: int, n: int, messages: list, *,
-                freed: int = 0, frame_bytes: int = 0) -> None:
-    """Refuse a run whose trajectory cannot fit the free disk space (plus ``freed`` bytes, the
-    earlier run's files it replaces); note a large one.  ``frame_bytes``: an upper bound of
-    one ParaView frame (uncompressed; they compress to about a third): warned, not refused."""
-    import shutil
-
-    frames = total // every + 1 + (1 if total % every else 0)  # the start, each every, the end
-    need = frames * n * 48 * 2  # positions + velocities, then the final .npz copy
-    free = shutil.disk_usage(out_dir).free + freed
-    gib = need / (1 << 30)
-    if need > free:
-        raise ResourceError(f"{out_dir}: the trajectory ({frames:,} frames of {n:,} points) "
-                            f"needs about {gib:.3g} GiB on disk, {free / (1 << 30):.3g} GiB "
-                            "free; save fewer frames ([output] every) or free space")
-    if need + frames * frame_bytes > free:
-        messages.append(f"the ParaView frames may need up to "
-                        f"{frames * frame_bytes / (1 << 30):.3g} GiB ({frames:,} frames), with "
-                        f"{(free - need) / (1 << 30):.3g} GiB free beside the trajectory: "
-                        "--no-vtu or fewer frames ([output] every) if the disk fills")
-    if need > LARGE_TRAJECTORY_BYTES:
-        messages.append(f"the trajectory will take about {gib / 2:.3g} GiB ({frames:,} frames "
-                        f"of {n:,} points; [output] every = {every} steps)")
-
-
-def _vtu_frame_bound(model, skin) -> int:
-    """Bytes of one uncompressed ParaView frame (body and skin), an upper bound: points
-    (position, velocity, rest: 72 bytes) and cells (connectivity, offset, type and data)."""
-    fem = getattr(model, "fem", None)
-    cells = 49 * fem.tet_count if fem is not None else 25 * model.spring_count
-    if skin is not None:
-        cells += 24 * len(skin.rest_vertices) + 33 * len(skin.faces)
-    return 72 * model.point_count + cells + 4096
-
-
-def _disk_full(exc: OSError, out_dir: Path, scene, where: str = "") -> OutputError | None:
-    """The error of a full disk (or quota): the file, and how to go on; ``None`` for another
-    ``OSError`` (raised as it is)."""
-    import errno
-
-    if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
-        return None
-    again = (f"continue from the last checkpoint with: jellysim run "
-             f"{shlex.quote(str(scene.name))} --resume {shlex.quote(str(out_dir))}"
-             if (out_dir / CHECKPOINT).exists() or (out_dir / FINAL_CHECKPOINT).exists()
-             else "run it again with --overwrite (no checkpoint was written)")
-    return OutputError(f"{out_dir}: {exc.strerror} writing {exc.filename or 'the frames'}"
-                       f"{where}: free space (or save fewer frames: [output] every, --no-vtu), "
-                       f"then {again}")
 
 
 def _earlier_files(out_dir: Path) -> list[Path]:
@@ -367,7 +314,9 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
         checkpoint_every = scene.params["output"].get("checkpoint_every")
     write_vtu = scene.params["output"]["vtu"] if vtu is None else vtu
     freed = 0 if resume else sum(p.stat().st_size for p in _earlier_files(out_dir))
-    _check_disk(out_dir, total, every, model.point_count, messages, freed=freed,
+    have = stream_frames(out_dir / STREAM_DIR) if resume and (
+        out_dir / STREAM_DIR / "meta.npz").is_file() else 0  # (frames already on disk)
+    _check_disk(out_dir, total, every, model.point_count, messages, freed=freed, have=have,
                 frame_bytes=_vtu_frame_bound(model, skin) if write_vtu else 0)
     for m in dict.fromkeys(messages) if notify is not None else ():
         notify(m)
@@ -591,9 +540,17 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
     # the end state first (so `--resume --steps N` can extend the run), then the .npz
     write_checkpoint(final_path, sim, frames=frames, scene=scene, model=model, total=total,
                      every=every, vtu=write_vtu)
-    path = finalize_stream(stream_dir, npz_path, status="complete")
-    if ckpt_path.exists():
+    if ckpt_path.exists():  # (a resume now only copies the frames: none is simulated again)
         ckpt_path.unlink()
+    try:
+        path = finalize_stream(stream_dir, npz_path, status="complete")
+    except OSError as exc:  # (a full disk while copying the frames into the .npz)
+        npz_path.with_name(npz_path.name + ".partial").unlink(missing_ok=True)
+        full = _disk_full(exc, out_dir, scene, f" (all {total} steps done, copying the frames"
+                          f" into {npz_path.name})")
+        if full is None:
+            raise
+        raise full from None
     return RunResult(out_dir, path, series.pvd_path if series else None,
                      frames, total, stepped, messages, resumed_from,
                      simulated=(total - (resumed_from or 0)) * float(sim.dt),
