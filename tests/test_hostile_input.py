@@ -1330,3 +1330,45 @@ def test_a_tiny_body_that_needs_too_many_substeps_is_told_its_size_first():
         js.Simulator(js.physical_model(body, js.material("gelatin", youngs_modulus=1e12)),
                      dt=1 / 60)
     assert "mm across" not in str(info.value) and "connect = 'marching'" in str(info.value)
+
+
+GELATIN_BOX = """[material]
+preset = "gelatin"
+[body]
+type = "box"
+points = 27
+distribution = "grid"
+lower = [0.0, 0.0, 0.0]
+upper = [0.05, 0.05, 0.05]
+[integrator]
+steps = 2
+"""
+
+
+@pytest.mark.parametrize("item, said", [
+    ("material.youngs_modulus=1e200", r"countless substeps .*beyond floating point"),
+    ("material.density=1e-300", r"countless substeps .*beyond floating point"),
+    ("body.upper=[1e100,1e100,1e100]", r"1e\+100 m across: .*more than 1e\+06 m is refused"),
+    ("body.upper=[1e300,1e300,1e300]", r"1e\+300 m across: .*more than 1e\+06 m is refused"),
+])
+def test_absurd_numbers_are_one_line_errors_not_tracebacks(tmp_path, item, said):
+    """The reliability trial: E = 1e200 or 1e-300 kg/m^3 (the stability estimate overflowed
+    to NaN: "cannot convert float NaN to integer" from inside) and a 1e300 m box (an overflow
+    inside cKDTree) ended in tracebacks, where 1e20-1e100 gave a clean refusal."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(GELATIN_BOX)
+    res = CliRunner().invoke(cli, ["run", str(scene), "--out", str(tmp_path / "o"), "--quiet",
+                                   "--set", item])
+    assert res.exit_code == 2 and "Traceback" not in res.output, res.output
+    assert re.search(said, res.output), res.output
+
+
+def test_substeps_auto_as_the_messages_advise_it(tmp_path):
+    """The blow-up warning says "substeps >= 8 (or 'auto': [integrator] substeps)", and the
+    scene refused substeps = 'auto' as "wrong type": 'auto' is now the default's name."""
+    scene = Scene.from_text(GELATIN_BOX + "substeps = 'auto'\n", name="s.toml")
+    assert scene.params["integrator"]["substeps"] is None
+    assert scene.simulator().substeps == Scene.from_text(GELATIN_BOX).simulator().substeps
+    with pytest.raises(SceneError, match=r"substeps = 'many': wrong type; expected an integer "
+                                         r">= 1, or 'auto'"):
+        Scene.from_text(GELATIN_BOX + "substeps = 'many'\n", name="s.toml")

@@ -357,7 +357,15 @@ LARGE_BODY = 3.0
 """A body larger than this [m] is said (sizes are in metres: a slip of units is likely)."""
 
 
+ABSURD_BODY = 1e6
+"""A body larger than this [m] (1,000 km) is refused: a slip of units, and its distances'
+squares would overflow the neighbour search (a 1e300 m box failed inside cKDTree)."""
+
+
 def _warn_size(extent: float, what: str, limit: float = LARGE_BODY) -> None:
+    if not extent <= ABSURD_BODY:
+        raise ParameterError(f"{what} is {extent:g} m across: sizes are in metres (10 cm = "
+                             f"0.1); more than {ABSURD_BODY:g} m is refused")
     if extent > limit:
         import warnings
 

@@ -305,15 +305,18 @@ class PhysicalStepping:
         from .errors import SceneError
         from .simulator import MAX_AUTO_SUBSTEPS
 
-        omega = fem_omega_max(model)
-        h = cls.SUBSTEP_SAFETY * 2.0 / omega
-        need = max(1, int(np.ceil(float(dt) / h)))
-        if need > MAX_AUTO_SUBSTEPS:  # refused before a frame runs for minutes, uninterruptibly
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            omega = float(fem_omega_max(model))  # (absurd moduli, densities or sizes: inf/NaN)
+            ratio = float(dt) * omega / (cls.SUBSTEP_SAFETY * 2.0)
+        need = max(1, int(np.ceil(ratio))) if ratio < 1e15 else None
+        if need is None or need > MAX_AUTO_SUBSTEPS:  # refused before a frame runs for minutes
+            why = (f"stable limit {2.0 / omega:.3g} s: its fastest vibration, {omega:.4g} "
+                   "rad/s, is a pressure wave sqrt((lam + 2 mu) / rho) across its smallest "
+                   "tet" if need is not None else "its stiffness over its masses is beyond "
+                   "floating point: an absurd modulus, density or size")
             raise SceneError(
-                f"the physical (FEM) material needs {need} substeps per step of dt = "
-                f"{float(dt):g} s (stable limit {2.0 / omega:.3g} s: its fastest vibration, "
-                f"{omega:.4g} rad/s, is a pressure wave sqrt((lam + 2 mu) / rho) across its "
-                f"smallest tet; more than {MAX_AUTO_SUBSTEPS} is refused): "
+                f"the physical (FEM) material needs {need or 'countless'} substeps per step "
+                f"of dt = {float(dt):g} s ({why}; more than {MAX_AUTO_SUBSTEPS} is refused): "
                 + _substep_fixes(model))
         if need > SLOW_SUBSTEPS:  # (1e8 Pa on a 216-point box: 1,841 substeps, 77 ms a frame)
             warnings.warn(

@@ -30,7 +30,7 @@ from .scene_spec import apply_override as _override, check_table as _table
 from .scene_doc import schema_markdown as make
 from .scene_handles import apply_handle_tables, validate_handle_tables
 from .resources import check_body_memory
-from .body import LARGE_BODY, Body
+from .body import LARGE_BODY, Body, _warn_size
 from .model import finalize
 from .physics.policy import scene_fem_model, scene_material, springs_reason
 from .simulator import Simulator
@@ -312,7 +312,9 @@ class Scene:
             raise SceneError(f"{self.name}: [provot] pairs = 'all' is O(n^2) and limited to "
                              f"{MAX_ALL_PAIRS_POINTS} points; [body] points = {n}. Use pairs = "
                              "'springs' (and a stiffer material) or fewer points.")
-        if b["type"] == "box":
+        if b["type"] == "box":  # (an absurd size first: its volume and radius overflow)
+            _warn_size(float(np.max(np.subtract(b["upper"], b["lower"]))),
+                       f"{self.name}: the box ([body] lower, upper)", limit=float("inf"))
             vol = float(np.prod(np.subtract(b["upper"], b["lower"])))
             r = s["radius"]
             nb = min(n - 1.0, n * 4.18879 * r ** 3 / vol) if (r and vol > 0) else 24.0
@@ -337,8 +339,6 @@ class Scene:
             if not path.exists():
                 raise SceneError(missing_path(self.name, b["path"], path))
             body = read_body(path)
-            from .body import _warn_size
-
             _warn_size(float(np.ptp(body.points, axis=0).max()), f"{self.name}: the body file "
                        f"{b['path']}", limit=30.0)  # (lessons' chains and nets span metres)
             if body.skin_vertices is None:

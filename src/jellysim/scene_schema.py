@@ -161,9 +161,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "threads": Spec("int", None, "Numba threads (default: by problem size; the "
                         "physical path times 1 and all on its frames and keeps the faster).",
                         lambda v: v >= 1, "an integer >= 1"),
-        "substeps": Spec("int", None, "Steps of dt / substeps per step (default: what the "
-                         "stability estimate needs for 'symplectic'; 1 otherwise).",
-                         lambda v: v >= 1, "an integer >= 1"),
+        "substeps": Spec("int", None, "Steps of dt / substeps per step (default, or 'auto': "
+                         "what the stability estimate needs for 'symplectic'; 1 otherwise).",
+                         lambda v: v >= 1, "an integer >= 1, or 'auto'", choices=("auto",)),
         "runaway_distance": _pos("A point farther than this [m] from the body's starting "
                                  "centre stops the run as a blow-up (default: 100 x the "
                                  "body's size, at least 100 m).", None, unit=" (m)"),

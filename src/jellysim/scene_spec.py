@@ -74,6 +74,8 @@ def check_value(name: str, section: str, key: str, spec: Spec, value: Any) -> An
         if not math.isfinite(value):
             raise fail("not a finite number", spec.allowed or "a finite number")
     elif kind == "int":
+        if isinstance(value, str) and value in spec.choices:  # ('auto': the default's choice)
+            return spec.default
         if isinstance(value, bool) or not isinstance(value, int):
             raise fail("wrong type", spec.allowed or "an integer")
     elif kind == "bool":

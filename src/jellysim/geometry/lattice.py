@@ -40,8 +40,9 @@ def grid_radius(count: int, lower, upper) -> float:
     reaching each point's nearest, face-diagonal and body-diagonal neighbours (26)."""
     size = np.asarray(upper, dtype=np.float64).reshape(3) - np.asarray(
         lower, dtype=np.float64).reshape(3)
-    h = (np.prod(size) / count) ** (1.0 / 3.0)
-    return float(1.8 * np.max(size / np.maximum(1, np.round(size / h))))
+    with np.errstate(over="ignore", invalid="ignore"):  # (an absurd box: refused later)
+        h = (np.prod(size) / count) ** (1.0 / 3.0)
+        return float(1.8 * np.max(size / np.maximum(1, np.round(size / h))))
 
 
 def grid_point_volumes(points: np.ndarray) -> np.ndarray:
