@@ -505,3 +505,33 @@ def test_an_output_path_through_a_file_or_a_read_only_folder_is_named_as_given(t
     res = CliRunner().invoke(cli, ["render", str(tmp_path / "no_run"), "-o",
                                    str(tmp_path / "x.png")])
     assert res.exit_code == 2 and "jellysim run SCENE --out FOLDER" in res.output
+
+
+def test_resume_with_overwrite_is_refused_and_the_summary_counts_the_writing(tmp_path,
+                                                                            monkeypatch):
+    """The reliability trial: `run --resume DIR --overwrite` resumed and ignored --overwrite;
+    and the run's summary gave the stepping's seconds alone (8.82 s of a 26.5 s run that
+    wrote 501 frames).  The two options together are refused; a run whose writing took a
+    good part of the time says how long it took in all."""
+    import time
+
+    import jellysim.cli as cli_module
+
+    out = tmp_path / "run"
+    real = cli_module.run_scene
+
+    def slow_writer(*a, **k):  # (as a run whose frames take 1.5 s more to write)
+        result = real(*a, **k)
+        time.sleep(1.5)
+        return result
+
+    monkeypatch.setattr(cli_module, "run_scene", slow_writer)
+    res = _run(tmp_path, out, 10, "--no-vtu")
+    assert res.exit_code == 0, res.output
+    head = res.output.splitlines()[0]
+    seconds = float(head.split(" frames in ")[1].split(" s ")[0])
+    in_all = float(head.split("; ")[1].split(" s in all")[0])
+    assert in_all >= seconds + 1.5 and "with building the body and writing the frames" in head
+    res = CliRunner().invoke(cli, ["run", "--resume", str(out), "--overwrite"])
+    assert res.exit_code == 2 and "give one of them" in res.output
+    assert load_trajectory(out).steps[-1] == 10

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import sys
+import time
 
 import click
 
@@ -158,6 +159,9 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     if scene_file is None and resume_dir is None:
         _fail("missing SCENE_FILE: give a scene (TOML; `jellysim scene-help` lists its keys, "
               "examples/ has some), or --resume DIR to continue a run")
+    if resume_dir is not None and overwrite:  # (--overwrite was ignored: the reliability trial)
+        _fail(f"--resume {resume_dir} continues the run there, --overwrite would start it "
+              "afresh: give one of them")
     try:
         check_run_outputs(video=video, usd=usd, glb=glb, overwrite=overwrite)
     except JellysimError as exc:
@@ -218,6 +222,7 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
         fresh = not out.exists()
         if not resume_dir:
             prepare_out_dir(out, overwrite=overwrite, delete=False)  # (run_scene deletes
+        began = time.perf_counter()
         result = run_scene(scene, out, progress=not quiet, vtu=False if no_vtu else None,
                            overwrite=overwrite,  # an earlier run once the new one can start)
                            steps=steps, resume=resume_dir is not None,
@@ -268,8 +273,11 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     rate = taken / result.seconds if result.seconds > 0 else float("inf")
     realtime = (f", {result.simulated / result.seconds:.2g}x real time"
                 if result.seconds > 0 and result.simulated > 0 else "")
+    wall = time.perf_counter() - began  # (the summary's seconds are the stepping's alone)
     click.echo(f"{taken} steps, {result.frames} frames in {result.seconds:.3g} s "
-               f"({_rate(rate)} steps/s{realtime})")
+               f"({_rate(rate)} steps/s{realtime})" + (
+                   f"; {wall:.3g} s in all, with building the body and writing the frames"
+                   if wall - result.seconds > max(1.0, 0.25 * wall) else ""))
     startup = result.startup_seconds()
     if startup > 1.0 and startup > 0.3 * result.seconds:  # numba compiling on a first run
         pace = result.seconds - startup
