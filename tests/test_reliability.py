@@ -1069,3 +1069,27 @@ def test_a_disk_full_while_copying_the_frames_resumes_by_copying_them(tmp_path, 
     with pytest.raises(Exception, match="needs about"):
         _check_disk(tmp_path, scene.steps, scene.frame_every, points, [])
     _check_disk(tmp_path, scene.steps, scene.frame_every, points, [], have=frames)  # (0.75x)
+
+
+def test_a_run_still_going_is_said_to_be_running_not_killed(tmp_path):
+    """The reliability trial: `inspect` of a run still being written said "incomplete: the
+    run stopped without finishing (killed, or its disk full?)".  A stream whose folder a live
+    process holds is "running: process N is writing it"; once that process is gone (a killed
+    run's lock) it is incomplete, as before."""
+    import os
+    import socket
+
+    from jellysim.io.lock import LOCK_NAME
+
+    scene = Scene.from_text(EXPLICIT, name="scene.toml")
+    out = tmp_path / "run"
+    with pytest.raises(RunInterrupted):
+        run_scene(scene, out, progress=False, stop_after=scene.steps // 2)
+    (out / STREAM_DIR / "status.txt").write_text("running")
+    host = socket.gethostname()
+    (out / LOCK_NAME).write_text(f"{os.getpid()} {host}")
+    traj = load_trajectory(out)
+    assert traj.status.startswith(f"running: process {os.getpid()} is writing it (")
+    dead = 2 ** 22 + 12345                      # (beyond Linux's pid range: no such process)
+    (out / LOCK_NAME).write_text(f"{dead} {host}")
+    assert load_trajectory(out).status.startswith("incomplete: the run stopped without")

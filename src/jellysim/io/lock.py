@@ -12,7 +12,7 @@ from pathlib import Path
 
 from ..errors import OutputError
 
-__all__ = ["LOCK_NAME", "claim", "refuse_if_held"]
+__all__ = ["LOCK_NAME", "claim", "refuse_if_held", "writer_of"]
 
 LOCK_NAME = ".jellysim.lock"
 """The lock file in the output folder: ``"<pid> <host>"`` of the run writing there."""
@@ -48,6 +48,20 @@ def _holder(out_dir: Path, path: Path, host: str):
             "for it or stop it (Ctrl-C: it can be resumed with --resume), or choose "
             "another --out"), False
     return None, True
+
+
+def writer_of(out_dir) -> str | None:
+    """``"process N"`` (or ``"process N on HOST"``) of a live run writing ``out_dir``, else
+    ``None`` (no lock, or a killed run's)."""
+    path = Path(out_dir) / LOCK_NAME
+    if not path.exists():
+        return None
+    host = socket.gethostname()
+    error, _ = _holder(Path(out_dir), path, host)
+    if error is None:
+        return None
+    pid, _, owner = path.read_text().strip().partition(" ")
+    return f"process {pid}" + ("" if owner == host else f" on {owner}")
 
 
 def refuse_if_held(out_dir: Path) -> None:

@@ -275,7 +275,11 @@ def read_stream(directory, *, mmap: bool = False) -> dict:
     except FileNotFoundError:
         status = "running"
     if status == "running":
-        status = (f"incomplete: the run stopped without finishing (killed, or its disk full?) "
+        from .lock import writer_of
+
+        writer = writer_of(directory.parent)  # (a live run's, or one that was killed)
+        status = (f"running: {writer} is writing it ({frames} frames so far)" if writer else
+                  f"incomplete: the run stopped without finishing (killed, or its disk full?) "
                   f"after {frames} frames")
     d["status"] = np.array(status)
     return d
