@@ -42,6 +42,28 @@ def describe_os_error(exc: OSError) -> str:
     return f"{path}: {why}"
 
 
+def _drop_orphans(folder: Path, prefix: str) -> None:
+    """Delete the temporary files and staging folders (``<prefix><pid>-<random>``) that a
+    process killed while writing left in ``folder`` (SIGKILL runs no cleanup: a killed
+    render's ``.demo.mp4.kevucuw0.mp4`` stayed for good, the reliability trial).  Only those
+    whose process is gone; one of a live process, or of an unknown writer, is left."""
+    import shutil
+
+    from .lock import _alive
+
+    try:
+        names = [p for p in folder.iterdir() if p.name.startswith(prefix)]
+    except OSError:
+        return
+    for p in names:
+        pid, dash, _ = p.name[len(prefix):].partition("-")
+        if dash and pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
+            try:
+                shutil.rmtree(p) if p.is_dir() else p.unlink()
+            except OSError:
+                pass
+
+
 def _final_mode(path: Path) -> int:
     try:
         return path.stat().st_mode & 0o7777
@@ -66,8 +88,9 @@ def atomic_path(path, suffix: str | None = None, *, fsync: bool = False):
             break
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix,
-                                   dir=path.parent)
+        _drop_orphans(path.parent, f".{path.name}.")
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{os.getpid()}-",
+                                   suffix=suffix or path.suffix, dir=path.parent)
     except OSError as exc:
         raise OutputError(f"cannot write {path}: {exc.strerror or exc} (its folder "
                           f"{path.parent} must be a folder you can write to)") from None
@@ -132,7 +155,8 @@ def staged_output(folder, patterns):
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=".new-", dir=folder))
+    _drop_orphans(folder, ".new-")
+    stage = Path(tempfile.mkdtemp(prefix=f".new-{os.getpid()}-", dir=folder))
     try:
         yield stage
         _merge(stage, folder, patterns)
