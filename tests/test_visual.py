@@ -474,12 +474,19 @@ def _env_without_display():
     return env
 
 
-def test_view_without_display_fails_clearly(run_dir):
+@pytest.mark.parametrize("display", [None, ":99"], ids=["unset", "no-server"])
+def test_view_without_display_fails_clearly(run_dir, display):
+    """No DISPLAY, and (the reliability trial) a DISPLAY naming no X server, where VTK printed
+    "bad X server connection" and the viewer exited 0 having shown nothing: both exit 2 with
+    one line saying what to do."""
+    env = _env_without_display()
+    if display is not None:
+        env["DISPLAY"] = display
     out = subprocess.run([sys.executable, "-m", "jellysim.cli", "view",
                           str(run_dir / "trajectory.npz")], capture_output=True, text=True,
-                         env=_env_without_display(), timeout=120)
-    assert out.returncode == 2
-    assert "needs a display" in out.stderr
+                         env=env, timeout=120)
+    assert out.returncode == 2, out.stderr
+    assert "needs a display" in out.stderr and "Traceback" not in out.stderr
 
 
 def test_viewer_screenshot_under_xvfb(run_dir, tmp_path):

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import JellysimError
-from .viewer import has_display
+from .viewer import display_problem, has_display
 from .render.offscreen import JELLO_RED, _faces
 
 __all__ = ["DragController", "view_live"]
@@ -76,11 +76,11 @@ def view_live(scene, *, size=(1024, 640), screenshot=None, frames: int = 0) -> N
     """Open a window that simulates ``scene`` (a :class:`~jellysim.scene.Scene`) live.
     With ``screenshot`` (a ``.png`` path) it runs ``frames`` frames, saves and closes."""
 
-    if not has_display():
-        raise JellysimError("jellysim view needs a display (no DISPLAY or WAYLAND_DISPLAY is "
-                            "set); run under xvfb-run, or 'jellysim run' and 'render' off "
-                            "screen")
     import os
+
+    if not has_display():
+        raise JellysimError(f"jellysim view needs a display ({display_problem()}); run "
+                            "under xvfb-run, or 'jellysim run' and 'render' off screen")
 
     if os.environ.get("VTK_DEFAULT_OPENGL_WINDOW") == "vtkEGLRenderWindow":
         del os.environ["VTK_DEFAULT_OPENGL_WINDOW"]

@@ -16,13 +16,45 @@ from .errors import JellysimError
 from .render.offscreen import RenderOptions, Renderer
 from .io.timing import real_time_playback
 
-__all__ = ["has_display", "view_trajectory"]
+__all__ = ["display_problem", "has_display", "view_trajectory"]
 
 
 def has_display() -> bool:
-    """Whether an interactive window can be opened here."""
-    if sys.platform.startswith("linux"):
-        return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    """Whether an interactive window can be opened here: on Linux, an X display VTK's windows
+    can connect to (``DISPLAY`` set and answering: a DISPLAY naming no server made VTK print
+    "bad X server connection" and the viewer exit 0 having shown nothing, the reliability
+    trial; ``WAYLAND_DISPLAY`` alone reaches VTK through XWayland's DISPLAY only)."""
+    if not sys.platform.startswith("linux"):
+        return True
+    if not os.environ.get("DISPLAY"):
+        return False
+    return _x_answers()
+
+
+def display_problem() -> str:
+    """Why :func:`has_display` is False, in words."""
+    display = os.environ.get("DISPLAY")
+    return (f"DISPLAY = {display!r}: no X server answers there" if display else
+            "no DISPLAY is set")
+
+
+def _x_answers() -> bool:
+    """Whether the X server of ``DISPLAY`` accepts a connection (True where libX11 cannot be
+    loaded to ask: VTK then says what is wrong)."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        x11 = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
+    except OSError:
+        return True
+    x11.XOpenDisplay.restype = ctypes.c_void_p
+    x11.XOpenDisplay.argtypes = [ctypes.c_char_p]
+    x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    handle = x11.XOpenDisplay(None)
+    if not handle:
+        return False
+    x11.XCloseDisplay(handle)
     return True
 
 
@@ -32,8 +64,8 @@ def view_trajectory(traj, options=None, *, fps: float | None = None,
     first frame (or played once through with ``autoplay``), saved, and closed: for tests and
     thumbnails."""
     if not has_display():
-        raise JellysimError("jellysim view needs a display (no DISPLAY or WAYLAND_DISPLAY is "
-                            "set). Use 'jellysim render TRAJECTORY -o video.mp4' to make a "
+        raise JellysimError(f"jellysim view needs a display ({display_problem()}). Use "
+                            "'jellysim render TRAJECTORY -o video.mp4' to make a "
                             "video off screen, or run under xvfb-run.")
     if os.environ.get("VTK_DEFAULT_OPENGL_WINDOW") == "vtkEGLRenderWindow":
         del os.environ["VTK_DEFAULT_OPENGL_WINDOW"]   # EGL windows cannot be interactive
