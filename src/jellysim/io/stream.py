@@ -39,6 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import CheckpointError
+
 __all__ = ["STREAM_DIR", "GrowingNpy", "TrajectoryStream", "read_stream", "stream_frames",
            "stream_steps",
            "finalize_stream", "reopen_stream", "write_replace"]
@@ -237,8 +239,6 @@ def stream_steps(directory) -> int:
     check the stream: a damaged ``meta.npz`` raises :class:`~jellysim.errors.CheckpointError`
     (a resume says so before it steps, not after every step: the reliability trial)."""
     import json
-
-    from ..errors import CheckpointError
 
     meta = Path(directory) / "meta.npz"
     try:
