@@ -561,3 +561,30 @@ def test_temporary_files_of_a_killed_writer_are_cleared_by_the_next_write(tmp_pa
     assert not orphans[1].exists()
     assert all(k.read_bytes() == b"not ours to delete" for k in kept)
     assert (tmp_path / "dd2.mp4").read_bytes() == b"video"
+
+
+def test_overwrite_deletes_the_runs_record_before_its_frames(tmp_path, monkeypatch):
+    """The reliability trial: `run --overwrite` killed (SIGKILL) while deleting the earlier
+    run left its trajectory.npz ("complete", 901 frames) beside 346 of its skin frames, its
+    body.pvd and final checkpoint gone.  The files that say a run is there go first, the
+    ParaView series next, the frames last: stopped anywhere, no complete-looking run is left
+    beside a part of its frames."""
+    from pathlib import Path
+
+    from jellysim.runner import prepare_out_dir
+
+    out = tmp_path / "run"
+    assert _run(tmp_path, out, 10).exit_code == 0
+    order, real = [], Path.unlink
+
+    def unlink(self, *a, **k):
+        order.append(self.name)
+        return real(self, *a, **k)
+
+    monkeypatch.setattr(Path, "unlink", unlink)
+    prepare_out_dir(out, overwrite=True)
+    frames = [k for k, name in enumerate(order) if name.endswith(".vtu")]
+    record = [order.index(n) for n in ("trajectory.npz", "checkpoint.final.npz", "body.pvd")]
+    assert frames and max(record) < min(frames)
+    assert order.index("trajectory.npz") < order.index("body.pvd")
+    assert not list(out.iterdir())

@@ -93,6 +93,11 @@ def prepare_out_dir(out_dir, *, overwrite: bool = False, owned=RUN_FILES,
         raise JellysimError(f"{option} {out_dir}: the folder is not empty ({len(present)} "
                             f"entries: {names}); pass --overwrite to replace the run there, "
                             f"or choose another {option}{more}")
+    # what says "a run is here" goes first (trajectory, checkpoints, stream), the series
+    # next, the frames last: a delete killed half-way (SIGKILL) leaves loose frames, never a
+    # "complete" trajectory beside a part of its frames (the reliability trial)
+    first = ("trajectory.npz", CHECKPOINT, FINAL_CHECKPOINT, STREAM_DIR, f"{STREAM_DIR}.partial")
+    present.sort(key=lambda p: (p.name not in first, not p.name.endswith(".pvd"), p.name))
     for p in present if delete else ():
         if p.is_file() and any(fnmatch.fnmatchcase(p.name, pat) for pat in owned):
             p.unlink()
