@@ -112,8 +112,9 @@ class Scene:
             params = cls._validate(raw, name, user=given)
         except SceneError as exc:  # say when the bad value came from the command line
             msg = str(exc)
-            given = [item for item in overrides
-                     if item.partition("=")[0].strip().rpartition(".")[2] in msg]
+            given = [item for item in overrides  # (its key, or its section, named)
+                     if item.partition("=")[0].strip().rpartition(".")[2] in msg
+                     or f"[{item.partition('.')[0].strip()}]" in msg]
             if given:
                 msg += " (given on the command line: " + ", ".join(
                     f"--set {item}" for item in given) + ")"
@@ -315,8 +316,7 @@ class Scene:
         if b["type"] == "box":  # (an absurd size first: its volume and radius overflow)
             _warn_size(float(np.max(np.subtract(b["upper"], b["lower"]))),
                        f"{self.name}: the box ([body] lower, upper)", limit=float("inf"))
-            vol = float(np.prod(np.subtract(b["upper"], b["lower"])))
-            r = s["radius"]
+            vol, r = float(np.prod(np.subtract(b["upper"], b["lower"]))), s["radius"]
             nb = min(n - 1.0, n * 4.18879 * r ** 3 / vol) if (r and vol > 0) else 24.0
             check_body_memory(n, neighbours=max(nb, 1.0), what=f"{self.name}: [body] points")
         else:
