@@ -1372,3 +1372,19 @@ def test_substeps_auto_as_the_messages_advise_it(tmp_path):
     with pytest.raises(SceneError, match=r"substeps = 'many': wrong type; expected an integer "
                                          r">= 1, or 'auto'"):
         Scene.from_text(GELATIN_BOX + "substeps = 'many'\n", name="s.toml")
+
+
+def test_a_guard_distance_inside_the_body_and_an_absurd_gravity_are_refused(tmp_path):
+    """The reliability trial: runaway_distance = 1e-9 m stopped a resting gelatin cube as a
+    blow-up ("a body squashed inside out does that") after doubling its substeps three times;
+    gravity = [0, -1e300, 0] overflowed into a claim that gravity "does not point down onto
+    the ground".  Both are refused at once, naming the key and the allowed range."""
+    with pytest.raises(SceneError, match=r"runaway_distance = 1e-09 m: the body's own points "
+                                         r"reach 0\.0433 m .*more than 0\.0866 m"):
+        Scene.from_text(GELATIN_BOX + "runaway_distance = 1e-9\n", name="s.toml").simulator()
+    sim = Scene.from_text(GELATIN_BOX + "runaway_distance = 0.1\n", name="s.toml").simulator()
+    assert sim.runaway_distance == 0.1
+    with pytest.raises(SceneError, match=r"\[physics\] gravity = \[0.0, -1e\+300, 0.0\]: "
+                                         r"out of range; expected three numbers, at most "
+                                         r"1e6 m/s\^2"):
+        Scene.from_text(GELATIN_BOX + "[physics]\ngravity = [0, -1e300, 0]\n", name="s.toml")

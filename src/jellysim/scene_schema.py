@@ -138,7 +138,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                            "force -delta v on each point, so a body of n points and mass M "
                            "has its velocity relax at the rate n delta / M [1/s]).", 0.0,
                            " (kg/s)"),
-        "gravity": Spec("vec3", list(GRAVITY), "Gravitational acceleration [m/s^2]."),
+        "gravity": Spec("vec3", list(GRAVITY), "Gravitational acceleration [m/s^2].",
+                        lambda v: sum(c * c for c in v) <= 1e12,
+                        "three numbers, at most 1e6 m/s^2 long (Earth: [0, -9.8, 0])"),
     },
     "integrator": {
         "name": Spec("str", "symplectic", "'paper' (report order: x, v, then a), "

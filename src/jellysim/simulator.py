@@ -297,9 +297,15 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
         self.state = model.state() if state is None else check_state(state, n, "Simulator(state=)")
         x0 = model.point_x0
         self.center = np.ascontiguousarray(x0.mean(axis=0))
+        reach = float(np.sqrt(np.max(np.sum((x0 - self.center) ** 2, axis=1)))) if n else 0.0
         if runaway_distance is None:
             diag = float(np.linalg.norm(x0.max(axis=0) - x0.min(axis=0)))
             runaway_distance = max(100.0 * diag, 100.0)
+        elif not float(runaway_distance) > 2.0 * reach:  # (it stopped a resting body as a
+            raise SceneError(  # blow-up after doubling its substeps: the reliability trial)
+                f"runaway_distance = {runaway_distance!r} m: the body's own points reach "
+                f"{reach:.3g} m from its centre; the guard must lie well outside it (more than "
+                f"{2.0 * reach:.3g} m; the default is 100 x the body's size, at least 100 m)")
         self.runaway_distance = float(runaway_distance)
         spread = np.sqrt(np.maximum(np.linalg.eigvalsh(np.cov(x0, rowvar=False)), 0.0)) if (
             n >= COLLAPSE_MIN_POINTS) else np.zeros(3)
