@@ -1388,3 +1388,26 @@ def test_a_guard_distance_inside_the_body_and_an_absurd_gravity_are_refused(tmp_
                                          r"out of range; expected three numbers, at most "
                                          r"1e6 m/s\^2"):
         Scene.from_text(GELATIN_BOX + "[physics]\ngravity = [0, -1e300, 0]\n", name="s.toml")
+
+
+def test_absurdly_stiff_springs_get_their_stable_step_not_an_overflow():
+    """The reliability trial: springs of k = 1e200 N/m overflowed the power iteration (its
+    vector's squared norm), numpy warned, and the estimate said "stable limit inf s" and ran
+    one substep.  The estimate now scales the vector: the limit is 2 / omega_max ~ 4e-102 s,
+    the substep count (printed as 2.89e+99) is refused, and nothing overflows on the way."""
+    import warnings
+
+    text = ("[body]\npoints = 200\nlower = [0.0, 0.2, 0.0]\nupper = [0.2, 0.4, 0.2]\nseed = 1\n"
+            "[springs]\nradius = 0.08\nstiffness = 1e200\n[mass]\npoint_mass = 0.01\n"
+            "[integrator]\nname = 'symplectic'\ndt = 0.01\nsteps = 20\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(SceneError) as info:
+            Scene.from_text(text, name="blow.toml").simulator()
+    msg = str(info.value)
+    limit = float(re.search(r"stable limit ([0-9.e+-]+) s", msg).group(1))
+    model = Scene.from_text(text, name="blow.toml").build_model()
+    degree = np.bincount(model.spring_ij.ravel(), minlength=model.point_count).max()
+    # omega_max^2 <= Gershgorin's 2 k degree / m (times the estimate's 5 % margin)
+    assert 2.0 / np.sqrt(1.05 * 2.0 * 1e200 * degree / 0.01) <= limit < 1e-100
+    assert re.search(r"would need \d\.\d+e\+\d+ substeps", msg)

@@ -92,7 +92,11 @@ def max_eigenvalue(model, *, iterations: int = 60, seed: int = 0) -> tuple[float
     u = np.random.default_rng(seed).standard_normal((len(m), 3))
     lam = 0.0
     for _ in range(iterations):
-        norm = np.linalg.norm(u)
+        with np.errstate(over="ignore"):
+            norm = np.linalg.norm(u)
+        if not np.isfinite(norm):  # (k ~ 1e200: the squares overflow; their ratio does not)
+            u = u / np.abs(u).max()
+            norm = np.linalg.norm(u)
         if norm == 0:
             return 0.0, "power-iteration"
         u /= norm
@@ -212,7 +216,8 @@ def springs_auto_substeps(model, dt) -> tuple[int, StabilityEstimate]:
     if need > MAX_AUTO_SUBSTEPS:
         raise SceneError(
             f"the springs are too stiff for dt = {float(dt):g} s: the symplectic integrator "
-            f"would need {need} substeps per step (stable limit {est.dt_max:.3g} s, "
+            f"would need {need if need < 1e9 else format(need, '.3g')} substeps per step "
+            f"(stable limit {est.dt_max:.3g} s, "
             f"{est.reason}); soften them, use integrator = 'implicit', or for a tet body "
             "(connect = 'marching' or 'delaunay') the physical material "
             "([material] model = 'fem')")
