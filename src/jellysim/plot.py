@@ -48,7 +48,8 @@ def diagnostics(traj) -> dict[str, np.ndarray]:
     of mass ``com_x``, ``com_y``, ``com_z`` [m] and its velocity ``com_vx`` ... [m/s];
     ``travel`` [m] its distance in the x-z plane (along the ground) from the first frame;
     ``elastic`` [J] = spring + tets; ``min_volume_ratio`` [-] the smallest J = V / V0 of the
-    tets of a physical run (NaN for a springs run)."""
+    run's tets (a springs body's own tets too, as ``inspect`` gives it: a folded spring body
+    shows J < 0; NaN for a body without tets)."""
     x = np.asarray(traj.positions, dtype=np.float64)
     v = np.asarray(traj.velocities, dtype=np.float64)
     m = np.asarray(traj.masses, dtype=np.float64)
@@ -81,8 +82,8 @@ def diagnostics(traj) -> dict[str, np.ndarray]:
 
 
 def _min_volume_ratio(traj, x) -> np.ndarray:
-    """The smallest tet volume ratio J per frame [-] of a physical run (NaN otherwise)."""
-    if not (traj.params or {}).get("fem") or len(traj.tets) == 0:
+    """The smallest tet volume ratio J per frame [-] of a run with tets (NaN without)."""
+    if len(traj.tets) == 0:
         return np.full(len(x), np.nan)
     from .geometry.tetra import tet_signed_volumes
 
