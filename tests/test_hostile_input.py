@@ -1411,3 +1411,10 @@ def test_absurdly_stiff_springs_get_their_stable_step_not_an_overflow():
     # omega_max^2 <= Gershgorin's 2 k degree / m (times the estimate's 5 % margin)
     assert 2.0 / np.sqrt(1.05 * 2.0 * 1e200 * degree / 0.01) <= limit < 1e-100
     assert re.search(r"would need \d\.\d+e\+\d+ substeps", msg)
+
+
+def test_an_empty_mesh_path_is_named_as_empty():
+    """The reliability trial: `path = ""` said "<scene folder>/mesh: not a regular file"."""
+    with pytest.raises(SceneError, match=r"s\.toml: \[body\] path = '': .*expected a file name"):
+        Scene.from_text('[material]\npreset = "gelatin"\n[body]\ntype = "mesh"\npath = ""\n',
+                        name="s.toml")

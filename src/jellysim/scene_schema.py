@@ -21,7 +21,7 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                      "left out with a path given: 'file' for .jello/.npz, else 'mesh'.",
                      choices=("box", "mesh", "file")),
         "path": Spec("str", None, "Mesh or body file (type 'mesh' / 'file'), relative to the "
-                     "scene file.", allowed="a file name"),
+                     "scene file.", lambda v: bool(v.strip()), allowed="a file name"),
         "points": Spec("int", None, "Number of points: of the random field (type 'box', "
                        "required) or sampled inside the mesh (type 'mesh', default 2000).  "
                        "A grid (distribution 'grid', the gelatin preset's box; connect "
