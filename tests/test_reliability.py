@@ -1033,6 +1033,13 @@ def test_an_extension_killed_before_its_first_checkpoint_resumes_to_its_own_leng
     (tmp_path / "cut" / STREAM_DIR / "meta.npz").write_text("garbage")
     with pytest.raises(CheckpointError, match=r"meta\.npz: damaged .*--overwrite"):
         run_scene(scene, tmp_path / "cut", progress=False, resume=True)
+    # without its meta.npz the stream was said to be absent ("holds no trajectory.stream")
+    (tmp_path / "cut" / STREAM_DIR / "meta.npz").unlink()
+    from jellysim.errors import JellysimError
+
+    with pytest.raises(JellysimError, match=r"trajectory\.stream: damaged: its meta\.npz is "
+                                            r"missing"):
+        load_trajectory(tmp_path / "cut")
 
 
 def test_a_disk_full_while_copying_the_frames_resumes_by_copying_them(tmp_path, monkeypatch):

@@ -319,8 +319,10 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
         checkpoint_every = scene.params["output"].get("checkpoint_every")
     write_vtu = scene.params["output"]["vtu"] if vtu is None else vtu
     freed = 0 if resume else sum(p.stat().st_size for p in _earlier_files(out_dir))
-    have = stream_frames(out_dir / STREAM_DIR) if resume and (
-        out_dir / STREAM_DIR / "meta.npz").is_file() else 0  # (frames already on disk)
+    try:  # (frames already on disk; a damaged stream is said below)
+        have = stream_frames(out_dir / STREAM_DIR) if resume else 0
+    except (OSError, ValueError):
+        have = 0
     _check_disk(out_dir, total, every, model.point_count, messages, freed=freed, have=have,
                 frame_bytes=_vtu_frame_bound(model, skin) if write_vtu else 0)
     for m in dict.fromkeys(messages) if notify is not None else ():

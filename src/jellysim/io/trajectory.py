@@ -309,6 +309,10 @@ def resolve_trajectory(path) -> Path:
         for cand in (path / STREAM_DIR, path / "trajectory.npz"):
             if cand.exists() and (cand.suffix == ".npz" or (cand / "meta.npz").is_file()):
                 return cand
+        if (path / STREAM_DIR).is_dir():
+            raise JellysimError(f"{path / STREAM_DIR}: damaged: its meta.npz is missing (the "
+                                "frames cannot be read without it); run it again with "
+                                "--overwrite")
         raise JellysimError(f"{path}: directory holds no trajectory.npz and no {STREAM_DIR} "
                             "(not a run's folder: `jellysim run SCENE --out FOLDER` makes one)")
     if not path.exists() and (path.parent / STREAM_DIR / "meta.npz").is_file():
