@@ -933,3 +933,49 @@ def test_a_hanging_bar_carries_the_weight_below_each_section_as_its_stress():
         assert von_mises(sigma[layer]).mean() == pytest.approx(want, rel=0.05)
         checked += 1
     assert checked == 8
+
+
+def test_a_resting_body_s_stresses_carry_its_weight_and_paraview_gets_them(tmp_path):
+    """Equilibrium, exactly: for a body at rest on a ground at y = 0 (frictionless), the
+    virial identity of statics gives sum_t V_t sigma_yy = -g sum_a m_a y_a (the contact acts
+    at y = 0; tets' current volumes V_t, lumped masses m_a at heights y_a), whatever the
+    material law, and sum_t V_t sigma_xx = 0 (no sideways load).  A run's ParaView frames
+    carry each tet's ``von_mises`` and ``stress`` [Pa] (the researcher trial: no stress could
+    be seen), equal to ``tet_stresses`` of the frame's positions (no damping branch here),
+    and ``jellysim export`` writes the same."""
+    import meshio
+
+    import jellysim as js
+    from jellysim.io.trajectory import load_trajectory
+    from jellysim.io.vtk import export_pvd
+    from jellysim.physics.fem import tet_stresses, von_mises
+
+    g = 9.8
+    model = js.physical_model(js.Body.box(lower=(0, 0, 0), upper=(0.06, 0.04, 0.05),
+                                          points=7 * 5 * 6),
+                              js.material("gelatin", damping_ratio=0.0))
+    sim = js.Simulator(model, dt=1 / 60, ground=GroundParams(model=GroundModel.CONTACT,
+                                                             friction=0.0))
+    sim.settle()
+    sigma = sim.tet_stresses()
+    volume = sim.volume_ratios() * model.fem.rest_volume
+    weight = -g * float(np.asarray(model.point_mass) @ sim.state.x[:, 1])
+    assert float(volume @ sigma[:, 1, 1]) == pytest.approx(weight, rel=1e-3)  # (2e-4)
+    assert abs(float(volume @ sigma[:, 0, 0])) < 1e-3 * abs(weight)  # (4e-5)
+    # the same through a scene run's .vtu frames, and through export
+    from jellysim import Scene
+    from jellysim.runner import run_scene
+
+    text = ('[material]\npreset = "gelatin"\ndamping_ratio = 0.0\n[body]\ntype = "box"\n'
+            'points = 64\nlower = [0, 0.01, 0]\nupper = [0.04, 0.05, 0.04]\n'
+            '[integrator]\nsteps = 6\n[output]\nevery = 3\n')
+    run_scene(Scene.from_text(text, name="s.toml"), tmp_path / "run", progress=False)
+    traj = load_trajectory(tmp_path / "run")
+    fem = Scene.from_text(text, name="s.toml").build_model().fem
+    want = tet_stresses(fem, traj.positions[-1])
+    got = meshio.read(tmp_path / "run" / "body_00002.vtu").cell_data
+    np.testing.assert_allclose(got["stress"][-1], want.reshape(-1, 9), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(got["von_mises"][-1], von_mises(want), rtol=1e-9)
+    export_pvd(traj, tmp_path / "exp")
+    again = meshio.read(tmp_path / "exp" / "body_00002.vtu").cell_data
+    np.testing.assert_allclose(again["von_mises"][-1], von_mises(want), rtol=1e-9)

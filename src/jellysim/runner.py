@@ -38,6 +38,7 @@ from .io.trajectory import load_trajectory, skin_bounds, trajectory_meta
 from .run_disk import _check_disk, _disk_full, _vtu_frame_bound
 from .run_notes import _resume_command, _say_if_slow
 from .io.vtk import FrameWriter, PVDSeries
+from .physics.fem import stress_fields
 from .skin import default_skin
 
 __all__ = ["RUN_FILES", "RunResult", "prepare_out_dir", "run_scene",
@@ -429,10 +430,11 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
 
     def emit():
         stream.record(sim.state)
-        if series is not None:
+        if series is not None:  # (a physical body's tets carry their stress [Pa])
             writer.submit(sim.state.step, series.add, sim.state.t, sim.state.x.copy(),
                           lines, velocities=sim.state.v.copy(), rest=model.point_x0,
-                          tets=tets, triangles=None if physical else body.triangles)
+                          tets=tets, triangles=None if physical else body.triangles,
+                          tet_fields=stress_fields(sim.tet_stresses()) if physical else None)
         if skin_series is not None:
             writer.submit(sim.state.step, skin_series.add_surface, sim.state.t,
                           skin.deform(sim.state.x, **bounds), skin.faces)

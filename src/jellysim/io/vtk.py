@@ -21,12 +21,14 @@ __all__ = ["FrameWriter", "PVDSeries", "export_pvd", "export_pvd_file", "write_v
 
 def write_vtu(path, points: np.ndarray, springs: np.ndarray, *, point_data=None,
               triangles: np.ndarray | None = None, tets: np.ndarray | None = None,
-              rest: np.ndarray | None = None, atomic: bool = True) -> None:
+              rest: np.ndarray | None = None, atomic: bool = True,
+              tet_fields: dict | None = None) -> None:
     """One frame: points [m] (n, 3), springs (k, 2) as VTK lines (+ optional triangles, and
     tets (t, 4) as VTK tetrahedra with, given the ``rest`` positions [m] (n, 3), the cell
     field ``volume_ratio`` J = volume / rest volume [-] per tet: < 1 squeezed, < 0 inside
-    out; NaN on the lines and triangles).  ``atomic=False`` writes ``path`` directly (a series
-    lists it only once complete)."""
+    out; NaN on the lines and triangles).  ``tet_fields``: more per-tet cell fields, each
+    shape (t,) or (t, k) (the physical path's ``von_mises`` and ``stress`` [Pa]).
+    ``atomic=False`` writes ``path`` directly (a series lists it only once complete)."""
     import meshio
 
     x = np.asarray(points, dtype=np.float64)
@@ -48,6 +50,10 @@ def write_vtu(path, points: np.ndarray, springs: np.ndarray, *, point_data=None,
             ratio = np.divide(volumes(x), r, out=np.full(len(t), np.nan), where=r != 0)
             cell_data["volume_ratio"] = [np.full(len(c[1]), np.nan) for c in cells[:-1]] + [
                 ratio]
+        for name, field in (tet_fields or {}).items():
+            field = np.asarray(field, dtype=np.float64)
+            cell_data[name] = [np.full((len(c[1]),) + field.shape[1:], np.nan)
+                               for c in cells[:-1]] + [field]
     mesh = meshio.Mesh(x, cells, point_data=point_data or {}, cell_data=cell_data)
     if not atomic:
         meshio.write(path, mesh, file_format="vtu")
@@ -173,11 +179,11 @@ class PVDSeries:
         return fname, self.directory / fname
 
     def add(self, t: float, points, springs, *, velocities=None, triangles=None, tets=None,
-            rest=None) -> Path:
+            rest=None, tet_fields=None) -> Path:
         fname, path = self._next()
         data = {} if velocities is None else {"velocity": np.asarray(velocities)}
         write_vtu(path, points, springs, point_data=data, triangles=triangles, tets=tets,
-                  rest=rest, atomic=False)
+                  rest=rest, atomic=False, tet_fields=tet_fields)
         self._append(t, fname)
         return path
 
@@ -215,12 +221,21 @@ def export_pvd(traj, directory, name: str = "body", *, pieces: str = "") -> list
     tri = traj.triangles if len(traj.triangles) else None
     tets = traj.tets if len(traj.tets) else None
     springs = traj.springs
-    if tets is not None and (traj.params or {}).get("fem"):  # a physical run: its tets alone
+    fem = (traj.params or {}).get("fem") if tets is not None else None
+    if fem:  # a physical run: its tets alone, with their (elastic) stress
+        from ..geometry.tetra import orient_tets
+        from ..physics.fem import fem_arrays, stress_fields, tet_stresses
+
         springs, tri = springs[:0], None
+        rest = np.asarray(traj.rest_positions, dtype=np.float64)
+        tets = orient_tets(rest, tets)
+        arrays = fem_arrays(rest, tets, youngs_modulus=fem["youngs_modulus"],
+                            poisson_ratio=fem["poisson_ratio"])
     for f in range(traj.frame_count):
         body.add(traj.times[f], traj.positions[f], springs,
                  velocities=traj.velocities[f], triangles=tri, tets=tets,
-                 rest=traj.rest_positions)
+                 rest=traj.rest_positions, tet_fields=stress_fields(tet_stresses(
+                     arrays, traj.positions[f])) if fem else None)
     out = [body.pvd_path]
     if traj.skin is not None:
         skin = PVDSeries(directory, f"{name}_skin", pieces=pieces)
