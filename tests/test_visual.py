@@ -1176,7 +1176,7 @@ def test_the_floor_reads_as_a_floor_with_a_horizon_and_a_contact_shadow(traj):
         assert np.abs(img[0] - want).max() <= 2          # above the horizon: the background
         for tile in (TILE_LIGHT, TILE_DARK):              # a checker below it, not a flat tint
             assert (np.abs(img - tile).max(axis=2) <= 3).mean() > 0.05
-    opts = RenderOptions(size=(320, 180))
+    opts = RenderOptions(size=(320, 180), antialias=False)  # (pixel for pixel: no smoothing)
     lit = Renderer(traj, dataclasses.replace(opts, shadow=False)).render(last).astype(int)
     shaded = Renderer(traj, opts).render(last).astype(int)
     darker = (lit - shaded).min(axis=2) >= 4
@@ -1322,7 +1322,9 @@ def test_multisampling_is_turned_off_only_where_it_changes_nothing(traj):
     """Off-screen renders turn pyvista's 8x multisampling off on a software rasteriser (it
     cost 1.7x the time there: BENCHMARKS.md "The demo", session 24).  Where that is done the
     picture with multisampling must be the same (else the saving costs smooth edges); on a
-    GPU it stays on."""
+    GPU it stays on.  There the edges are smoothed by VTK's FXAA pass instead (the artist
+    trial: jagged silhouettes shimmered in the video): the jello's outline gets pixels
+    between its colour and the floor's, where without it each pixel is one or the other."""
     import pyvista as pv
 
     from jellysim.render import offscreen as off
@@ -1333,7 +1335,8 @@ def test_multisampling_is_turned_off_only_where_it_changes_nothing(traj):
     try:
         for asked in (True, False):
             off._SOFTWARE_GL[:] = [asked]
-            with Renderer(traj, RenderOptions(size=(320, 180), plate=True)) as r:
+            with Renderer(traj, RenderOptions(size=(320, 180), plate=True,  # (no FXAA:
+                                              antialias=not asked)) as r:  # pixel for pixel)
                 samples = r.plotter.render_window.GetMultiSamples()
                 assert (samples == 0) == asked
                 pictures[asked] = r.render(traj.frame_count // 2).astype(int)
@@ -1342,6 +1345,17 @@ def test_multisampling_is_turned_off_only_where_it_changes_nothing(traj):
     if soft:
         differ = np.abs(pictures[True] - pictures[False]).sum(axis=2) > 3
         assert differ.mean() < 1e-3, differ.sum()
+        with Renderer(traj, RenderOptions(size=(320, 180), plate=True)) as r:
+            assert r.plotter.renderer.GetUseFXAA()
+            smooth = r.render(traj.frame_count // 2).astype(int)
+
+        def blended(img):  # pixels next to the outline, neither the jello's red nor not
+            red = (img[..., 0] > img[..., 1] + 60) & (img[..., 0] > img[..., 2] + 40)
+            edge = red ^ np.roll(red, 1, axis=1)
+            part = (img[..., 0] > img[..., 1] + 15) & ~red
+            return int((part & (edge | np.roll(edge, -1, axis=1))).sum())
+
+        assert blended(smooth) > 2 * blended(pictures[True]) + 10
 
 
 def test_an_odd_image_size_is_said_as_it_is_rounded(traj):
