@@ -1418,3 +1418,25 @@ def test_an_empty_mesh_path_is_named_as_empty():
     with pytest.raises(SceneError, match=r"s\.toml: \[body\] path = '': .*expected a file name"):
         Scene.from_text('[material]\npreset = "gelatin"\n[body]\ntype = "mesh"\npath = ""\n',
                         name="s.toml")
+
+
+def test_a_near_zero_mass_on_springs_is_refused_not_run_with_contradictory_advice():
+    """The re-trial: springs of 50 N/m on points of 1e-300 kg/m^3 overflowed k / m (numpy
+    warnings, "omega_max = inf"), the run started with one substep and failed at its first
+    step saying "try dt <= 0.005 s (no dt is stable for it)".  Refused at once, naming the
+    numbers and the keys; the gelatin path with that density, without a numpy warning."""
+    import warnings
+
+    text = ("[body]\npoints = 200\ndistribution = 'uniform'\nlower = [0, 0.1, 0]\n"
+            "upper = [0.1, 0.2, 0.1]\n[springs]\nradius = 0.035\nstiffness = 50\n"
+            "[mass]\ndensity = 1e-300\n[integrator]\ndt = 0.01\nsteps = 10\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)      # (the density's range is warned)
+        warnings.simplefilter("error", RuntimeWarning)
+        with pytest.raises(SceneError, match=r"stiffness over the point masses is beyond "
+                                             r"floating point \(largest k 50 N/m, smallest "
+                                             r"mass .*e-30\d kg\).*\[mass\] density"):
+            Scene.from_text(text, name="sp.toml").simulator()
+        with pytest.raises(SceneError, match=r"countless substeps"):
+            Scene.from_text(GELATIN_BOX.replace('preset = "gelatin"', 'preset = "gelatin"\n'
+                                                'density = 1e-300'), name="g.toml").simulator()

@@ -80,6 +80,16 @@ def max_eigenvalue(model, *, iterations: int = 60, seed: int = 0) -> tuple[float
     if k == 0 or not np.any(model.spring_stiffness > 0):
         return 0.0, "no-springs"
     m = model.point_mass
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        ratio = float(np.max(model.spring_stiffness)) / float(np.min(m))
+    if not ratio < 1e250:  # (k / m beyond floating point: a near-zero mass, an absurd k)
+        from .errors import SceneError
+
+        raise SceneError(
+            f"the springs' stiffness over the point masses is beyond floating point (largest "
+            f"k {float(np.max(model.spring_stiffness)):.3g} N/m, smallest mass "
+            f"{float(np.min(m)):.3g} kg): check [mass] density / point_mass (kg/m^3, kg) and "
+            "[springs] stiffness (N/m)")
     if k > POWER_ITERATION_MAX_SPRINGS:
         i, j = model.spring_ij[:, 0], model.spring_ij[:, 1]
         cross = model.spring_stiffness / np.sqrt(m[i] * m[j])

@@ -300,11 +300,12 @@ def scale_light_masses(mass: np.ndarray, fem: FemArrays, fraction: float) -> np.
     heavy = mass > 0
     if not heavy.any() or not np.any(k > 0):
         return mass
-    lo, hi = 0.0, float(np.max(k[heavy] / mass[heavy]))
-    for _ in range(100):  # the level w2 [1/s^2] at which the raised masses add `fraction`
-        mid = 0.5 * (lo + hi)
-        added = np.maximum(k / mid - mass, 0.0).sum() if mid > 0 else np.inf
-        lo, hi = (mid, hi) if added > fraction * total else (lo, mid)
-    scaled = np.maximum(mass, k / hi)
-    return scaled * (total / scaled.sum())
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # (absurd masses:
+        lo, hi = 0.0, float(np.max(k[heavy] / mass[heavy]))  # refused by the substeps' count)
+        for _ in range(100):  # the level w2 [1/s^2] at which the raised masses add `fraction`
+            mid = 0.5 * (lo + hi)
+            added = np.maximum(k / mid - mass, 0.0).sum() if mid > 0 else np.inf
+            lo, hi = (mid, hi) if added > fraction * total else (lo, mid)
+        scaled = np.maximum(mass, k / hi)
+        return scaled * (total / scaled.sum())
 
