@@ -539,28 +539,32 @@ def test_resume_with_overwrite_is_refused_and_the_summary_counts_the_writing(tmp
 
 def test_temporary_files_of_a_killed_writer_are_cleared_by_the_next_write(tmp_path):
     """The reliability trial: a render killed with SIGKILL (no cleanup runs) left its
-    temporary `.dd2.mp4.kevucuw0.mp4` beside the video for good.  Temporary files and staging
-    folders carry their process's number: the next write there deletes those of processes
-    that are gone, and leaves a live process's (a write under way) and unknown ones."""
+    temporary `.dd2.mp4.kevucuw0.mp4` beside the video for good; the re-trial: a write of
+    another name in that folder left it too.  Temporary files and staging folders carry
+    their process's number: the next write in that folder, of any name, deletes those of
+    processes that are gone, and leaves a live process's (a write under way) and names of
+    another form."""
     import os
 
     from jellysim.io.atomic import atomic_write, staged_output
 
     dead = 2 ** 22 + 12345                      # (beyond Linux's pid range: no such process)
-    orphans = [tmp_path / f".dd2.mp4.{dead}-kevucuw0.mp4", tmp_path / f".new-{dead}-a1b2"]
+    orphans = [tmp_path / f".dd2.mp4.{dead}-kevucuw0.mp4", tmp_path / f".new-{dead}-a1b2c3d4"]
     orphans[0].write_bytes(b"half a video")
     orphans[1].mkdir()
     (orphans[1] / "frame_00000.png").write_bytes(b"x")
-    kept = [tmp_path / f".dd2.mp4.{os.getppid()}-zzzz.mp4", tmp_path / ".dd2.mp4.oldstyle.mp4"]
+    kept = [tmp_path / f".dd2.mp4.{os.getppid()}-zzzzzzzz.mp4",
+            tmp_path / ".dd2.mp4.oldstyle.mp4", tmp_path / ".my.notes.123-4"]
     for k in kept:
         k.write_bytes(b"not ours to delete")
-    atomic_write(tmp_path / "dd2.mp4", lambda fh: fh.write(b"video"))
-    assert not orphans[0].exists() and orphans[1].exists()  # (only its own kind of name)
+    atomic_write(tmp_path / "other.glb", lambda fh: fh.write(b"glb"))
+    assert not any(o.exists() for o in orphans)
+    orphans[1].mkdir()
     with staged_output(tmp_path, ["frame_*.png"]):
         pass
     assert not orphans[1].exists()
     assert all(k.read_bytes() == b"not ours to delete" for k in kept)
-    assert (tmp_path / "dd2.mp4").read_bytes() == b"video"
+    assert (tmp_path / "other.glb").read_bytes() == b"glb"
 
 
 def test_overwrite_deletes_the_runs_record_before_its_frames(tmp_path, monkeypatch):

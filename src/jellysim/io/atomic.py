@@ -42,22 +42,30 @@ def describe_os_error(exc: OSError) -> str:
     return f"{path}: {why}"
 
 
-def _drop_orphans(folder: Path, prefix: str) -> None:
-    """Delete the temporary files and staging folders (``<prefix><pid>-<random>``) that a
-    process killed while writing left in ``folder`` (SIGKILL runs no cleanup: a killed
-    render's ``.demo.mp4.kevucuw0.mp4`` stayed for good, the reliability trial).  Only those
-    whose process is gone; one of a live process, or of an unknown writer, is left."""
+_ORPHAN = None
+
+
+def _drop_orphans(folder: Path) -> None:
+    """Delete the temporary files (``.<name>.<pid>-<8 random>...``) and staging folders
+    (``.new-<pid>-<8 random>``) that a process killed while writing left in ``folder``
+    (SIGKILL runs no cleanup: a killed render's ``.demo.mp4.kevucuw0.mp4`` stayed for good,
+    the reliability trial): those whose process is gone, whatever file they were for.  One
+    of a live process, or a name not of this form, is left."""
+    import re
     import shutil
 
     from .lock import _alive
 
+    global _ORPHAN
+    if _ORPHAN is None:
+        _ORPHAN = re.compile(r"^\.(?:new-|.+\.)(\d+)-[a-z0-9_]{8}(?:\.[A-Za-z0-9]+)?$")
     try:
-        names = [p for p in folder.iterdir() if p.name.startswith(prefix)]
+        names = [p for p in folder.iterdir() if p.name.startswith(".")]
     except OSError:
         return
     for p in names:
-        pid, dash, _ = p.name[len(prefix):].partition("-")
-        if dash and pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
+        hit = _ORPHAN.match(p.name)
+        if hit and int(hit.group(1)) != os.getpid() and not _alive(int(hit.group(1))):
             try:
                 shutil.rmtree(p) if p.is_dir() else p.unlink()
             except OSError:
@@ -88,7 +96,7 @@ def atomic_path(path, suffix: str | None = None, *, fsync: bool = False):
             break
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        _drop_orphans(path.parent, f".{path.name}.")
+        _drop_orphans(path.parent)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{os.getpid()}-",
                                    suffix=suffix or path.suffix, dir=path.parent)
     except OSError as exc:
@@ -155,7 +163,7 @@ def staged_output(folder, patterns):
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    _drop_orphans(folder, ".new-")
+    _drop_orphans(folder)
     stage = Path(tempfile.mkdtemp(prefix=f".new-{os.getpid()}-", dir=folder))
     try:
         yield stage
