@@ -505,6 +505,10 @@ def test_an_output_path_through_a_file_or_a_read_only_folder_is_named_as_given(t
     res = CliRunner().invoke(cli, ["render", str(tmp_path / "no_run"), "-o",
                                    str(tmp_path / "x.png")])
     assert res.exit_code == 2 and "jellysim run SCENE --out FOLDER" in res.output
+    # a name without a suffix is a folder of frames: a file there said "afile: File exists"
+    res = CliRunner().invoke(cli, ["render", str(traj_path), "-o", str(afile), "--quiet"])
+    assert res.exit_code == 2 and "a file of that name is where a folder is needed" in (
+        res.output) and afile.read_text() == "not a folder"
 
 
 def test_resume_with_overwrite_is_refused_and_the_summary_counts_the_writing(tmp_path,

@@ -35,6 +35,10 @@ def describe_os_error(exc: OSError) -> str:
         for up in [path, *path.parents]:
             if up.exists() and not up.is_dir():
                 return f"{path}: {up} is a file, not a folder (choose another path)"
+    if exc.errno == errno.EEXIST and path.is_file():  # (a folder was to be made there)
+        return (f"{path}: a file of that name is where a folder is needed (an output name "
+                "without a suffix is a folder of frames): give a suffix (.mp4, .png) or "
+                "another name")
     if exc.errno == errno.EROFS:
         return f"{path}: {why} (write somewhere else: a folder you can write to)"
     if exc.errno in (errno.EACCES, errno.EPERM):
