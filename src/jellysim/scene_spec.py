@@ -365,9 +365,10 @@ def said_springs_ignore(given: dict, name: str, reason: str | None) -> None:
     idle = [k for k in ("poisson_ratio", "damping_ratio", "damping_frequency", "mass_scaling")
             if k in given.get("material", ())]
     if idle:
-        warnings.warn(f"{name}: [material] {', '.join(idle)} act on the physical (tet) path "
+        warnings.warn(f"{name}: [material] {', '.join(idle)} "
+                      f"{'acts' if len(idle) == 1 else 'act'} on the physical (tet) path "
                       f"only; this body runs on springs ({reason or 'no tets'}), which ignore "
-                      "them", UserWarning, stacklevel=4)
+                      f"{'it' if len(idle) == 1 else 'them'}", UserWarning, stacklevel=4)
 
 
 def given_keys(raw: dict, schema: dict, presets: dict, by_value: bool = True) -> dict:
