@@ -1155,7 +1155,7 @@ def test_keys_a_run_would_not_read_are_said():
              (dict(i="cg_tolerance = 0.5"), r"cg_tolerance apply to name = 'implicit'"),
              (dict(m="poisson_ratio = 0.1\ndamping_ratio = 0.9"),
               r"\[material\] poisson_ratio, damping_ratio act on the physical .* springs"),
-             (dict(m="mass_scaling = 0.05"), r"mass_scaling act on the physical"),
+             (dict(m="mass_scaling = 0.05"), r"mass_scaling acts on the physical"),
              (dict(g="enabled = false\nmu = 0.0"), r"\[ground\] mu given, but the ground is off")]
     for given, said in cases:
         kw = dict(i="", m="", g="") | given
