@@ -1105,3 +1105,23 @@ def test_a_run_still_going_is_said_to_be_running_not_killed(tmp_path):
     dead = 2 ** 22 + 12345                      # (beyond Linux's pid range: no such process)
     (out / LOCK_NAME).write_text(f"{dead} {host}")
     assert load_trajectory(out).status.startswith("incomplete: the run stopped without")
+
+
+def test_a_resume_asked_fewer_steps_than_its_frames_says_what_it_drops(tmp_path):
+    """The re-trial: after a killed extension with 220 frames on disk, `--resume --steps 170`
+    threw away the 49 computed frames past step 170 without a word.  It still ends where it
+    is asked (bitwise the shorter run), and says how many frames are dropped."""
+    scene = Scene.from_text(EXPLICIT, name="scene.toml")
+    n, every = scene.steps, scene.frame_every
+    out = tmp_path / "run"
+    run_scene(scene, out, progress=False)
+    with pytest.raises(RunInterrupted):
+        run_scene(scene, out, progress=False, resume=True, steps=3 * n, stop_after=2 * n)
+    (out / CHECKPOINT).unlink()
+    have = load_trajectory(out).frame_count
+    with pytest.warns(UserWarning, match=rf"{have} frames are on disk and {n + every} steps "
+                                         rf"asked end before the last of them"):
+        res = run_scene(scene, out, progress=False, resume=True, steps=n + every)
+    ref = load_trajectory(run_scene(scene, tmp_path / "ref", progress=False,
+                                    steps=n + every).trajectory)
+    _same(load_trajectory(res.trajectory), ref)

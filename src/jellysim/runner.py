@@ -372,6 +372,10 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                                   f"{ck.total_steps if ck.total_steps is not None else '?'})")
         if ck.frame_every is not None:
             every = ck.frame_every  # frames keep the run's schedule, whatever its new length
+        if have > total // every + 1 + (1 if total % every else 0):  # (asked: said, not silent)
+            told = (f"{out_dir}: {have} frames are on disk and {total} steps asked end before "
+                    f"the last of them: those past step {total} are dropped")
+            notify(told) if notify is not None else warnings.warn(told, stacklevel=3)
         if vtu is None and ck.vtu is not None:
             write_vtu = ck.vtu  # an extension keeps the run's --no-vtu
         elif not write_vtu and ck.vtu:  # (asked: --no-vtu on a run that wrote its series)
