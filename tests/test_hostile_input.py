@@ -528,8 +528,8 @@ box = [[-1.0, -1.0, -1.0], [1.0, 0.002, 1.0]]
 def test_handles_on_a_springs_body_say_why_it_is_not_on_the_physical_path(tmp_path):
     """A gelatin mesh scene without [springs] connect gets a marching body (the physical path:
     the pin works); so does the report's radius builder (connect = 'radius': its own tets,
-    session 27: it ran on springs and a dropped random cube flattened to 29 % of its
-    height); with [material] model = 'springs' asked for, pinning says why and the fix,
+    session 27: it ran on springs and a dropped random cube flattened, its centre of mass
+    at 40 % of its resting height); with [material] model = 'springs' asked for, pinning says why and the fix,
     instead of asking for the gelatin preset it already has."""
     sim = _mesh_handle_scene(tmp_path, "[integrator]\nsteps = 2").simulator()
     assert sim.physical and int(sim.handles.pinned.sum()) > 0

@@ -35,7 +35,6 @@ on a slope at 0.9 atan(mu) broke away and, once sliding, did not stop (docs/phys
 section 2: friction-induced hopping)."""
 
 
-
 SMALL_BODY = 0.01
 """[m] A body smaller than this across that needs too many substeps is said to be small: a
 mesh in millimetres read as metres (the artist trial's 0.1 mm mesh: 40,108 substeps)."""
@@ -59,6 +58,7 @@ def _substep_fixes(model) -> str:
         "" if connect == "marching" else " or connect = 'marching' (well-shaped tets)"))
     return "; ".join(fixes) + ", or a smaller dt"
 
+
 class PhysicalStepping:
     """Mixin: needs ``model``, ``state``, ``handles``, ``dt``, ``substeps``, ``backend``,
     ``_k`` (the backend), ``_obstacle_kind``/``_obstacle_data``, ``rest_speed``, ``center``,
@@ -76,8 +76,8 @@ class PhysicalStepping:
         as symplectic Euler does: it swings by about omega h (a mode's angular frequency times
         the substep) around a conserved value, without drift, when gravity is off.  Under
         gravity it also falls steadily by ``1/2 M |g|^2 h`` per second (the scheme's free
-        fall runs ``g h t / 2`` ahead of (below) the parabola: 1.3e-3 of a tumbling brick's energy in 2 s
-        at h = 1/6240 s; ``total + h/2 sum m g . v`` is the conserved one)."""
+        fall runs ``g h t / 2`` ahead of (below) the parabola: 1.3e-3 of a tumbling brick's
+        energy in 2 s at h = 1/6240 s; ``total + h/2 sum m g . v`` is the conserved one)."""
         m, x, v = self.model, self.state.x, self.state.v
         mass = np.asarray(m.point_mass, dtype=np.float64)
         kinetic = 0.5 * float(mass @ np.einsum("ij,ij->i", v, v))

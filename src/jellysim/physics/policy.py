@@ -139,9 +139,9 @@ def springs_reason(params: dict, body) -> str | None:
     ``None`` when it takes the FEM path (``[material] model`` 'fem', or 'auto' and the body
     has tets).  'auto' takes the FEM path for every body with tets: tet builders, grid boxes and
     radius bodies (their points' carved Delaunay tets: slivers make the substep smaller than a
-    marching body's, but on springs a dropped gelatin radius cube flattened to 29 % of its
-    height, session 27's trial); a scene that names another integrator than the physical
-    path's stays on springs."""
+    marching body's, but on springs a 2,000-point gelatin radius cube dropped 2 cm flattened,
+    its centre of mass at 19.9 mm where it rests at 46, session 27's trial); a scene that
+    names another integrator than the physical path's stays on springs."""
     mat = params["material"]
     if scene_material(params) is None:
         return ("the material is the report's springs ([material] preset = 'gelatin' or "
