@@ -52,8 +52,8 @@ class RenderOptions:
     antialias: bool = True
     """Smooth the edges: on a software rasteriser (no GPU), where multisampling changed
     nothing, VTK's post-process pass (FXAA: 38 -> 61 ms per 960 x 540 frame of the demo); on
-    a GPU its multisampling.  Without it silhouettes are jagged and shimmer in a video (the artist
-    trial)."""
+    a GPU its multisampling.  Without it silhouettes are jagged and shimmer in a video (the
+    artist trial)."""
     background: str = "#f4f1ec"
     """Background colour, or ``"transparent"`` (PNG output only: an alpha channel, 0 where
     nothing is drawn; with ``floor = False`` the body alone)."""
