@@ -60,7 +60,10 @@ def writer_of(out_dir) -> str | None:
     error, _ = _holder(Path(out_dir), path, host)
     if error is None:
         return None
-    pid, _, owner = path.read_text().strip().partition(" ")
+    try:  # (the run may end, and take its lock, between the two reads)
+        pid, _, owner = path.read_text().strip().partition(" ")
+    except OSError:
+        return None
     return f"process {pid}" + ("" if owner == host else f" on {owner}")
 
 
