@@ -1105,6 +1105,15 @@ def test_a_run_still_going_is_said_to_be_running_not_killed(tmp_path):
     dead = 2 ** 22 + 12345                      # (beyond Linux's pid range: no such process)
     (out / LOCK_NAME).write_text(f"{dead} {host}")
     assert load_trajectory(out).status.startswith("incomplete: the run stopped without")
+    # a run still building its body has no frame yet: said so, not "not a run's folder"
+    starting = tmp_path / "starting"
+    starting.mkdir()
+    (starting / LOCK_NAME).write_text(f"{os.getpid()} {host}")
+    from jellysim.errors import JellysimError
+
+    with pytest.raises(JellysimError, match=rf"a run \(process {os.getpid()}\) is starting "
+                                            r"here and has written no frame yet"):
+        load_trajectory(starting)
 
 
 def test_a_resume_asked_fewer_steps_than_its_frames_says_what_it_drops(tmp_path):

@@ -309,6 +309,11 @@ def resolve_trajectory(path) -> Path:
         for cand in (path / STREAM_DIR, path / "trajectory.npz"):
             if cand.exists() and (cand.suffix == ".npz" or (cand / "meta.npz").is_file()):
                 return cand
+        from .lock import writer_of
+
+        if (writer := writer_of(path)) is not None:  # (a run building its body: no frame yet)
+            raise JellysimError(f"{path}: a run ({writer}) is starting here and has written no "
+                                "frame yet; look again in a moment")
         if (path / STREAM_DIR).is_dir():
             raise JellysimError(f"{path / STREAM_DIR}: damaged: its meta.npz is missing (the "
                                 "frames cannot be read without it); run it again with "
