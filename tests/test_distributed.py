@@ -562,3 +562,58 @@ def test_mpiexec_run_refuses_an_earlier_run_unless_overwrite(tmp_path):
     proc, _ = _mpirun(2, *[a.format(4) for a in args], "--overwrite")
     assert proc.returncode == 0, proc.stderr
     assert load_trajectory(out / "trajectory.npz").steps[-1] == 4  # the new run's
+
+
+@needs_mpi
+def test_mpiexec_blow_up_into_the_ground_and_an_obstacle_is_agreed_not_a_hang(tmp_path):
+    """The HPC trial: a blow-up on a springs body with a contact ground and a sphere
+    obstacle hung `mpiexec -n 3` (two ranks in MPI_Finalize, the third spinning in Allreduce
+    for ten minutes, Ctrl-C ignored) and with -n 2 said "points are below the ground ...
+    moved there from outside" with no trajectory.  The check of a state moved by hand ran on
+    each rank's own simulator, whose ghost points the exchange writes: a neighbour's blown-up
+    points tripped it on one rank only.  Now the job fails as the serial run does, at the
+    same step, with the same failed trajectory."""
+    scene = tmp_path / "blow.toml"
+    scene.write_text("""[body]
+type = "box"
+points = 3000
+distribution = "uniform"
+lower = [0.0, 0.2, 0.0]
+upper = [1.0, 1.2, 1.0]
+seed = 3
+[springs]
+radius = 0.15
+stiffness = 1e5
+[mass]
+density = 100.0
+[physics]
+damping = 0.5
+[integrator]
+name = "symplectic"
+dt = 0.01
+substeps = 1
+steps = 200
+[provot]
+enabled = false
+[ground]
+model = "contact"
+restitution = 0.3
+friction = 0.5
+[[obstacle]]
+kind = "sphere"
+center = [0.5, -0.1, 0.5]
+radius = 0.25
+[output]
+every = 10
+""")
+    with pytest.raises(SimulationError) as serial:
+        run_scene(Scene.load(scene), tmp_path / "serial", progress=False, vtu=False)
+    for ranks in (2, 3):
+        proc, _ = _mpirun(ranks, "-m", "jellysim.cli", "run", str(scene), "--out",
+                          str(tmp_path / f"mpi{ranks}"), "--quiet", "--no-vtu", timeout=100)
+        assert proc.returncode == 2, proc.stderr
+        assert proc.stderr.count("error:") == 1
+        assert f"went unstable at step {serial.value.step} " in proc.stderr
+        got = load_trajectory(tmp_path / f"mpi{ranks}" / "trajectory.npz")
+        ref = load_trajectory(tmp_path / "serial" / "trajectory.npz")
+        assert got.status.startswith("failed") and np.array_equal(got.positions, ref.positions)

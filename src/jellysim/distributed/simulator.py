@@ -225,6 +225,10 @@ class DistributedSimulator(PhysicalMethods):
             self.part, local_state = self._distribute(build, model, state)
             self.local = Simulator(self.part.model, state=local_state, **common)
             self.local.center[:] = self.center  # runaway bound about the *body's* centre
+            # its ghost points are written by the exchange each substep: the check of a state
+            # moved by hand between advances would see a neighbour's blow-up on this rank
+            # alone and raise here only, leaving the other ranks in Allreduce (a hang)
+            self.local._state_by_exchange = True
             self._setup_exchange()
         self.local._started = True  # (no per-rank start check: a rank alone would raise it)
         self.split_implicit = not self.replicated and self.integrator is Integrator.IMPLICIT
