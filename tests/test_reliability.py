@@ -1114,6 +1114,13 @@ def test_a_run_still_going_is_said_to_be_running_not_killed(tmp_path):
     with pytest.raises(JellysimError, match=rf"a run \(process {os.getpid()}\) is starting "
                                             r"here and has written no frame yet"):
         load_trajectory(starting)
+    # a run killed under mpiexec leaves only its ParaView frames (the HPC trial: "not a run's
+    # folder"): said so, with what can open them
+    (starting / LOCK_NAME).unlink()
+    (starting / "body.pvd").write_text("<VTKFile/>")
+    with pytest.raises(JellysimError, match=r"holds ParaView frames \(body\.pvd\) but no "
+                                            r"trajectory"):
+        load_trajectory(starting)
 
 
 def test_a_resume_asked_fewer_steps_than_its_frames_says_what_it_drops(tmp_path):

@@ -318,6 +318,11 @@ def resolve_trajectory(path) -> Path:
             raise JellysimError(f"{path / STREAM_DIR}: damaged: its meta.npz is missing (the "
                                 "frames cannot be read without it); run it again with "
                                 "--overwrite")
+        if (path / "body.pvd").is_file():  # (a run under mpiexec killed before it saved)
+            raise JellysimError(f"{path}: holds ParaView frames (body.pvd) but no trajectory: "
+                                "a run stopped before it saved one (killed under mpiexec?); "
+                                "ParaView opens body.pvd, the frames cannot be rendered or "
+                                "exported here")
         raise JellysimError(f"{path}: directory holds no trajectory.npz and no {STREAM_DIR} "
                             "(not a run's folder: `jellysim run SCENE --out FOLDER` makes one)")
     if not path.exists() and (path.parent / STREAM_DIR / "meta.npz").is_file():
