@@ -563,10 +563,12 @@ def test_temporary_files_of_a_killed_writer_are_cleared_by_the_next_write(tmp_pa
         k.write_bytes(b"not ours to delete")
     atomic_write(tmp_path / "other.glb", lambda fh: fh.write(b"glb"))
     assert not any(o.exists() for o in orphans)
-    orphans[1].mkdir()
-    with staged_output(tmp_path, ["frame_*.png"]):
+    frames = tmp_path / "frames"     # (a folder is swept once per process: a fresh one)
+    stale = frames / f".new-{dead}-a1b2c3d4"
+    stale.mkdir(parents=True)
+    with staged_output(frames, ["frame_*.png"]):
         pass
-    assert not orphans[1].exists()
+    assert not stale.exists()
     assert all(k.read_bytes() == b"not ours to delete" for k in kept)
     assert (tmp_path / "other.glb").read_bytes() == b"glb"
 

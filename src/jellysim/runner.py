@@ -348,8 +348,9 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                 f"finished ({npz_path}) and kept no final state to extend it from (it ran "
                 "under mpiexec, whose runs keep none, or it failed, or an older jellysim "
                 "wrote it); run it again with --overwrite (and the steps asked)")
-        if stream_dir.exists():
-            stream_steps(stream_dir)  # (a damaged stream said now, not after every step)
+        # the steps the stream's run asked (an extension's own), read now: a damaged stream
+        # is said before a step is taken, not after all of them
+        asked = stream_steps(stream_dir) if stream_dir.exists() else None
         # an extension interrupted before its first checkpoint continues from the final state
         from_final = not ckpt_path.exists() and final_path.exists()
         ck = read_checkpoint(final_path if from_final else ckpt_path, scene=scene, model=model)
@@ -358,8 +359,8 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
         if (steps is None and ck.total_steps is not None and not steps_set
                 and scene.steps == ck.scene_steps):
             total = ck.total_steps  # finish the run that was asked (its --steps)
-            if from_final and stream_dir.exists():  # an extension killed before its first
-                total = max(total, stream_steps(stream_dir))  # checkpoint: its own steps
+            if from_final and asked is not None:  # an extension killed before its first
+                total = max(total, asked)          # checkpoint: its own steps
         if finished and total <= ck.step:
             raise NothingToResume(
                 f"{out_dir}: nothing to resume: the run has finished at step {ck.step} "

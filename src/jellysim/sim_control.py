@@ -173,9 +173,8 @@ class Control:
         throw them out at once (5 cm into a plane: 15 J).  The steps themselves never leave a
         point inside (it is put on the surface), so this allows 1 % of the body's size (under
         it: a harmless nudge, 0.5-1 mm on a 10 cm body gave 3-10 mJ)."""
-        if self.model.point_count == 0 or not (free := self.handles.pinned == 0).any() or (
-                getattr(self, "_state_by_exchange", False)):  # (an MPI rank's ghosts are
-            return  # written by the exchange: a neighbour's blow-up is not a user's move)
+        if self.model.point_count == 0 or not (free := self.handles.pinned == 0).any():
+            return
         x = self.state.x[free]
         if not np.all(np.isfinite(x)):
             return  # (said by the step's own check)

@@ -225,10 +225,6 @@ class DistributedSimulator(PhysicalMethods):
             self.part, local_state = self._distribute(build, model, state)
             self.local = Simulator(self.part.model, state=local_state, **common)
             self.local.center[:] = self.center  # runaway bound about the *body's* centre
-            # its ghost points are written by the exchange each substep: the check of a state
-            # moved by hand between advances would see a neighbour's blow-up on this rank
-            # alone and raise here only, leaving the other ranks in Allreduce (a hang)
-            self.local._state_by_exchange = True
             self._setup_exchange()
         self.local._started = True  # (no per-rank start check: a rank alone would raise it)
         self.split_implicit = not self.replicated and self.integrator is Integrator.IMPLICIT
@@ -426,8 +422,10 @@ class DistributedSimulator(PhysicalMethods):
         return (done + sub - 1) // sub, status
 
     def _substep(self) -> int:
-        try:
-            self.local.advance(1)
+        try:  # (not advance(): its check of a state moved by hand between calls would see
+            # the ghosts the exchange writes, a neighbour's blow-up on this rank alone, and
+            # raise here only, leaving the other ranks in Allreduce: a hang, the HPC trial)
+            self.local._advance_scheduled(1)
             status = STATUS_OK
         except SimulationError:
             status = self.part.owned_status(self.local.state, self.center,

@@ -47,6 +47,9 @@ def describe_os_error(exc: OSError) -> str:
 
 
 _ORPHAN = None
+_SWEPT: set = set()
+"""Folders this process has swept already (once each: an export of thousands of frames into
+one folder would otherwise list it once per frame)."""
 
 
 def _drop_orphans(folder: Path) -> None:
@@ -61,6 +64,10 @@ def _drop_orphans(folder: Path) -> None:
     from .lock import _alive
 
     global _ORPHAN
+    key = os.path.abspath(folder)
+    if key in _SWEPT:
+        return
+    _SWEPT.add(key)
     if _ORPHAN is None:
         _ORPHAN = re.compile(r"^\.(?:new-|.+\.)(\d+)-[a-z0-9_]{8}(?:\.[A-Za-z0-9]+)?$")
     try:
