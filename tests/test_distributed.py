@@ -358,6 +358,18 @@ def test_an_interrupted_mpi_run_ends_every_rank_and_keeps_its_frames(tmp_path):
     assert "interrupted: the run stopped; its frames so far are in" in proc.stderr
     got = load_trajectory(out2 / "trajectory.npz")
     assert got.status.startswith("interrupted at step") and len(got.times) == 3
+    # HPC trial (session 27): a Ctrl-C while rank 0 writes the frames, which only its memory
+    # holds (1.5 s at 700 frames), ended the job with no trajectory.npz: the save now finishes
+    for mode, code, status, frames in (("interrupt-saving", 130, "interrupted at step 30", 4),
+                                       ("finish-saving", 0, "complete", None)):
+        where = tmp_path / mode
+        proc, seconds = _mpirun(2, str(DATA / "fail_rank.py"), mode, str(scene), str(where),
+                                timeout=60)
+        assert proc.returncode == code and seconds < 30, (mode, proc.stderr)
+        got = load_trajectory(where / "trajectory.npz")
+        assert got.status.startswith(status), (mode, got.status)
+        assert frames is None or len(got.times) == frames
+        assert "MPI_Abort" not in proc.stdout + proc.stderr
     # one while rank 0 builds the body (the others wait for it): every rank told, exit 130,
     # no MPI_Abort, no folder left (session 21's trial: "run it again with --overwrite")
     out3 = tmp_path / "out3"

@@ -24,9 +24,11 @@ _SIGNALS = tuple(s for s in (getattr(signal, "SIGINT", None), getattr(signal, "S
 
 
 @contextmanager
-def held():
+def held(act: bool = True):
     """Note SIGINT and SIGTERM instead of acting on them until the block ends, then act on
-    the first one noted (main thread only; elsewhere, or nested, a no-op)."""
+    the first one noted (``act=False``: drop them, for a block whose caller stops next
+    anyway, such as saving an interrupted run's frames) (main thread only; elsewhere a
+    no-op)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -45,7 +47,7 @@ def held():
     finally:
         for s, h in old.items():
             signal.signal(s, h)
-        if noted:
+        if noted and act:
             s = noted[0]
             h = old[s]
             if callable(h):

@@ -219,21 +219,21 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
                 if done < total and stop.agreed():  # every rank stops at this frame
                     path = None
                     if rank == 0:
-                        path = recorder.save(out_dir / "trajectory.npz", status=(
+                        path = _save(recorder, out_dir / "trajectory.npz", status=(
                             f"interrupted at step {done} of {total} ({RERUN})"),
                             overwrite=True, held=True)
                     raise StoppedTogether(f"interrupted at step {done} of {total}", path)
     except SimulationError as exc:
         emit()
         if rank == 0:
-            recorder.save(out_dir / "trajectory.npz", status=f"failed: {exc}", overwrite=True,
+            _save(recorder, out_dir / "trajectory.npz", status=f"failed: {exc}", overwrite=True,
                           held=True)
         raise
     except StoppedTogether:
         raise
     except KeyboardInterrupt:  # a second Ctrl-C: rank 0 keeps the frames so far, aborts
         if rank == 0:
-            recorder.save(out_dir / "trajectory.npz", status=(
+            _save(recorder, out_dir / "trajectory.npz", status=(
                 f"interrupted at step {done} of {total} ({RERUN})"), overwrite=True,
                 held=True)
         raise
@@ -244,10 +244,21 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
     if rank != 0:
         return None
     messages += [str(w.message) for w in caught]
-    path = recorder.save(out_dir / "trajectory.npz", overwrite=True, held=True)
+    path = _save(recorder, out_dir / "trajectory.npz", overwrite=True, held=True)
     return RunResult(out_dir, path, series.pvd_path if series else None,
                      len(recorder.times), total, stepped, messages,
                      simulated=total * float(sim.dt))
+
+
+def _save(recorder, path, **kw):
+    """Rank 0 writes the frames, which only its memory holds, with Ctrl-C and SIGTERM held
+    off until the file is complete (HPC trial: a second Ctrl-C during a save of 700 frames,
+    1.5 s, ended the job with no trajectory.npz); a signal that lands meanwhile is dropped:
+    the run ends right after anyway, stopped or finished."""
+    from .._interrupts import held
+
+    with held(act=False):
+        return recorder.save(path, **kw)
 
 
 def prepare(scene, sim) -> None:
