@@ -163,10 +163,11 @@ def _env():
     return env
 
 
-def _mpirun(n, *args, timeout=120):
+def _mpirun(n, *args, timeout=120, env=None):
     t0 = time.perf_counter()
     proc = subprocess.run([str(MPIEXEC), "-n", str(n), sys.executable, *args],
-                          capture_output=True, text=True, env=_env(), timeout=timeout,
+                          capture_output=True, text=True, env={**_env(), **(env or {})},
+                          timeout=timeout,
                           cwd=ROOT)
     return proc, time.perf_counter() - t0
 
@@ -223,6 +224,19 @@ def test_mpiexec_run_takes_the_command_lines_overrides(tmp_path):
     assert np.array_equal(got.positions, ref.positions)
     assert np.array_equal(got.velocities, ref.velocities)
     assert not list((tmp_path / "mpi").glob("*.vtu"))  # the scene's vtu = false kept
+    assert "more busy threads than cores" not in proc.stderr
+    # HPC trial (session 27): 2 ranks x 2 threads on a 2-core node ran 4 busy threads on 2
+    # cores and said nothing; now said (the same trajectory: threads never change it)
+    cores = os.cpu_count()
+    proc, _ = _mpirun(2, "-m", "jellysim.cli", "run", str(path), "--out", str(tmp_path / "o"),
+                      "--quiet", "--threads", str(cores), *args,
+                      env={"NUMBA_NUM_THREADS": str(cores)})
+    assert proc.returncode == 0, proc.stderr
+    assert cores < 2 or (f"2 ranks x {cores} threads on a node of {cores} cores: more busy "
+                         "threads than cores") in proc.stderr
+    assert proc.stderr.count("more busy threads") == (cores >= 2)
+    assert np.array_equal(load_trajectory(tmp_path / "o" / "trajectory.npz").positions,
+                          ref.positions)
     proc, _ = _mpirun(2, "-m", "jellysim.cli", "run", str(path), "--resume",
                       str(tmp_path / "mpi"), "--steps", "60", "--quiet")
     assert proc.returncode == 2 and proc.stderr.count("error:") == 1

@@ -83,6 +83,9 @@ def local_fem(fem, glob: np.ndarray, owned_global: np.ndarray):
 class PhysicalMethods(PhysicalStepping):
     """The physical path of :class:`~.simulator.DistributedSimulator` (mixed in)."""
 
+    oversubscribed = None
+    """Why the threads asked for each rank exceed the node's cores (a message), or None."""
+
     physical = False
 
     # -- setup ------------------------------------------------------------------------------
@@ -143,6 +146,8 @@ class PhysicalMethods(PhysicalStepping):
         if threads is None:
             threads = 1 if self.info.tet_count < PHYSICAL_PARALLEL_MIN_TETS else (
                 self._node_threads())
+        else:
+            threads = self._node_threads(threads)  # (says where they oversubscribe)
         self.threads = int(threads)
         t_local = fem.tet_count
         self._q = np.zeros((t_local, 6))

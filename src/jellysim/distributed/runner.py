@@ -147,6 +147,8 @@ def _run_distributed(scene, out_dir: Path, comm, *, progress, vtu, steps, partit
         prepare(scene, sim)
     if rank == 0:
         messages += [str(w.message) for w in caught]
+        if sim.oversubscribed:
+            messages.append(sim.oversubscribed)
         if sim.replicated:
             messages.append(f"every rank runs the whole body ({sim.replicated}): the run "
                             "is correct but not faster than one process")

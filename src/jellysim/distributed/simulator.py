@@ -189,8 +189,7 @@ class DistributedSimulator(PhysicalMethods):
         self.integrator = Integrator(integrator)
         self.dt_step = self.dt / self.substeps
         n = info.n
-        if threads is None:  # the node's cores divided among the ranks on this node
-            threads = self._node_threads()
+        threads = self._node_threads(threads)  # default: the node's cores among its ranks
         self.replicated = replicated_reason(self.integrator, provot)
         if self.replicated is None and size > n:
             self.replicated = f"more ranks ({size}) than points ({n})"
@@ -238,14 +237,31 @@ class DistributedSimulator(PhysicalMethods):
             self.check_stability()
 
     # -- setup ------------------------------------------------------------------------------
-    def _node_threads(self):
+    def _node_threads(self, asked=None):
+        """The threads per rank (collective): ``asked``, or the node's cores divided among its
+        ranks.  Sets :attr:`oversubscribed` (a message, or None) where ``asked`` threads on
+        every rank of a node exceed its cores (HPC trial: ``-n 2 --threads 2`` on 2 cores ran
+        4 busy threads on 2 cores, each waiting on the others, and said nothing)."""
+        import os
+
         import numba
         from mpi4py import MPI
 
         node = self.comm.Split_type(MPI.COMM_TYPE_SHARED)
-        threads = max(1, numba.config.NUMBA_NUM_THREADS // node.Get_size())
+        ranks, pool = node.Get_size(), int(numba.config.NUMBA_NUM_THREADS)
         node.Free()
-        return threads
+        if asked is None:
+            return max(1, pool // ranks)
+        runs = min(int(asked), pool)  # (more is capped, with a warning, by the Simulator)
+        cores = os.cpu_count() or 1
+        mine = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else cores
+        if runs > 1 and (runs * ranks > cores or runs > mine):
+            self.oversubscribed = (
+                f"{ranks} ranks x {runs} threads on a node of {cores} cores"
+                + (f" ({mine} for this rank)" if mine < cores else "") + ": more busy threads "
+                f"than cores, which slows every rank; use --threads "
+                f"{max(1, min(cores // ranks, mine))} (or leave it out)")
+        return int(asked)
 
     def _set_owner(self, owner, compute):
         """The owner rank of every point: on every rank, or (:attr:`lean`) on rank 0 only;
