@@ -414,7 +414,7 @@ def test_the_slip_state_is_checkpointed_and_resumes_bitwise():
     b.advance(6)
     assert np.array_equal(a.state.x, b.state.x) and np.array_equal(a.state.v, b.state.v)
     old = {k: v for k, v in inner.items() if k != "_slip"}
-    old["_obstacle_data"] = inner["_obstacle_data"][:, :9]
+    old["_obstacle_data"] = a._obstacle_data[:, :9]  # (older files held it; read, ignored)
     c = sim()
     c.state.assign(state)
     c.restore_internal_state(old)

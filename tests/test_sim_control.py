@@ -242,3 +242,25 @@ def test_a_copied_or_pickled_simulator_goes_on_as_the_original(jello):
     paper.advance(20)
     twin.advance(20)
     assert np.array_equal(twin.state.x, paper.state.x)
+
+
+def test_another_ground_needs_another_simulator_and_gets_it(jello):
+    """API trial (session 28): ``sim.ground = GroundParams(height=-0.05)`` was accepted, the
+    body kept resting on y = 0, and the checks read the new height (a raised ground said
+    'moved there from outside').  The settings packed into the kernels are now fixed, with a
+    message saying how; and the way it names (a new simulator, the old one's internal state
+    carried over) lands the body on the new ground: before, the internal state carried the
+    old ground's packed rows along and the body stayed at y = 0."""
+    sim = js.Simulator(jello, dt=1 / 60, ground=G)
+    sim.advance(10)
+    lower = js.GroundParams(model="contact", height=-0.05)
+    for name, value in (("ground", lower), ("provot", js.ProvotParams(enabled=False)),
+                        ("obstacles", ())):
+        with pytest.raises(SceneError, match=f"sim.{name} is fixed when the Simulator is made"):
+            setattr(sim, name, value)
+    assert sim.ground is G
+    new = js.Simulator(jello, dt=1 / 60, ground=lower, state=sim.state)
+    new.restore_internal_state(sim.internal_state())
+    new.advance(60)  # 5 cm more to fall: 0.1 s, then settled on the lower ground
+    low = new.state.x[:, 1].min()
+    assert -0.0501 < low < -0.0499

@@ -18,6 +18,26 @@ from .params import GroundModel, Integrator, _user_stacklevel
 __all__ = ["Control"]
 
 
+def _fixed(name: str, why: str, how: str):
+    """Getter and setter of an attribute set once, when the simulator is made: a later
+    assignment is refused, saying how to get a simulator with another value."""
+    key = f"_{name}_params"
+
+    def get(self):
+        return vars(self)[key]
+
+    def put(self, value) -> None:
+        if key in vars(self):
+            raise SceneError(
+                f"sim.{name} is fixed when the Simulator is made ({why}), so assigning it "
+                f"would change nothing the body feels: make a new Simulator(model, {how}, "
+                "state=sim.state) and give it the old one's internal state with "
+                "new.restore_internal_state(sim.internal_state())")
+        vars(self)[key] = value
+
+    return get, put
+
+
 class Control:
     """:meth:`reset`, :attr:`gravity` / :meth:`set_gravity`, :attr:`dt` (read-only), and
     copying: ``copy.deepcopy(sim)`` and ``pickle`` give a simulator that goes on exactly as
@@ -54,6 +74,20 @@ class Control:
                              f"step follow from it), got sim.dt = {value!r}: make a new "
                              f"Simulator(model, dt=..., state=sim.state)")
         self._dt = float(value)
+
+    ground = property(*_fixed("ground", "its contact is packed into the kernels' records",
+                              "ground=GroundParams(...)"), doc=(
+        """The :class:`~jellysim.params.GroundParams` the simulator was made with (fixed:
+        API trial, session 28: assigning another was accepted, the body kept resting on the old
+        ground, and the checks read the new one)."""))
+    provot = property(*_fixed("provot", "its strain limiting is packed into the kernels' "
+                              "records", "provot=ProvotParams(...)"),
+                      doc="The :class:`~jellysim.params.ProvotParams` the simulator was made "
+                          "with (fixed).")
+    obstacles = property(*_fixed("obstacles", "they are packed into the kernels' records",
+                                 "obstacles=(...)"), doc=(
+        """The contact obstacles, a contact ground first (fixed when the simulator is
+        made)."""))
 
     @property
     def dt_step(self) -> float:

@@ -23,6 +23,12 @@ class InternalState:
     under its own names: ``_cg.0``, ``_hist``...).  tests/test_reliability.py overwrites each
     with NaN between advance calls and checks that nothing changes."""
 
+    _SETTINGS = frozenset({"_obstacle_kind", "_obstacle_data"})
+    """Arrays packed once from the simulator's settings (the ground and obstacles), never
+    written by a step: not state.  Restoring them carried one simulator's ground into
+    another made with a different one (API trial, session 28); older files that hold them
+    are read, these ignored."""
+
     def internal_state(self) -> dict[str, np.ndarray]:
         """Every private array the simulator keeps between :meth:`advance` calls, copied.
 
@@ -38,7 +44,7 @@ class InternalState:
         keyframes).  :meth:`reset` starts over instead."""
         out: dict[str, np.ndarray] = {}
         for name, value in vars(self).items():
-            if not name.startswith("_") or name in self._SCRATCH:
+            if not name.startswith("_") or name in self._SCRATCH or name in self._SETTINGS:
                 continue
             if isinstance(value, np.ndarray):
                 if value.flags.writeable:  # read-only arrays are the Model's, not state
@@ -57,15 +63,11 @@ class InternalState:
         :class:`SceneError` when ``d`` does not fit this simulator (another body or
         integrator)."""
         own = self.internal_state()
-        od = d.get("_obstacle_data")
-        if od is not None and np.ndim(od) == 2 and np.shape(od)[1] == 9:
-            # files of earlier versions: obstacle rows without the slip-weakening distance
-            # (the scene's own rows are kept; every point resumes stuck: _slip absent)
-            d = {k: val for k, val in d.items() if k != "_obstacle_data"}
+        d = {k: val for k, val in d.items() if k not in self._SETTINGS}  # (older files)
         # tolerated when absent (files of earlier versions): arrays added since, all of them
-        # rebuilt every step (_squeezed: a frame count)
+        # rebuilt every step (_squeezed: a frame count; _slip: every point resumes stuck)
         missing = sorted(set(own) - set(d) - {"_last.0", "_last.1", "_squeezed", "_relax",
-                                              "_slip", "_obstacle_data"})
+                                              "_slip"})
         extra = sorted(k for k in set(d) - set(own) - {"_last.0", "_last.1"}
                        if k not in self._SCRATCH and k.partition(".")[0] not in self._SCRATCH)
         # (scratch arrays in files of earlier versions are ignored)

@@ -185,7 +185,7 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
                             f"GroundModel.CONTACT), the physical contact ground) or None, got "
                             f"{ground!r}")
         self.provot, self.ground = provot, ground
-        self.obstacles = start_checks(model, state, ground, obstacles)  # (ground: plane below)
+        obstacles = start_checks(model, state, ground, obstacles)  # (ground: plane below)
         self.physical = getattr(model, "fem", None) is not None
         if self.physical and self.integrator is not Integrator.SYMPLECTIC:
             raise SceneError(
@@ -230,9 +230,10 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
             from .physics.contact import ground_plane
 
             try:
-                self.obstacles = (ground_plane(ground),) + self.obstacles
+                obstacles = (ground_plane(ground),) + obstacles
             except ValueError as exc:
                 raise SceneError(f"ground: {exc}") from None
+        self.obstacles = obstacles
         from .physics.contact import pack_obstacles
 
         try:
