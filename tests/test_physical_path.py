@@ -978,4 +978,6 @@ def test_a_resting_body_s_stresses_carry_its_weight_and_paraview_gets_them(tmp_p
     np.testing.assert_allclose(got["von_mises"][-1], von_mises(want), rtol=1e-9)
     export_pvd(traj, tmp_path / "exp")
     again = meshio.read(tmp_path / "exp" / "body_00002.vtu").cell_data
-    np.testing.assert_allclose(again["von_mises"][-1], von_mises(want), rtol=1e-9)
+    # (API trial, session 28: the export's elastic part had the run's name for the total)
+    assert "von_mises" not in again and "stress" not in again
+    np.testing.assert_allclose(again["elastic_von_mises"][-1], von_mises(want), rtol=1e-9)

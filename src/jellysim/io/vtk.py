@@ -222,7 +222,8 @@ def export_pvd(traj, directory, name: str = "body", *, pieces: str = "") -> list
     tets = traj.tets if len(traj.tets) else None
     springs = traj.springs
     fem = (traj.params or {}).get("fem") if tets is not None else None
-    if fem:  # a physical run: its tets alone, with their (elastic) stress
+    if fem:  # a physical run: its tets alone, with their elastic stress (named so: the run's
+        # own frames' 'stress' adds the damping branch's, which the trajectory cannot give)
         from ..geometry.tetra import orient_tets
         from ..physics.fem import fem_arrays, stress_fields, tet_stresses
 
@@ -235,7 +236,7 @@ def export_pvd(traj, directory, name: str = "body", *, pieces: str = "") -> list
         body.add(traj.times[f], traj.positions[f], springs,
                  velocities=traj.velocities[f], triangles=tri, tets=tets,
                  rest=traj.rest_positions, tet_fields=stress_fields(tet_stresses(
-                     arrays, traj.positions[f])) if fem else None)
+                     arrays, traj.positions[f]), "elastic_") if fem else None)
     out = [body.pvd_path]
     if traj.skin is not None:
         skin = PVDSeries(directory, f"{name}_skin", pieces=pieces)

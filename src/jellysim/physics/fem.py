@@ -255,12 +255,14 @@ def von_mises(sigma: np.ndarray) -> np.ndarray:
     return np.sqrt(1.5 * np.einsum("...ij,...ij->...", s, s))
 
 
-def stress_fields(sigma: np.ndarray) -> dict[str, np.ndarray]:
+def stress_fields(sigma: np.ndarray, prefix: str = "") -> dict[str, np.ndarray]:
     """ParaView cell fields of Cauchy stresses ``sigma`` (t, 3, 3) [Pa]: ``von_mises`` (t,)
     [Pa] and ``stress`` (t, 9) [Pa], the tensor row by row (ParaView reads 9 components as a
-    tensor)."""
+    tensor), their names after ``prefix`` (``"elastic_"``: the elastic part alone, what a
+    trajectory, without the damping branch's strain, can give)."""
     sigma = np.asarray(sigma, dtype=np.float64)
-    return {"von_mises": von_mises(sigma), "stress": sigma.reshape(len(sigma), 9)}
+    return {f"{prefix}von_mises": von_mises(sigma),
+            f"{prefix}stress": sigma.reshape(len(sigma), 9)}
 
 
 def _full_strain(q: np.ndarray) -> np.ndarray:
