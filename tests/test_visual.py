@@ -1398,3 +1398,32 @@ def test_render_clock_and_labels_write_text_in_their_corners_only(run_dir, tmp_p
     rows, cols = np.nonzero(np.abs(two[1] - two[0]).max(axis=2) > 0)
     assert rows.size > 20 and rows.min() > 3 * 180 // 4           # at the foot only
     assert (cols < 320).sum() > 10 and (cols >= 320).sum() > 10    # of both panels
+
+
+def test_a_zoom_centres_on_the_body_not_the_middle_of_its_fall(traj):
+    """Teacher trial (session 28): `render --frame -1 --zoom 3` of a cube dropped 20 cm showed
+    empty floor: the zoom moved towards the middle of the whole fall.  It now centres on the
+    body at the frame asked (the last by default; the fixed and the following camera alike),
+    which is then whole in the picture and 3x as wide as unzoomed (8-10x the pixels)."""
+    import dataclasses
+
+    from jellysim.render.offscreen import Renderer, RenderOptions
+
+    size = float(np.max(np.ptp(traj.positions[0], axis=0)))
+    lift = np.zeros((traj.frame_count, 1, 3))   # high at the start, at rest at the end
+    lift[:, 0, 1] = 5.0 * size * (1.0 - np.arange(traj.frame_count) / (traj.frame_count - 1))
+    drop = dataclasses.replace(traj, positions=traj.positions + lift)
+
+    def red(o, f):
+        img = Renderer(drop, o).render(f).astype(int)
+        return (img[..., 0] > img[..., 1] + 60) & (img[..., 0] > img[..., 2] + 40)
+
+    last = drop.frame_count - 1
+    plain = red(RenderOptions(size=(160, 96), camera="fixed"), last).sum()
+    assert plain > 20
+    for camera in ("fixed", "follow"):
+        for f in (last, 1):
+            o = RenderOptions(size=(160, 96), camera=camera, zoom=3.0, zoom_on=f)
+            body = red(o, f)
+            assert 5 * plain < body.sum(), (camera, f, body.sum(), plain)
+            assert not np.concatenate([body[0], body[-1], body[:, 0], body[:, -1]]).any()

@@ -68,8 +68,9 @@ _camera = [
                  help="Camera elevation in degrees above the horizontal (default 20.4; 90: "
                       "from above)."),
     click.option("--zoom", type=click.FloatRange(0.1, 20), default=1.0, show_default=True,
-                 help="Move the camera closer (> 1) or farther (< 1) than the framing that "
-                      "keeps the whole motion in view.")]
+                 help="Move the camera closer (> 1, centred on the body at the last frame, "
+                      "or at --frame) or farther (< 1) than the framing that keeps the whole "
+                      "motion in view.")]
 
 
 def _camera_options(f):
@@ -383,7 +384,8 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
             frames = np.array([frame % traj.frame_count])
         options = dataclasses.replace(_options(size, color, opacity, show, no_floor,
                                                (azimuth, elevation, zoom)), camera=camera_mode,
-                                      plate=plate, clock=clock, antialias=not no_antialias)
+                                      plate=plate, clock=clock, antialias=not no_antialias,
+                                      zoom_on=-1 if frame is None else int(frames[0]))
         if background is not None:
             if background != "transparent":
                 try:

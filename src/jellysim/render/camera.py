@@ -51,7 +51,8 @@ class Camera:
 
 def frame_motion(positions: np.ndarray, size: tuple[int, int], *, view_angle: float = 30.0,
                  direction=DEFAULT_DIRECTION, margin: float = 0.9,
-                 extra_points: np.ndarray | None = None, zoom: float = 1.0) -> Camera:
+                 extra_points: np.ndarray | None = None, zoom: float = 1.0,
+                 focus=None) -> Camera:
     """A camera that keeps all of ``positions`` in view.
 
     The camera looks at the centre of their bounding box from ``direction``, as close as the
@@ -71,6 +72,8 @@ def frame_motion(positions: np.ndarray, size: tuple[int, int], *, view_angle: fl
         image is left free on each side; 1 = touching the image border).
     extra_points: more positions [m] (..., 3) to include (e.g. a floor patch).
     zoom: > 1 moves the camera closer by that factor (the framing then crops the motion).
+    focus: [m] (3,): with ``zoom`` > 1, the point looked at instead of the motion's centre
+        (the body where the picture should show it).
     """
     pts = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
     if extra_points is not None:
@@ -97,6 +100,8 @@ def frame_motion(positions: np.ndarray, size: tuple[int, int], *, view_angle: fl
                          np.abs(rel @ true_up) / (margin * math.tan(vfov / 2.0)))
     extent = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-3)
     distance = max(float(np.max(rel @ d + lateral)), 1.05 * extent) / float(zoom)
+    if focus is not None and zoom > 1.0:
+        center = np.asarray(focus, dtype=np.float64).reshape(3)
     pos = center + distance * d
     return Camera(tuple(pos.tolist()), tuple(center.tolist()), tuple(float(u) for u in up),
                   float(view_angle))

@@ -21,8 +21,10 @@ whose points below the ground are lifted exactly onto it.  (0.001 still z-fought
 box's flat bottom at 2400 x 1350 pixels: the floor spans 100 extents, so the depth buffer's
 steps there are coarse.)"""
 
-FOLLOW_RATIO = 4.0
-"""``camera = "auto"`` follows a body whose horizontal travel exceeds this many body sizes."""
+FOLLOW_RATIO = 8.0
+"""``camera = "auto"`` follows a body whose horizontal travel exceeds this many body sizes
+(4 until session 28: a block slid 17 cm, 4.3 of its sizes, was followed, so it stood still in
+the picture and the slide of a friction lesson did not show: teacher trial)."""
 
 
 @dataclass(frozen=True)
@@ -62,7 +64,13 @@ class RenderOptions:
     elevation: float | None = None
     """Camera elevation [degrees] above the horizontal (None: 20.4; 90: from above)."""
     zoom: float = 1.0
-    """> 1 moves the camera closer (the automatic framing keeps the whole motion at 1)."""
+    """> 1 moves the camera closer (the automatic framing keeps the whole motion at 1),
+    centred on the body at frame :attr:`zoom_on`."""
+    zoom_on: int = -1
+    """The frame whose body a zoom above 1 centres the picture on (-1: the last, where a
+    dropped or slid jello rests; ``render --frame N``: N).  Until session 28 a zoom moved
+    towards the middle of the whole motion: zoomed 3x, a cube dropped 20 cm was out of the
+    picture (teacher trial)."""
     camera: str = "auto"
     """``"fixed"``: one camera that sees the whole motion; ``"follow"``: the camera moves
     with the body across the floor (its height and view stay), framing the body's largest
@@ -266,7 +274,9 @@ class Renderer:
             if o.plate:  # painted on the floor under where the body comes to rest
                 x0 = np.asarray(traj.positions[-1])
                 mid = 0.5 * (x0.min(axis=0) + x0.max(axis=0))
-                radius = 0.8 * float(np.max(np.ptp(x0[:, [0, 2]], axis=0)))
+                # 1.6x the footprint's circumradius: a round jelly's plate as before (0.8x
+                # its width); a cube's had shown a sliver beyond its corners (teacher trial)
+                radius = 1.6 * float(np.max(np.hypot(x0[:, 0] - mid[0], x0[:, 2] - mid[2])))
                 plate = (float(mid[0]), float(mid[2]), radius)
                 rim = np.linspace(0.0, 2.0 * np.pi, 16, endpoint=False)  # framed whole
                 extra = np.vstack([extra, np.stack([mid[0] + radius * np.cos(rim),
@@ -286,17 +296,22 @@ class Renderer:
         if near is not None:
             extra = near if extra is None else np.vstack([extra, near])
         direction = view_direction(o.azimuth, o.elevation)
+        focus = None  # a zoom's centre: the body at frame zoom_on (if drawable there)
+        if o.zoom > 1.0 and len(boxes) and np.all(np.isfinite(boxes[o.zoom_on % len(boxes)])):
+            focus = boxes[o.zoom_on % len(boxes)].mean(axis=0)
         if self._track is None:
             self.camera = frame_motion(motion, self.size, extra_points=extra, zoom=o.zoom,
-                                       direction=direction)
+                                       direction=direction, focus=focus)
         else:  # framed on the body's largest box, moved with its centre (see set_frame)
             half = self._track[1]
             box = np.array([-half, half])
             box[:, 1] = lo[1], hi[1]
             if self.floor is not None:
                 box[0, 1] = min(box[0, 1], floor_y)
+            if focus is not None:  # (the track moves it across the floor)
+                focus = np.array([0.0, focus[1], 0.0])
             self.camera = frame_motion(box[_CORNERS, [0, 1, 2]], self.size, zoom=o.zoom,
-                                       direction=direction)
+                                       direction=direction, focus=focus)
 
         self.surface = self.points = self.springs = None
         if self._surface_frames is not None:
