@@ -154,7 +154,7 @@ def test_a_stiff_material_says_its_frames_will_be_slow():
     dt ~ h / sqrt((lam + 2 mu) / rho): 1e8 Pa on a 216-point box needs > 1,000 substeps a
     frame (the trial's 77 ms a frame, unsaid); gelatin's 1e4 Pa, 100x fewer."""
     body = js.Body.box(points=216)
-    with pytest.warns(UserWarning, match=r"needs \d+ substeps per step .* a stiff material is slow"):
+    with pytest.warns(UserWarning, match=r"needs \d+ substeps per step .* a stiff material \(E = 1e\+08 Pa\) is slow"):
         stiff = js.Simulator(js.physical_model(body, js.material("gelatin", youngs_modulus=1e8)),
                              dt=1 / 60)
     with warnings.catch_warnings():
@@ -162,6 +162,15 @@ def test_a_stiff_material_says_its_frames_will_be_slow():
         soft = js.Simulator(js.physical_model(body, js.material("gelatin")), dt=1 / 60)
     assert stiff.substeps > 1000 > soft.substeps
     assert stiff.substeps / soft.substeps == pytest.approx(100.0, rel=0.05)  # sqrt(1e8 / 1e4)
+    # a density in g/cm^3 (1.141) makes the same wave 31.6x faster: the teacher trial was told
+    # to soften its (gelatin) material; now the density is named, and the stiffness is not
+    with pytest.warns(UserWarning) as said:
+        light = js.Simulator(js.physical_model(body, js.material("gelatin", density=1.141)),
+                             dt=1 / 15)
+    text = " ".join(str(w.message) for w in said)
+    assert "a light material (density 1.141 kg/m^3, gelatin 1141)" in text
+    assert "stiff" not in text and "softer" not in text
+    assert light.substeps / (4 * soft.substeps) == pytest.approx(np.sqrt(1000), rel=0.05)
 
 
 def test_a_state_moved_into_an_obstacle_is_refused_on_advance_and_reset(jello):

@@ -319,12 +319,23 @@ class PhysicalStepping:
                 f"of dt = {float(dt):g} s ({why}; more than {MAX_AUTO_SUBSTEPS} is refused): "
                 + _substep_fixes(model))
         if need > SLOW_SUBSTEPS:  # (1e8 Pa on a 216-point box: 1,841 substeps, 77 ms a frame)
+            fem = model.fem
+            e = float(fem.youngs_modulus)
+            rho = float(np.sum(model.point_mass)) / max(float(np.sum(fem.rest_volume)), 1e-300)
+            if rho < 100.0 and e <= 1e6:  # (a density in g/cm^3: the teacher trial's 1.141,
+                what = (f"a light material (density {rho:.4g} kg/m^3, gelatin 1141) is "
+                        "slow on this explicit path: with the density in kg/m^3, or fewer "
+                        "points (larger tets)")  # was blamed on its stiffness)
+            else:
+                what = (f"a stiff material (E = {e:.3g} Pa) is slow on this explicit path; a "
+                        "softer one (gelatin: 1e4 Pa), fewer points (larger tets)")
             warnings.warn(
                 f"the physical (FEM) material needs {need} substeps per step of dt = "
                 f"{float(dt):g} s (stable limit {2.0 / omega:.3g} s: a pressure wave across its "
-                f"smallest tet), each a force pass over its {model.fem.tet_count:,} tets: a stiff "
-                "material is slow on this explicit path; a softer one (gelatin: 1e4 Pa), fewer "
-                "points (larger tets) or connect = 'marching' (well-shaped tets) is faster",
+                f"smallest tet), each a force pass over its {fem.tet_count:,} tets: {what}"
+                + ("" if getattr(getattr(model, "body", None), "meta", {}).get("connect")
+                   == "marching" else
+                   " or connect = 'marching' (well-shaped tets)") + " is faster",
                 UserWarning, stacklevel=_user_stacklevel())
         return need
 
