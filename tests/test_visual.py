@@ -427,6 +427,20 @@ def test_cli_plot_png_and_svg(run_dir, tmp_path):
     r = CliRunner().invoke(cli, ["plot", str(run_dir / "trajectory.npz"), "-o",
                                  str(tmp_path / "e.svg")])
     assert r.exit_code == 0 and (tmp_path / "e.svg").read_text().lstrip().startswith("<?xml")
+    # a sway is drawn signed, either side of its line (teacher trial: the plot had only the
+    # distance moved, never negative): a body moved +2 / -3 / +1 mm along x is drawn so
+    import dataclasses
+
+    from jellysim.plot import diagnostics, sideways
+
+    traj = load_trajectory(run_dir / "trajectory.npz")
+    sway = np.zeros((traj.frame_count, 1, 3))
+    sway[1:4, 0, 0] = [0.002, -0.003, 0.001]
+    swayed = dataclasses.replace(traj, positions=np.repeat(traj.positions[:1], traj.frame_count,
+                                                           axis=0) + sway)
+    drawn = sideways(diagnostics(swayed))
+    np.testing.assert_allclose(drawn["x - x(0)"][:4], [0.0, 0.002, -0.003, 0.001], atol=1e-12)
+    assert np.all(drawn["z - z(0)"] == 0.0) and diagnostics(swayed)["travel"].min() >= 0.0
 
 
 def test_cli_render_and_export_errors_are_clear(run_dir, tmp_path):

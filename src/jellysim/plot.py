@@ -120,10 +120,19 @@ def _tet_energy(traj, x) -> np.ndarray:
     return np.array([elastic_energy(arrays, xf) for xf in x])
 
 
+def sideways(d) -> dict[str, np.ndarray]:
+    """The centre of mass's sideways offsets [m], shape (F,) each, from its first frame, signed
+    (what :func:`plot_trajectory` draws), from a :func:`diagnostics` table ``d``."""
+    return {f"{k} - {k}(0)": d[f"com_{k}"] - d[f"com_{k}"][0] for k in ("x", "z")}
+
+
 def plot_trajectory(traj, path, *, title: str | None = None) -> Path:
     """Draw against time to ``path`` (``.png``, ``.svg`` or ``.pdf``): the kinetic and
     elastic energies (the wobble's exchange, on their own scale), the gravitational and total
-    energies' change since the start, the centre-of-mass height and the largest strain."""
+    energies' change since the start, the centre-of-mass height, its sideways offsets from
+    the start (signed: a sway swings either side of its line; session 28's teacher trial
+    found only the distance moved, never negative, which drew a sway as a row of bumps) and
+    the largest strain or squeeze."""
     path = Path(path)
     if path.suffix.lower() not in (".png", ".svg", ".pdf"):
         raise JellysimError(f"{path}: plot file must end in .png, .svg or .pdf")
@@ -137,7 +146,7 @@ def plot_trajectory(traj, path, *, title: str | None = None) -> Path:
 
     d = diagnostics(traj)
     t = d["time"]
-    fig, axes = plt.subplots(4, 1, figsize=(8, 11), sharex=True, constrained_layout=True)
+    fig, axes = plt.subplots(5, 1, figsize=(8, 13), sharex=True, constrained_layout=True)
     ax = axes[0]  # the wobble's exchange, on its own scale (gravity's would flatten it)
     ax.plot(t, d["kinetic"], label="kinetic")
     if np.any(d["tets"]):
@@ -151,19 +160,23 @@ def plot_trajectory(traj, path, *, title: str | None = None) -> Path:
     ax.plot(t, d["total"] - d["total"][0], "k--", lw=1, label="total")
     ax.set_ylabel("change since the start [J]")
     ax.legend(loc="best")
-    axes[2].plot(t, d["com_height"], color="C3", label="height")
-    if np.any(d["travel"] > 1e-3 * max(np.ptp(d["com_height"]), 1e-9)):
-        axes[2].plot(t, d["travel"], color="C2", label="distance moved along the ground (x-z)")
-        axes[2].legend(loc="best")
-    axes[2].set_ylabel("centre of mass [m]")
+    axes[2].plot(t, d["com_height"], color="C3")
+    axes[2].set_ylabel("centre of mass height [m]")
+    ax = axes[3]  # on their own scale: a millimetre sway beside a 5 cm height would be flat
+    for (label, series), colour in zip(sideways(d).items(), ("C2", "C1")):
+        ax.plot(t, series, color=colour, label=label)
+    ax.axhline(0.0, color="k", lw=0.8, ls=":")
+    ax.set_ylabel("centre of mass, sideways [m]")
+    ax.legend(loc="best")
+    ax = axes[4]
     if np.all(np.isnan(d["min_volume_ratio"])):
-        axes[3].plot(t, 100 * d["max_strain"], color="C4")
-        axes[3].set_ylabel("largest spring strain [%]")
+        ax.plot(t, 100 * d["max_strain"], color="C4")
+        ax.set_ylabel("largest spring strain [%]")
     else:  # (a physical run: its tets carry it, J is what says it is squeezed or inverted)
-        axes[3].plot(t, d["min_volume_ratio"], color="C4")
-        axes[3].axhline(0.0, color="k", lw=0.8, ls=":")
-        axes[3].set_ylabel("smallest tet volume ratio V / V0")
-    axes[3].set_xlabel("time [s]")
+        ax.plot(t, d["min_volume_ratio"], color="C4")
+        ax.axhline(0.0, color="k", lw=0.8, ls=":")
+        ax.set_ylabel("smallest tet volume ratio V / V0")
+    ax.set_xlabel("time [s]")
     for a in axes:
         a.grid(alpha=0.3)
     status = "" if traj.status == "complete" else f" ({traj.status[:60]})"
