@@ -151,6 +151,14 @@ def test_a_scene_says_values_that_likely_mean_another_unit():
         warnings.simplefilter("always")
         Scene.from_dict(raw, name="sweep")
     assert [str(w.message) for w in caught] == [mu.replace("lesson.toml", "sweep")]
+    # a value given by --set is said to be (teacher trial, session 28: the warning named the
+    # scene file, where it is not), as errors said it
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        Scene.from_text(base + "[integrator]\nsteps = 1\n", name="lesson.toml",
+                        overrides=("ground.friction=30",))
+    assert [str(w.message) for w in caught] == [
+        mu + " (given on the command line: --set ground.friction=30)"]
     # a springs body (no elastic material): e is each point's, as for free particles
     springs = ('[body]\npoints = 27\nlower = [0.0, 0.0, 0.0]\nupper = [0.03, 0.03, 0.03]\n'
                '[springs]\nradius = 0.02\nstiffness = 100.0\n[integrator]\ndt = 0.001\n'

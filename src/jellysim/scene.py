@@ -25,7 +25,7 @@ from .scene_schema import SCHEMA
 from .scene_spec import (Spec, as_toml, check_backend, check_body_file, check_given_keys,
                          check_value, given_keys, plain, grid_radius, infer_body_type,
                          missing_path, refuse_point_mass, refuse_unused_keys,
-                         said_springs_ignore, say_slips)
+                         said_springs_ignore, say_slips, from_command_line)
 from .scene_spec import apply_override as _override, check_table as _table
 from .scene_doc import schema_markdown as make
 from .scene_handles import apply_handle_tables, validate_handle_tables
@@ -111,15 +111,8 @@ class Scene:
         try:
             params = cls._validate(raw, name, user=given)
         except SceneError as exc:  # say when the bad value came from the command line
-            msg = str(exc)
-            given = [item for item in overrides  # (its key, or its section, named)
-                     if item.partition("=")[0].strip().rpartition(".")[2] in msg
-                     or f"[{item.partition('.')[0].strip()}]" in msg]
-            if given:
-                msg += " (given on the command line: " + ", ".join(
-                    f"--set {item}" for item in given) + ")"
-            raise SceneError(msg) from None
-        say_slips(params, given, name)
+            raise SceneError(str(exc) + from_command_line(str(exc), overrides)) from None
+        say_slips(params, given, name, overrides)
         scene = cls(params, text=text, name=name)
         scene.overrides = tuple(overrides)  # (a resume needs them again)
         scene.given = given

@@ -91,7 +91,8 @@ def check_value(name: str, section: str, key: str, spec: Spec, value: Any) -> An
         ok = (isinstance(value, list) and len(value) == 3 and all(
             isinstance(c, (int, float)) and not isinstance(c, bool) for c in value))
         if not ok:
-            raise fail("wrong type", "a list of three numbers [x, y, z], e.g. [0.0, 0.1, 0.0]")
+            raise fail("wrong type", "a list of three numbers [x, y, z], e.g. " + (
+                "[0.0, -9.8, 0.0] (m/s^2, y up)" if key == "gravity" else "[0.0, 0.1, 0.0]"))
         value = [float(c) for c in value]
         if not all(math.isfinite(c) for c in value):
             raise fail("not finite", "three finite numbers")
@@ -446,12 +447,33 @@ def check_body_file(name, params, given, body, stiffness, mass):
     return stiffness
 
 
-def say_slips(params: dict, given: dict, name: str) -> None:
+def from_command_line(msg: str, overrides) -> str:
+    """`` (given on the command line: --set ...)`` for the ``--set`` items whose key or
+    section ``msg`` names, or ``""``."""
+    given = [item for item in overrides  # (its key, or its section, named)
+             if item.partition("=")[0].strip().rpartition(".")[2] in msg
+             or f"[{item.partition('.')[0].strip()}]" in msg]
+    return (" (given on the command line: " + ", ".join(f"--set {item}" for item in given)
+            + ")") if given else ""
+
+
+def say_slips(params: dict, given: dict, name: str, overrides=()) -> None:
     """Warn of values that are valid but likely mean something else (a teacher's trial,
     session 25): a time step given in milliseconds, a friction coefficient given as a
     percent, a ground restitution set for a jello body, whose bounce it hardly changes, and
-    the report's per-point drag on a jello body (it depends on the resolution)."""
+    the report's per-point drag on a jello body (it depends on the resolution).  A value
+    from ``overrides`` (``--set``) is said to come from there, as errors say (teacher trial,
+    session 28: the warning named the scene file, which does not hold it)."""
     import warnings
+
+    if overrides:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            say_slips(params, given, name)
+        for w in caught:
+            warnings.warn(str(w.message) + from_command_line(str(w.message), overrides),
+                          w.category, stacklevel=_user_stacklevel())
+        return
 
     dt = (params.get("integrator") or {}).get("dt")
     if dt is not None and dt > 0.1:
