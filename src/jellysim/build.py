@@ -14,17 +14,17 @@ connects them with one of four spring builders:
 ``tetgen``     TetGen's constrained tetrahedralization of the surface itself (closed meshes)
 =============  ==============================================================================
 
-Mass: total = density x the volume the surface encloses, for every builder.  Tet bodies lump
-each tet's mass on its corners and, where the tets do not fill the surface exactly (marching
-grid: only whole cubes inside; Delaunay: carved hull), scale the lumped masses so the total is
-density x enclosed volume (the tets' own volume stays in ``meta["tet_volume"]``).  Radius bodies
-split density x enclosed volume evenly over the points (``Body.masses`` stays ``None``); their
-tets (the convex hull of random points, less its hull slivers) fill a few percent less than the
-enclosed volume (``meta["tet_volume"]``: 93 % for 2,000 uniform points in a cube, 97 % for
-16,000) and do not set the masses or the spring calibration.  The enclosed volume is the surface's
-signed volume for closed meshes (exact) and a Monte-Carlo estimate with the inside test for open
-ones (:data:`VOLUME_SAMPLES` points, relative error about 1/sqrt(samples x fraction inside);
-a warning says so).
+Mass: total = density x the volume the surface encloses, for every builder. Tet bodies lump each
+tet's mass on its corners and, where the tets do not fill the surface exactly (marching grid: only
+whole cubes inside; Delaunay: carved hull), scale the lumped masses so the total is density x
+enclosed volume (the tets' own volume stays in ``meta["tet_volume"]``). Radius bodies split density
+x enclosed volume evenly over the points (``Body.masses`` stays ``None``); their tets (the convex
+hull of random points, less its hull slivers) fill a few percent less than the enclosed volume
+(``meta["tet_volume"]``: 93 % for 2,000 uniform points in a cube, 97 % for 16,000) and do not set
+the masses or the spring calibration. The enclosed volume is the surface's signed volume for closed
+meshes (exact) and a Monte-Carlo estimate with the inside test for open ones
+(:data:`VOLUME_SAMPLES` points, relative error about 1/sqrt(samples x fraction inside); a warning
+says so).
 """
 from __future__ import annotations
 
@@ -38,6 +38,7 @@ import numpy as np
 from .body import Body
 from .errors import BuildError, did_you_mean
 from .geometry.sampling import Sampling
+from .geometry.tet_marching import marching_fill_said
 from .geometry.tet_marching import aligned_edge, fit_height, marching_grid
 from .params import REPORT_DENSITY
 from .resources import check_body_memory
@@ -156,13 +157,6 @@ def _warn_defects(m, name: str) -> None:
     fixed = m.defects.repairs()
     if fixed:
         warnings.warn(f"{name}: repaired on load: {', '.join(fixed)}", UserWarning, stacklevel=4)
-
-
-MARCHING_FILL_WARNING = 0.8
-"""A marching body whose tets hold less than this fraction of its mesh's volume warns (parts
-thinner than about a cell are lost).  Warped onto the surface (the default), a 10 cm sphere
-fills 86 % at 400 points, 93 % at 1,000, 97 % at 3,000; Spot 88 % at 800, 94 % at 3,000
-(session 8; the report's staircase, ``snap=False``: 63-81 % and 60-74 %, session 7)."""
 
 
 def _rescale_masses(body: Body, density: float, volume: float) -> Body:
@@ -439,13 +433,10 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
                 if not gain > small or fitted.point_count <= more_points * body.point_count:
                     break
                 edge = h * (fitted.point_count / body.point_count) ** (1.0 / 3.0)
-        if body.volume < MARCHING_FILL_WARNING * volume:
-            warnings.warn(
-                f"{name}: the marching grid (h = {h:.3g} m) fills only "
-                f"{100 * body.volume / volume:.0f} % of the mesh's volume: parts thinner than "
-                "about h are lost, and the physical path's mass (from the tets) is that much "
-                "below density x volume; more points (a smaller h) or connect = 'delaunay' "
-                "follow thin parts", UserWarning, stacklevel=3)
+        said = marching_fill_said(name, h, body.volume / volume,
+                                  np.ptp(body.points, axis=0) / np.maximum(hi - lo, 1e-300))
+        if said:
+            warnings.warn(said, UserWarning, stacklevel=3)
         from .geometry.shells import joined_parts
 
         if m.defects.watertight and (joined := joined_parts(m.vertices, m.faces, body.points,
