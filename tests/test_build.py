@@ -629,3 +629,30 @@ def test_a_marching_body_that_loses_thin_parts_says_so():
         assert bool(said) == thin, (mesh, said)
         if thin:
             assert f"spans {reach.min():.0%} of its width along x" in said[0]
+
+
+def test_a_radius_body_with_a_dense_surface_leaves_no_point_without_springs():
+    """API trial (session 28): a fine capsule mesh (2,050 vertices) as a 300-point radius body
+    got 2,323 points, its surface ~10x denser than its interior; the radius chosen for 24
+    neighbours on average over all of them followed the surface's spacing and left 166
+    interior points with no spring (on the springs model they feel no elastic force).  It is
+    now chosen for 24 on average over the interior points: every point has springs."""
+    import trimesh
+    from scipy.spatial import cKDTree
+
+    from jellysim import Body
+
+    capsule = trimesh.creation.capsule(height=0.06, radius=0.02)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        body = Body.from_mesh(capsule, size=None, points=300, connect="radius")
+    assert not [w for w in caught if "no spring" in str(w.message)]
+    deg = np.bincount(body.springs.ravel(), minlength=body.point_count)
+    assert deg.min() >= 1
+    # the rule before, 24 on average over every point, leaves interior points lonely here
+    from jellysim.geometry.connect import choose_radius
+
+    old = choose_radius(body.points, 24.0)
+    near, _ = cKDTree(body.points).query(body.points, k=2)
+    assert old < near[:, 1].max() < body.meta["radius"]
+    assert np.sum(near[:, 1] > old) > 50

@@ -488,8 +488,8 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
     pts, tets, tet_info = _radius_tets(pts, query.query, m.vertices, m.faces, seed=seed,
                                        name=name)
     chosen = radius is None
-    if chosen:
-        radius = choose_radius(pts, neighbours, seed=seed)
+    if chosen:  # (averaged over the interior: the mesh's vertices may be far denser)
+        radius = choose_radius(pts, neighbours, seed=seed, among=inner if on_surface else None)
     springs = radius_springs(pts, radius)
     deg = np.bincount(springs.ravel(), minlength=len(pts))
     if np.any(deg == 0):

@@ -74,12 +74,15 @@ def radius_springs(points: np.ndarray, r: float, *, method: str = "auto") -> np.
 
 
 def choose_radius(points: np.ndarray, neighbours: float = 24.0, *, sample: int = 4000,
-                  seed: int = 0) -> float:
+                  seed: int = 0, among: np.ndarray | None = None) -> float:
     """Connection radius [m] giving about ``neighbours`` springs per point on average.
 
     Binary search on the mean neighbour count of (up to ``sample``) points, counted exactly
     with a kd-tree over all points.  Boundary points have fewer neighbours, so the interior
-    has a few more than the mean.
+    has a few more than the mean.  ``among`` [m] (k, 3): average over these of ``points``
+    only (a body whose surface points are far denser than its interior: averaged over all,
+    the radius followed the surface's spacing and left interior points with no spring, API
+    trial, session 28).
     """
     from scipy.spatial import cKDTree
 
@@ -91,9 +94,10 @@ def choose_radius(points: np.ndarray, neighbours: float = 24.0, *, sample: int =
         raise ParameterError(f"target neighbour count must lie in (0, {n}), got {neighbours}")
     tree = cKDTree(points)
     rng = np.random.default_rng(seed)
-    idx = rng.choice(n, size=min(sample, n), replace=False)
+    probe = points if among is None or len(among) < 2 else np.asarray(among, dtype=np.float64)
+    idx = rng.choice(len(probe), size=min(sample, len(probe)), replace=False)
     kmax = int(min(n, 4 * neighbours + 2))
-    dist, _ = tree.query(points[idx], k=kmax)
+    dist, _ = tree.query(probe[idx], k=kmax)
     dist = dist[:, 1:]  # drop the point itself
     lo, hi = 0.0, float(dist[:, -1].max())
     for _ in range(60):
