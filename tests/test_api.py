@@ -568,3 +568,60 @@ def test_from_mesh_radius_bodies_get_surface_points_build_body_keeps_the_reports
     inside_only = jellysim.Body.from_mesh(sphere, size=None, points=300, connect="radius",
                                           surface_samples=False)
     np.testing.assert_array_equal(inside_only.points, report.points)
+
+
+def test_a_point_cloud_becomes_a_jello_body():
+    """API trial (session 28): a raw point cloud had no documented way to get tets (the FEM
+    material said "or radius bodies built with tets" and no more).  Body.from_points gives it
+    springs within a radius and its Delaunay tets: the same body as the box field's random
+    points, its tets filling the cloud's convex hull (mass = density x that volume, to the
+    slivers dropped); a springs-only body's FEM error names it."""
+    from scipy.spatial import ConvexHull
+
+    from jellysim.geometry.sampling import box_field
+    from jellysim.errors import ParameterError
+
+    lo, hi = np.zeros(3), np.full(3, 0.05)
+    cloud = box_field(400, lo, hi, distribution="uniform", seed=3)
+    body = jellysim.Body.from_points(cloud, radius=0.012, seed=3)  # (the Delaunay jitter)
+    ref = jellysim.Body.box(lo, hi, points=400, distribution="uniform", radius=0.012, seed=3)
+    assert np.array_equal(body.points, ref.points) and np.array_equal(body.tets, ref.tets)
+    assert np.array_equal(body.springs, ref.springs)
+    model = jellysim.physical_model(body, jellysim.material("gelatin"))
+    hull = ConvexHull(cloud).volume
+    assert 0.95 * hull < float(np.sum(model.point_mass)) / 1141.0 <= hull * (1 + 1e-9)
+    chosen = jellysim.Body.from_points(cloud)  # radius chosen for 24 neighbours on average
+    assert 2 * chosen.spring_count / chosen.point_count == pytest.approx(24.0, rel=0.1)
+    with pytest.raises(ParameterError, match=r"Body.from_points\(points\)"):
+        jellysim.physical_model(jellysim.Body(points=cloud, springs=ref.springs),
+                                jellysim.Material(model="fem"))
+    for bad, said in ((cloud[:3], "n >= 4"), (cloud[:, :2], r"shape \(400, 2\)"),
+                      (np.where(cloud == cloud[0, 0], np.nan, cloud), "NaN")):
+        with pytest.raises(ParameterError, match=said):
+            jellysim.Body.from_points(bad)
+
+
+def test_a_handle_moved_frame_by_frame_follows_exactly():
+    """API trial (session 28): an app moving a pinned handle each frame had to re-pin it with a
+    one-keyframe path.  sim.move_pinned(idx, offset) does that: the pinned top face is where
+    the offsets sum to after each frame, to rounding, and the run is bitwise the re-pinned
+    one; unpinned points are refused."""
+    body = jellysim.Body.box((0, 0, 0), (0.02, 0.04, 0.02), points=90)
+    model = jellysim.physical_model(body, jellysim.material("gelatin"))
+    top = np.flatnonzero(body.points[:, 1] > 0.04 - 1e-9)
+    sims = [jellysim.Simulator(model, dt=1 / 60) for _ in range(2)]
+    for sim in sims:
+        sim.pin(top)
+    start = sims[0].state.x[top].copy()
+    total = np.zeros(3)
+    for k in range(12):
+        step = np.array([0.002 * np.cos(k), 0.001, -0.0015 * np.sin(k)])
+        total += step
+        sims[0].move_pinned(top, step)
+        sims[1].pin(top, path=[[sims[1].state.t + sims[1].dt, *step]])
+        for sim in sims:
+            sim.advance(1)
+        np.testing.assert_allclose(sims[0].state.x[top], start + total, atol=1e-12)
+    assert np.array_equal(sims[0].state.x, sims[1].state.x)
+    with pytest.raises(jellysim.SceneError, match="not pinned"):
+        sims[0].move_pinned([0, top[0]], (0.0, 0.01, 0.0))

@@ -288,6 +288,23 @@ class HandleMethods:
                               " m below the ground, which holds them on it there", UserWarning,
                               stacklevel=2)
 
+    def move_pinned(self, indices, offset, *, seconds: float | None = None) -> None:
+        """Move pinned points by ``offset`` [m], shape (3,), from where they are now, linearly
+        over the next ``seconds`` [s] (default: one step, ``dt``): an app's handle moved frame
+        by frame (API trial, session 28: that took ``pin(idx, path=[[t + dt, dx, dy, dz]])``
+        each frame, which this is).  Every point must be pinned already (:meth:`pin`)."""
+        idx = self._point_indices(indices, "move_pinned")
+        loose = idx[self.handles.pinned[idx] == 0]
+        if len(loose):
+            raise SceneError(f"move_pinned: {len(loose)} of the points are not pinned (point "
+                             f"{loose[0]}): pin them first, sim.pin(indices)")
+        off = _vec3(offset, "move_pinned: offset [m]")
+        seconds = self.dt if seconds is None else seconds
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float, np.number)) or not (
+                np.isfinite(seconds) and seconds > 0):
+            raise SceneError(f"move_pinned: seconds must be a time > 0 [s], got {seconds!r}")
+        self.pin(idx, path=[[float(self.state.t) + float(seconds), *off]])
+
     def unpin(self, indices=None) -> None:
         """Release pinned points (all when ``indices`` is None)."""
         hd = self.handles

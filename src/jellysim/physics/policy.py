@@ -67,7 +67,8 @@ def physical_model(body, material: Material = Material(), *, gravity=GRAVITY,
         if body.tets is None or len(body.tets) == 0:
             raise ParameterError(
                 "the FEM material needs a body with tets (connect = 'delaunay', 'marching' or "
-                "'tetgen', or radius bodies built with tets); use "
+                "'tetgen', or radius bodies built with tets; a point cloud: "
+                "Body.from_points(points) gives it its Delaunay tets); use "
                 "Material(model='springs') for a springs-only body")
         fem = fem_arrays(body.points, body.tets, youngs_modulus=material.youngs_modulus,
                          poisson_ratio=material.poisson_ratio,
