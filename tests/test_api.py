@@ -625,3 +625,26 @@ def test_a_handle_moved_frame_by_frame_follows_exactly():
     assert np.array_equal(sims[0].state.x, sims[1].state.x)
     with pytest.raises(jellysim.SceneError, match="not pinned"):
         sims[0].move_pinned([0, top[0]], (0.0, 0.01, 0.0))
+
+
+def test_gravity_scales_per_point_and_index_lists_are_flat():
+    """API trial (session 28): a scale per point took one call per value (an array was
+    refused with the whole array printed), and a 2-D index array was flattened silently.  Per
+    point scales now act in the order given: under scales s_i alone (no elasticity acting in
+    the first step) each point falls g s_i dt in the first step, exactly the symplectic
+    step; a 2-D index list is refused."""
+    body = jellysim.Body.box((0, 0, 0), (0.02, 0.02, 0.02), points=27)
+    model = jellysim.physical_model(body, jellysim.material("gelatin"))
+    sim = jellysim.Simulator(model, dt=1 / 600, substeps=1)
+    idx = np.array([5, 0, 17])
+    sim.set_gravity_scale(idx, [0.0, 2.0, 0.5])
+    sim.advance(1)
+    vy = sim.state.v[:, 1]
+    np.testing.assert_allclose(vy[idx], -9.8 * np.array([0.0, 2.0, 0.5]) / 600, rtol=1e-9,
+                               atol=1e-15)
+    with pytest.raises(jellysim.SceneError, match="flat list"):
+        sim.pin([[0, 1], [2, 3]])
+    with pytest.raises(jellysim.SceneError, match="2 scales need as many distinct"):
+        sim.set_gravity_scale([1, 2, 3], [1.0, 2.0])
+    with pytest.raises(jellysim.SceneError, match=r"got an array of shape \(27, 1\)"):
+        sim.set_gravity_scale(np.arange(27), np.ones((27, 1)))

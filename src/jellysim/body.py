@@ -239,7 +239,7 @@ class Body:
                                  f"build_body's {', '.join(sorted(takes - set(_OWN)))}")
         if isinstance(points, (float, np.floating)) and float(points).is_integer():
             points = int(points)  # (3e3: a whole number of points)
-        if isinstance(points, bool) or not isinstance(points, (int, np.integer)):
+        if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 4:
             raise ParameterError(f"Body.from_mesh: points must be a whole number of points "
                                  f"(>= 4), got {points!r}")
         if base is not None:

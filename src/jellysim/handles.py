@@ -242,6 +242,9 @@ class HandleMethods:
                 raise SceneError(f"{what}: a boolean mask must have one entry per point "
                                  f"({n}), got shape {raw.shape}")
             raw = np.flatnonzero(raw)
+        elif raw.ndim > 1:  # (API trial: [[0, 1], [2, 3]] was flattened without a word)
+            raise SceneError(f"{what}: point indices must be a flat list (or a boolean mask "
+                             f"over the points), got an array of shape {raw.shape}")
         elif raw.size and not np.issubdtype(raw.dtype, np.integer):
             whole = raw.dtype.kind == "f" and np.all(raw == np.round(raw))
             if not whole:
@@ -357,16 +360,37 @@ class HandleMethods:
         self._started = bool(steps) or self.__dict__.get("_started", False)
         advance_releasing(self, steps, lambda: self.state.step, self._advance_chunk)
 
-    def set_gravity_scale(self, indices, scale: float) -> None:
-        """Gravity on the points is multiplied by ``scale`` [-]."""
+    def set_gravity_scale(self, indices, scale) -> None:
+        """Gravity on the points is multiplied by ``scale`` [-]: one number for all of them,
+        or one per point, shape (k,), in the order of ``indices`` (a list of k distinct point
+        numbers; API trial, session 28: each value took its own call)."""
         self._require_physical("a gravity scale")
-        if isinstance(scale, bool) or not isinstance(scale, (int, float, np.number)) or not (
+        per_point = np.ndim(scale) == 1
+        if per_point:
+            try:
+                values = np.asarray(scale, dtype=np.float64)
+            except (TypeError, ValueError):
+                values = np.array([np.nan])
+            raw = np.asarray(indices)
+            if raw.dtype == bool or raw.ndim != 1 or len(raw) != len(values) or len(
+                    np.unique(raw)) != len(raw):
+                raise SceneError(f"set_gravity_scale: {len(values)} scales need as many "
+                                 f"distinct point numbers, in the same order, got indices of "
+                                 f"shape {raw.shape}")
+            if not np.all(np.isfinite(values)):
+                raise SceneError("set_gravity_scale: every scale must be a finite number (1 = "
+                                 "normal gravity, 0 = none)")
+        elif isinstance(scale, bool) or not isinstance(scale, (int, float, np.number)) or not (
                 np.isfinite(scale)):
+            shown = repr(scale) if np.size(scale) <= 6 else f"an array of shape {np.shape(scale)}"
             raise SceneError(f"set_gravity_scale: scale must be a finite number (1 = normal "
-                             f"gravity, 0 = none), got {scale!r}")
+                             f"gravity, 0 = none) or one per point, got {shown}")
         idx = self._point_indices(indices, "set_gravity_scale")
         self._say_pinned(idx, "set_gravity_scale", "gravity scale")
-        self.handles.gravity_scale[idx] = float(scale)
+        if per_point:
+            self.handles.gravity_scale[np.asarray(indices, dtype=np.int64)] = values
+        else:
+            self.handles.gravity_scale[idx] = float(scale)
 
     def _say_pinned(self, idx, call: str, what: str) -> None:
         """Warn when some of ``idx`` are pinned: a pinned point follows its pin, so ``what``

@@ -23,8 +23,11 @@ def grid_points(count: int, lower, upper) -> np.ndarray:
     Returns points [m], shape (n, 3), float64, x-major order."""
     lower = np.asarray(lower, dtype=np.float64).reshape(3)
     upper = np.asarray(upper, dtype=np.float64).reshape(3)
-    if count < 8:
-        raise ParameterError(f"a grid box needs points >= 8, got {count} (for a grid, points "
+    if isinstance(count, (float, np.floating)) and float(count).is_integer():
+        count = int(count)  # (1e3: a whole number)
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 8:
+        raise ParameterError(f"a grid box needs a whole number of points >= 8, got {count!r} "
+                             "(for a grid, points "
                              "counts the cells: N cells give about (N^(1/3) + 1)^3 points)")
     if not np.all(upper > lower):
         raise ParameterError(f"box upper corner {upper.tolist()} must exceed lower {lower.tolist()}")
