@@ -273,3 +273,23 @@ def test_another_ground_needs_another_simulator_and_gets_it(jello):
     new.advance(60)  # 5 cm more to fall: 0.1 s, then settled on the lower ground
     low = new.state.x[:, 1].min()
     assert -0.0501 < low < -0.0499
+
+
+def test_substeps_set_below_the_stable_count_are_warned_of_and_kept(jello):
+    """API trial (session 28): ``sim.substeps = 5`` below the stability estimate was taken in
+    silence, and the next frame reported "an unstable impact" (there was none) and doubled
+    them.  It now warns at once; a value set above the start is the one the doubling halves
+    back to (it was halved back to the start after calm frames)."""
+    from jellysim.errors import StabilityWarning
+
+    sim = js.Simulator(jello, dt=1 / 60, ground=G)
+    need = sim.needed_substeps
+    with pytest.warns(StabilityWarning, match=f"use substeps >= {need}"):
+        sim.substeps = max(1, need // 4)
+    with pytest.raises(SceneError, match="whole number >= 1"):
+        sim.substeps = 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.substeps = 3 * need
+    sim.advance(sim.RELAX_AFTER_FRAMES + 5)  # calm frames: the asked count stays
+    assert sim.substeps == 3 * need and sim.dt_step == pytest.approx(sim.dt / (3 * need))

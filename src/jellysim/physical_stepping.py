@@ -64,6 +64,37 @@ class PhysicalStepping:
     ``_k`` (the backend), ``_obstacle_kind``/``_obstacle_data``, ``rest_speed``, ``center``,
     ``runaway_distance`` and ``_scalar`` (set by the Simulator)."""
 
+    @property
+    def substeps(self) -> int:
+        """Substeps per :meth:`advance` step (the physical path doubles them to take a
+        frame of an unstable impact again, then halves them back to the start after calm
+        frames).  Assigning them is the user's: below the stability estimate
+        ``needed_substeps`` on the physical path it warns (API trial, session 28: 5 was taken
+        in silence, then reported as "an unstable impact"), and the value becomes the one
+        halved back to."""
+        return self._substeps
+
+    @substeps.setter
+    def substeps(self, value) -> None:
+        from .errors import SceneError
+
+        if isinstance(value, (float, np.floating)) and float(value).is_integer():
+            value = int(value)
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise SceneError(f"substeps must be a whole number >= 1, got {value!r}")
+        value = int(value)
+        if "_substeps" in vars(self):  # (a change after construction: the user's)
+            need = int(getattr(self, "needed_substeps", 1))
+            if getattr(self, "physical", False) and value < need:
+                warnings.warn(f"substeps = {value} gives a substep of {self.dt / value:.3g} s, "
+                              f"above the physical path's stable substep {self.dt / need:.3g} "
+                              f"s for this material and mesh: use substeps >= {need}",
+                              StabilityWarning, stacklevel=2)
+            relax = vars(self).get("_relax")
+            if relax is not None:  # (the start the doubling halves back to)
+                relax[:] = (0, value)
+        self._substeps = value
+
     def energy(self) -> dict[str, float]:
         """The body's energies now [J]: ``kinetic`` (sum 1/2 m |v|^2), ``gravity`` (sum
         -m g . x: zero at x = 0; handles' gravity scales not counted), ``elastic`` (the
@@ -417,7 +448,7 @@ class PhysicalStepping:
                 if status == STATUS_OK:
                     squeezed = True
                     continue
-                self.substeps *= 2
+                self._substeps *= 2  # (the property's setter is the user's)
                 self.dt_step = self.dt / self.substeps
                 self._relax[0] = -1
                 self._announce(f"an unstable impact at t = {t0:.4g} s: the physical path took "
@@ -501,7 +532,7 @@ class PhysicalStepping:
             return
         self._relax[0] += 1
         if self.substeps > self._relax[1] and self._relax[0] >= self.RELAX_AFTER_FRAMES:
-            self.substeps = max(int(self._relax[1]), self.substeps // 2)
+            self._substeps = max(int(self._relax[1]), self.substeps // 2)
             self.dt_step = self.dt / self.substeps
             self._relax[0] = 0
 
