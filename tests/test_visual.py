@@ -1441,3 +1441,9 @@ def test_a_zoom_centres_on_the_body_not_the_middle_of_its_fall(traj):
             body = red(o, f)
             assert 5 * plain < body.sum(), (camera, f, body.sum(), plain)
             assert not np.concatenate([body[0], body[-1], body[:, 0], body[:, -1]]).any()
+    # a zoom never crops the body itself (the re-trial: a following camera, already framed
+    # on the body, zoomed 3x stood inside a block and drew the picture solid red)
+    for camera in ("fixed", "follow"):
+        body = red(RenderOptions(size=(160, 96), camera=camera, zoom=20.0), last)
+        assert 0 < body.sum() < 0.9 * body.size
+        assert not np.concatenate([body[0], body[-1], body[:, 0], body[:, -1]]).any()

@@ -217,7 +217,8 @@ class Body:
         and so the fewest substeps (a 6 cm ball: 48 per frame at 5 kPa, Delaunay 95, TetGen
         176) and no tet inverted at a frame's end on hard drops (a 5 kPa ball dropped
         50 cm); parts thinner than about a grid cell are lost (it warns below 80 % of the
-        mesh's volume): ``"delaunay"`` follows them.
+        mesh's volume, or where the body spans under 0.9 of the mesh's width along an axis:
+        ears, spouts): ``"delaunay"`` follows them.
         ``density``: [kg/m^3] (default :data:`~jellysim.params.REPORT_DENSITY`): the masses
         are density x the scaled body's enclosed volume (tet bodies: lumped on the corners).
         ``base``: if given, move the body so the bottom centre of its bounding box is here [m]

@@ -52,7 +52,7 @@ class Camera:
 def frame_motion(positions: np.ndarray, size: tuple[int, int], *, view_angle: float = 30.0,
                  direction=DEFAULT_DIRECTION, margin: float = 0.9,
                  extra_points: np.ndarray | None = None, zoom: float = 1.0,
-                 focus=None) -> Camera:
+                 focus=None, keep: np.ndarray | None = None) -> Camera:
     """A camera that keeps all of ``positions`` in view.
 
     The camera looks at the centre of their bounding box from ``direction``, as close as the
@@ -74,6 +74,9 @@ def frame_motion(positions: np.ndarray, size: tuple[int, int], *, view_angle: fl
     zoom: > 1 moves the camera closer by that factor (the framing then crops the motion).
     focus: [m] (3,): with ``zoom`` > 1, the point looked at instead of the motion's centre
         (the body where the picture should show it).
+    keep: [m] (..., 3): positions a zoom may not crop (the body at ``focus``: the camera
+        comes no closer than keeps them inside the image's border; a following camera zoomed
+        3x stood inside a block and drew it solid red, session 28's re-trial).
     """
     pts = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
     if extra_points is not None:
@@ -102,6 +105,11 @@ def frame_motion(positions: np.ndarray, size: tuple[int, int], *, view_angle: fl
     distance = max(float(np.max(rel @ d + lateral)), 1.05 * extent) / float(zoom)
     if focus is not None and zoom > 1.0:
         center = np.asarray(focus, dtype=np.float64).reshape(3)
+        if keep is not None:  # (the same bound as above, for these alone, at the border)
+            k = np.asarray(keep, dtype=np.float64).reshape(-1, 3) - center
+            side = np.maximum(np.abs(k @ right) / math.tan(hfov / 2.0),
+                              np.abs(k @ true_up) / math.tan(vfov / 2.0))
+            distance = max(distance, float(np.max(k @ d + side)))
     pos = center + distance * d
     return Camera(tuple(pos.tolist()), tuple(center.tolist()), tuple(float(u) for u in up),
                   float(view_angle))

@@ -296,12 +296,13 @@ class Renderer:
         if near is not None:
             extra = near if extra is None else np.vstack([extra, near])
         direction = view_direction(o.azimuth, o.elevation)
-        focus = None  # a zoom's centre: the body at frame zoom_on (if drawable there)
+        focus = keep = None  # a zoom's centre: the body at frame zoom_on, kept whole
         if o.zoom > 1.0 and len(boxes) and np.all(np.isfinite(boxes[o.zoom_on % len(boxes)])):
-            focus = boxes[o.zoom_on % len(boxes)].mean(axis=0)
+            seen = boxes[o.zoom_on % len(boxes)]
+            focus, keep = seen.mean(axis=0), seen[_CORNERS, [0, 1, 2]]
         if self._track is None:
             self.camera = frame_motion(motion, self.size, extra_points=extra, zoom=o.zoom,
-                                       direction=direction, focus=focus)
+                                       direction=direction, focus=focus, keep=keep)
         else:  # framed on the body's largest box, moved with its centre (see set_frame)
             half = self._track[1]
             box = np.array([-half, half])
@@ -310,8 +311,9 @@ class Renderer:
                 box[0, 1] = min(box[0, 1], floor_y)
             if focus is not None:  # (the track moves it across the floor)
                 focus = np.array([0.0, focus[1], 0.0])
+                keep = keep - self._track[0][o.zoom_on % len(boxes)]
             self.camera = frame_motion(box[_CORNERS, [0, 1, 2]], self.size, zoom=o.zoom,
-                                       direction=direction, focus=focus)
+                                       direction=direction, focus=focus, keep=keep)
 
         self.surface = self.points = self.springs = None
         if self._surface_frames is not None:
