@@ -44,6 +44,17 @@ def test_slide_stops_at_v0_squared_over_2_mu_g(tmp_path):
     for wrong in (measure.wobble, measure.decay):
         with pytest.raises(ValueError, match="needs the wobble lesson's run"):
             wrong(traj)
+    # a run whose centre of mass does cross its line, but in no damped sway: a block dropped
+    # onto the plate and bouncing (the re-trial: "0.687 Hz ... damping ratio -0.0170", rc 0)
+    text = ('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 216\n'
+            'lower = [0.0, 0.2, 0.0]\nupper = [0.04, 0.24, 0.04]\n[integrator]\ndt = 0.002\n'
+            'steps = 500\n[output]\nevery = 1\n')
+    run_scene(Scene.from_text(text, name="drop.toml"), tmp_path / "drop", progress=False,
+              vtu=False)
+    drop = load_trajectory(tmp_path / "drop")
+    for wrong in (measure.wobble, measure.decay):
+        with pytest.raises(ValueError, match="no damped sway|no sway to measure"):
+            wrong(drop)
 
 
 def test_incline_accelerates_at_g_sin_minus_mu_cos(tmp_path):
@@ -92,6 +103,13 @@ def test_the_decay_fit_reads_a_damped_sine_exactly():
         c, a, s_fit, w_fit, p, misfit = measure.damped_fit(t, u, t[k])
         assert s_fit / np.hypot(w_fit, s_fit) == pytest.approx(zeta, rel=1e-6)
         assert w_fit == pytest.approx(w, rel=1e-6) and misfit < 1e-6
+    # what is no sway is not read as one: a bouncing motion (|sin|, about its mean) crosses
+    # its mean but no damped sine fits it (the re-trial's drop: "damping ratio -0.017")
+    u = np.abs(np.sin(2 * np.pi * 2.0 * t)) * np.exp(-t)
+    u = u - u.mean()
+    k = np.flatnonzero(np.sign(u[:-1]) * np.sign(u[1:]) < 0)
+    with pytest.raises(ValueError, match="no damped sway"):
+        measure.damped_fit(t, u, t[k])
 
 
 @pytest.mark.parametrize("zeta", [0.0, 0.1])

@@ -153,6 +153,11 @@ def damped_fit(t, u, crossings):
     if best is None:
         raise ValueError("no damped sine fits the sway")
     (c, a, s, w, p), misfit = best
+    if misfit > 0.1 * swing or s < -0.01 * abs(w):  # (a drop's bounce fitted at 0.7 Hz, 28 %
+        raise ValueError(                           # off, "damping ratio -0.017": re-trial)
+            f"the sideways motion is no damped sway: a damped sine fits it {misfit / swing:.0%} "
+            "off (a sway is fitted to within a few %); it needs the wobble lesson's run, "
+            "examples/lessons/wobble.toml")
     return float(c), float(a), float(s), abs(float(w)), float(p), misfit / swing
 
 
