@@ -159,6 +159,13 @@ def test_a_scene_says_values_that_likely_mean_another_unit():
                         overrides=("ground.friction=30",))
     assert [str(w.message) for w in caught] == [
         mu + " (given on the command line: --set ground.friction=30)"]
+    with warnings.catch_warnings(record=True) as caught:  # (the material's own, built later)
+        warnings.simplefilter("always")
+        Scene.from_text(base + "[integrator]\nsteps = 1\n", name="lesson.toml",
+                        overrides=("material.density=1.141",)).build_model()
+    said = [str(w.message) for w in caught if "1.141 would be g/cm^3" in str(w.message)]
+    assert said and all(s.endswith("(given on the command line: --set material.density=1.141)")
+                        for s in said)
     # a springs body (no elastic material): e is each point's, as for free particles
     springs = ('[body]\npoints = 27\nlower = [0.0, 0.0, 0.0]\nupper = [0.03, 0.03, 0.03]\n'
                '[springs]\nradius = 0.02\nstiffness = 100.0\n[integrator]\ndt = 0.001\n'

@@ -353,21 +353,21 @@ class PhysicalStepping:
             fem = model.fem
             e = float(fem.youngs_modulus)
             rho = float(np.sum(model.point_mass)) / max(float(np.sum(fem.rest_volume)), 1e-300)
+            meta = getattr(getattr(model, "body", None), "meta", None) or {}
+            fixes = ["fewer points (larger tets)"] + (  # (a box's grid tets are the best)
+                [] if meta.get("connect") == "marching" or meta.get("builder") == "box" else
+                ["connect = 'marching' (well-shaped tets)"])
             if rho < 100.0 and e <= 1e6:  # (a density in g/cm^3: the teacher trial's 1.141,
-                what = (f"a light material (density {rho:.4g} kg/m^3, gelatin 1141) is "
-                        "slow on this explicit path: with the density in kg/m^3, or fewer "
-                        "points (larger tets)")  # was blamed on its stiffness)
-            else:
-                what = (f"a stiff material (E = {e:.3g} Pa) is slow on this explicit path; a "
-                        "softer one (gelatin: 1e4 Pa), fewer points (larger tets)")
+                what = (f"a light material (density {rho:.4g} kg/m^3; gelatin 1141) is slow "
+                        "on this explicit path: give the density in kg/m^3")  # was blamed
+            else:  # on its stiffness)
+                what = (f"a stiff material (E = {e:.3g} Pa) is slow on this explicit path: a "
+                        "softer one (gelatin: 1e4 Pa)")
             warnings.warn(
                 f"the physical (FEM) material needs {need} substeps per step of dt = "
                 f"{float(dt):g} s (stable limit {2.0 / omega:.3g} s: a pressure wave across its "
-                f"smallest tet), each a force pass over its {fem.tet_count:,} tets: {what}"
-                + ("" if getattr(getattr(model, "body", None), "meta", {}).get("connect")
-                   == "marching" else
-                   " or connect = 'marching' (well-shaped tets)") + " is faster",
-                UserWarning, stacklevel=_user_stacklevel())
+                f"smallest tet), each a force pass over its {fem.tet_count:,} tets: {what}, or "
+                + " or ".join(fixes) + ", runs faster", UserWarning, stacklevel=_user_stacklevel())
         return need
 
     def _setup_physical(self):

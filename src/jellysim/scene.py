@@ -405,7 +405,12 @@ class Scene:
         if self.params["body"]["type"] == "file" and mat["youngs_modulus"] is None:
             given = check_body_file(self.name, self.params, self.given, body, given, m)
         try:
-            model = self._material_model(body)
+            with warnings.catch_warnings(record=True) as caught:  # (a --set value: said so)
+                warnings.simplefilter("always")
+                model = self._material_model(body)
+            for w in caught:
+                warnings.warn(str(w.message) + from_command_line(str(w.message), self.overrides),
+                              w.category, stacklevel=2)
             if model is not None:
                 refuse_point_mass(self.name, self.given, m["point_mass"], density, model)
                 own = None if body.masses is None else body.masses.sum()
