@@ -642,6 +642,10 @@ def test_gravity_scales_per_point_and_index_lists_are_flat():
     vy = sim.state.v[:, 1]
     np.testing.assert_allclose(vy[idx], -9.8 * np.array([0.0, 2.0, 0.5]) / 600, rtol=1e-9,
                                atol=1e-15)
+    mask = np.zeros(model.point_count, dtype=bool)
+    mask[[20, 3]] = True  # (a mask: its points in point order, 3 then 20)
+    sim.set_gravity_scale(mask, [0.25, 4.0])
+    assert sim.handles.gravity_scale[3] == 0.25 and sim.handles.gravity_scale[20] == 4.0
     with pytest.raises(jellysim.SceneError, match="flat list"):
         sim.pin([[0, 1], [2, 3]])
     with pytest.raises(jellysim.SceneError, match="2 scales need as many distinct"):

@@ -299,6 +299,8 @@ def test_mpiexec_blow_up_is_agreed_by_all_ranks_at_the_serial_step(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.count("error:") == 1  # printed once, by rank 0
     assert f"went unstable at step {serial.value.step} " in proc.stderr
+    # more ranks than cores is said (the re-trial: -n 3 on 2 cores, unsaid)
+    assert (os.cpu_count() >= 3) == ("3 ranks on a node of" not in proc.stderr)
     ref = load_trajectory(tmp_path / "serial" / "trajectory.npz")
     got = load_trajectory(tmp_path / "mpi" / "trajectory.npz")
     assert got.status.startswith("failed") and np.array_equal(got.positions, ref.positions)

@@ -363,7 +363,8 @@ class HandleMethods:
     def set_gravity_scale(self, indices, scale) -> None:
         """Gravity on the points is multiplied by ``scale`` [-]: one number for all of them,
         or one per point, shape (k,), in the order of ``indices`` (a list of k distinct point
-        numbers; API trial, session 28: each value took its own call)."""
+        numbers, or a mask of k points in point order; API trial, session 28: each value took
+        its own call)."""
         self._require_physical("a gravity scale")
         per_point = np.ndim(scale) == 1
         if per_point:
@@ -372,6 +373,8 @@ class HandleMethods:
             except (TypeError, ValueError):
                 values = np.array([np.nan])
             raw = np.asarray(indices)
+            if raw.dtype == bool and raw.shape == (self.model.point_count,):
+                raw = indices = np.flatnonzero(raw)  # (a mask: its points in order)
             if raw.dtype == bool or raw.ndim != 1 or len(raw) != len(values) or len(
                     np.unique(raw)) != len(raw):
                 raise SceneError(f"set_gravity_scale: {len(values)} scales need as many "

@@ -143,11 +143,11 @@ class PhysicalMethods(PhysicalStepping):
         part = self.part
         self.local_model = m = part.model
         fem = m.fem
+        share = self._node_threads(threads)  # (collective; says where the node is overrun)
         if threads is None:
-            threads = 1 if self.info.tet_count < PHYSICAL_PARALLEL_MIN_TETS else (
-                self._node_threads())
+            threads = 1 if self.info.tet_count < PHYSICAL_PARALLEL_MIN_TETS else share
         else:
-            threads = self._node_threads(threads)  # (says where they oversubscribe)
+            threads = share
         self.threads = int(threads)
         t_local = fem.tet_count
         self._q = np.zeros((t_local, 6))

@@ -250,12 +250,16 @@ class DistributedSimulator(PhysicalMethods):
         node = self.comm.Split_type(MPI.COMM_TYPE_SHARED)
         ranks, pool = node.Get_size(), int(numba.config.NUMBA_NUM_THREADS)
         node.Free()
+        cores = os.cpu_count() or 1
+        if ranks > cores:  # (re-trial: -n 3 on 2 cores ran three busy ranks, unsaid)
+            self.oversubscribed = (
+                f"{ranks} ranks on a node of {cores} cores: more busy processes than cores, "
+                f"which slows every rank; run at most mpiexec -n {cores} per node")
         if asked is None:
             return max(1, pool // ranks)
         runs = min(int(asked), pool)  # (more is capped, with a warning, by the Simulator)
-        cores = os.cpu_count() or 1
         mine = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else cores
-        if runs > 1 and (runs * ranks > cores or runs > mine):
+        if ranks <= cores and runs > 1 and (runs * ranks > cores or runs > mine):
             self.oversubscribed = (
                 f"{ranks} ranks x {runs} threads on a node of {cores} cores"
                 + (f" ({mine} for this rank)" if mine < cores else "") + ": more busy threads "
