@@ -72,7 +72,7 @@ class PhysicalStepping:
         ``needed_substeps`` on the physical path it warns (API trial, session 28: 5 was taken
         in silence, then reported as "an unstable impact"), and the value becomes the one
         halved back to."""
-        return self._substeps
+        return self._substep_count
 
     @substeps.setter
     def substeps(self, value) -> None:
@@ -83,7 +83,7 @@ class PhysicalStepping:
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
             raise SceneError(f"substeps must be a whole number >= 1, got {value!r}")
         value = int(value)
-        if "_substeps" in vars(self):  # (a change after construction: the user's)
+        if "_substep_count" in vars(self):  # (a change after construction: the user's)
             need = int(getattr(self, "needed_substeps", 1))
             if getattr(self, "physical", False) and value < need:
                 warnings.warn(f"substeps = {value} gives a substep of {self.dt / value:.3g} s, "
@@ -93,7 +93,7 @@ class PhysicalStepping:
             relax = vars(self).get("_relax")
             if relax is not None:  # (the start the doubling halves back to)
                 relax[:] = (0, value)
-        self._substeps = value
+        self._substep_count = value
 
     def energy(self) -> dict[str, float]:
         """The body's energies now [J]: ``kinetic`` (sum 1/2 m |v|^2), ``gravity`` (sum
@@ -448,7 +448,7 @@ class PhysicalStepping:
                 if status == STATUS_OK:
                     squeezed = True
                     continue
-                self._substeps *= 2  # (the property's setter is the user's)
+                self._substep_count *= 2  # (the property's setter is the user's)
                 self.dt_step = self.dt / self.substeps
                 self._relax[0] = -1
                 self._announce(f"an unstable impact at t = {t0:.4g} s: the physical path took "
@@ -532,7 +532,7 @@ class PhysicalStepping:
             return
         self._relax[0] += 1
         if self.substeps > self._relax[1] and self._relax[0] >= self.RELAX_AFTER_FRAMES:
-            self._substeps = max(int(self._relax[1]), self.substeps // 2)
+            self._substep_count = max(int(self._relax[1]), self.substeps // 2)
             self.dt_step = self.dt / self.substeps
             self._relax[0] = 0
 

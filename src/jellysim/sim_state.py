@@ -95,5 +95,5 @@ class InternalState:
         self.cg_worst_residual = float(d["cg_worst_residual"])
         self.cg_unconverged = int(d["cg_unconverged"])
         if "substeps" in d:
-            self._substeps = int(d["substeps"])  # (the simulator's own, not the user's)
+            self._substep_count = int(d["substeps"])  # (the simulator's own, not the user's)
             self.dt_step = self.dt / self.substeps
