@@ -14,17 +14,17 @@ connects them with one of four spring builders:
 ``tetgen``     TetGen's constrained tetrahedralization of the surface itself (closed meshes)
 =============  ==============================================================================
 
-Mass: total = density x the volume the surface encloses, for every builder. Tet bodies lump each
-tet's mass on its corners and, where the tets do not fill the surface exactly (marching grid: only
-whole cubes inside; Delaunay: carved hull), scale the lumped masses so the total is density x
-enclosed volume (the tets' own volume stays in ``meta["tet_volume"]``). Radius bodies split density
-x enclosed volume evenly over the points (``Body.masses`` stays ``None``); their tets (the convex
-hull of random points, less its hull slivers) fill a few percent less than the enclosed volume
-(``meta["tet_volume"]``: 93 % for 2,000 uniform points in a cube, 97 % for 16,000) and do not set
-the masses or the spring calibration. The enclosed volume is the surface's signed volume for closed
-meshes (exact) and a Monte-Carlo estimate with the inside test for open ones
-(:data:`VOLUME_SAMPLES` points, relative error about 1/sqrt(samples x fraction inside); a warning
-says so).
+Mass: total = density x the volume the surface encloses, for every builder.  Tet bodies lump
+each tet's mass on its corners and, where the tets do not fill the surface exactly (marching
+grid: only whole cubes inside; Delaunay: carved hull), scale the lumped masses so the total is
+density x enclosed volume (the tets' own volume stays in ``meta["tet_volume"]``).  Radius bodies
+split density x enclosed volume evenly over the points (``Body.masses`` stays ``None``); their
+tets (the convex hull of random points, less its hull slivers) fill a few percent less than the
+enclosed volume (``meta["tet_volume"]``: 93 % for 2,000 uniform points in a cube, 97 % for
+16,000) and do not set the masses or the spring calibration.  The enclosed volume is the surface's
+signed volume for closed meshes (exact) and a Monte-Carlo estimate with the inside test for open
+ones (:data:`VOLUME_SAMPLES` points, relative error about 1/sqrt(samples x fraction inside);
+a warning says so).
 """
 from __future__ import annotations
 
@@ -38,8 +38,7 @@ import numpy as np
 from .body import Body
 from .errors import BuildError, did_you_mean
 from .geometry.sampling import Sampling
-from .geometry.tet_marching import marching_fill_said
-from .geometry.tet_marching import aligned_edge, fit_height, marching_grid
+from .geometry.tet_marching import aligned_edge, fit_height, marching_fill_said, marching_grid
 from .params import REPORT_DENSITY
 from .resources import check_body_memory
 
