@@ -328,7 +328,9 @@ class Renderer:
         if show_points:
             self.points = pv.PolyData(np.array(traj.positions[0]))
             p.add_mesh(self.points, color="#7a0f1f", point_size=max(2.0, 0.004 * self.size[1]),
-                       render_points_as_spheres=True, name="points")
+                       render_points_as_spheres=False, name="points")
+            # (as spheres, VTK's imposters lost to the floor's depth on the left half of the
+            # picture under software GL: half the body's points vanished, the scale trial)
         if o.show_springs and len(traj.springs):
             lines = np.hstack([np.full((len(traj.springs), 1), 2, dtype=np.int64),
                                traj.springs.astype(np.int64)]).ravel()
