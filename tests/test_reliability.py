@@ -1141,3 +1141,30 @@ def test_a_resume_asked_fewer_steps_than_its_frames_says_what_it_drops(tmp_path)
     ref = load_trajectory(run_scene(scene, tmp_path / "ref", progress=False,
                                     steps=n + every).trajectory)
     _same(load_trajectory(res.trajectory), ref)
+
+
+def test_a_runs_paraview_frames_are_bounded_and_large_ones_are_said(tmp_path):
+    """Scale trial (session 28): a 10,948-point gelatin body's 181 .vtu frames took 1.1 GB
+    (9-10 GB at 100k points) with nothing said, and the bound used for a full disk left out
+    the tets' stress fields (3.8 MB a frame where 5.8 MB were written).  A physical run's
+    frames now stay under the bound, and frames that will exceed 1 GiB are said, with
+    --no-vtu, before the run starts."""
+    from jellysim.run_disk import LARGE_TRAJECTORY_BYTES, _check_disk, _vtu_frame_bound
+
+    text = ('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 343\n'
+            'lower = [0.0, 0.01, 0.0]\nupper = [0.04, 0.05, 0.04]\n[integrator]\nsteps = 4\n'
+            '[output]\nevery = 2\nvtu = true\n')
+    scene = Scene.from_text(text, name="s.toml")
+    run_scene(scene, tmp_path / "run", progress=False)
+    model = scene.build_model()
+    bound = _vtu_frame_bound(model, None)
+    sizes = [p.stat().st_size for p in (tmp_path / "run").glob("body_*.vtu")]
+    assert len(sizes) == 3 and max(sizes) < bound
+    messages = []
+    frames = LARGE_TRAJECTORY_BYTES // bound + 10  # just over 1 GiB of frames
+    _check_disk(tmp_path, int(frames) - 1, 1, model.point_count, messages, frame_bytes=bound)
+    said = [m for m in messages if "ParaView frames (.vtu" in m]
+    assert len(said) == 1 and "--no-vtu writes none" in said[0]
+    messages.clear()
+    _check_disk(tmp_path, 100, 1, model.point_count, messages, frame_bytes=bound)
+    assert not messages
