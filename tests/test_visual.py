@@ -416,6 +416,37 @@ def test_diagnostics_match_hand_computed_values(traj):
     assert d["max_strain"][0] == pytest.approx(0.0, abs=1e-12)   # at rest
 
 
+def test_diagnostics_of_many_springs_and_frames_stay_small(traj):
+    """Scale trial (session 28): `export RUN -o x.csv` of a 10,948-point body's 181 frames
+    peaked at 1.1 GB (every frame's spring vectors at once; now 0.31 GB, `inspect` 0.23).
+    100 frames x 60,000 springs (144 MB a spring-vector array at once): the springs' energy
+    and strain equal a frame-by-frame reference, and the peak traced memory stays under
+    100 MB."""
+    import dataclasses
+    import tracemalloc
+
+    from jellysim.plot import diagnostics
+
+    rng = np.random.default_rng(1)
+    n = traj.positions.shape[1]
+    s = rng.integers(0, n, size=(60_000, 2))
+    s = s[s[:, 0] != s[:, 1]]
+    x = traj.positions[-1] + rng.normal(scale=1e-3, size=(100, n, 3))
+    rest = np.linalg.norm(traj.positions[0][s[:, 1]] - traj.positions[0][s[:, 0]], axis=1)
+    big = dataclasses.replace(traj, positions=x, velocities=np.zeros_like(x),
+                              times=np.arange(100.0), steps=np.arange(100), springs=s,
+                              rest_length=rest, stiffness=np.full(len(s), 50.0))
+    tracemalloc.start()
+    d = diagnostics(big)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 100e6, peak
+    for k in (0, 57, 99):
+        stretch = np.linalg.norm(x[k][s[:, 1]] - x[k][s[:, 0]], axis=1) - rest
+        assert d["spring"][k] == pytest.approx(25.0 * np.sum(stretch**2), rel=1e-12)
+        assert d["max_strain"][k] == pytest.approx(np.max(np.abs(stretch / rest)), rel=1e-12)
+
+
 def test_cli_plot_png_and_svg(run_dir, tmp_path):
     r = CliRunner().invoke(cli, ["plot", str(run_dir / "trajectory.npz"), "-o",
                                  str(tmp_path / "e.png")])
