@@ -383,6 +383,12 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
                 f"{why}; small tets also shorten the physical path's substep.  Use connect="
                 "'marching' (its points follow points=; 'delaunay' keeps every vertex too), "
                 "or a coarser surface mesh", UserWarning, stacklevel=3)
+        elif body.point_count < points / 2 and not max_volume:  # (scale trial: 10,466 for
+            warnings.warn(  # 30,000, unsaid)
+                f"{name}: connect='tetgen' made {body.point_count} points for points={points}: "
+                f"points= sets its largest tet's volume (the mesh's / points), and TetGen's tets"
+                " average a fraction of it; for more points give max_volume (m^3) smaller, or "
+                "connect='marching' (its points follow points=)", UserWarning, stacklevel=3)
         return body
     query = InsideQuery(m, rule=rule)
     lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)

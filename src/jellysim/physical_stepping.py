@@ -473,9 +473,12 @@ class PhysicalStepping:
                 f"J = {self.min_tet_volume_ratio:.3g} by then; sim.min_tet_volume_ratio follows "
                 "the run's smallest): the body "
                 "was squashed or pulled harder than its tets hold (their Stable Neo-Hookean "
-                "forces push it back; the shape is wrong meanwhile).  Better-shaped tets "
-                "(connect='marching', or 'delaunay' with its relaxed points), a stiffer "
-                "material or a gentler drag or handle help.  (Said once per run.)")
+                "forces push it back; the shape is wrong meanwhile).  "
+                + ("A stiffer" if (getattr(getattr(self.model, "body", None), "meta", None)
+                                   or {}).get("connect") == "marching"  # (already: scale trial)
+                   else "Better-shaped tets (connect='marching', or 'delaunay' with its relaxed "
+                   "points), a stiffer")
+                + " material or a gentler drag or handle help.  (Said once per run.)")
         return done, status
 
     def _frame_threads(self) -> bool:

@@ -71,7 +71,7 @@ def scene_summary(scene, said: list | None = None) -> list[tuple[str, str]]:
     if sim.physical or sim.substeps > 1 or given:
         step += (f"; {sim.substeps} substeps per step "
                  + ("(set in the scene)" if given else "from the stability estimate")
-                 + f" ({_seconds(dt / sim.substeps)} each)")
+                 + f" (each {_seconds(dt / sim.substeps)} of simulated time)")
     rows.append(("step", step))
     pv = getattr(sim, "provot", None)
     if not sim.physical and pv is not None:  # (the physical path has no Provot)
