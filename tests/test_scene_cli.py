@@ -783,6 +783,32 @@ def test_a_run_that_will_be_slow_says_how_long_and_why(tmp_path, monkeypatch):
     assert result.steps == 6  # (said, not stopped)
 
 
+def test_the_pace_is_judged_after_the_thread_count_is_chosen(tmp_path, monkeypatch):
+    """Scale trial (session 28): a 10,948-point body was told "about 4 min more" at the pace
+    of its first steps, while the thread chooser alternated 1 and 2 threads; it took 2.2.  The
+    pace window now starts once the first try is decided: when the run judges it, the choice
+    is made, and the window holds none of the try's steps."""
+    import jellysim.run_notes as notes
+    import jellysim.runner as runner
+
+    text = ('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 1000\n'
+            'lower = [0, 0, 0]\nupper = [0.05, 0.05, 0.05]\n[integrator]\nsteps = 16\n'
+            '[output]\nevery = 1\nvtu = false\n')
+    scene = Scene.from_text(text)
+    sim = scene.simulator(scene.build_model())
+    assert sim._thread_choice and not sim._thread_choice.chosen  # (6,000 tets: it applies)
+    judged = []
+
+    def say(notify, sim, seconds, steps, left):
+        judged.append((sim._thread_choice.chosen, steps, left))
+        return True
+
+    monkeypatch.setattr(runner, "_say_if_slow", say)
+    run_scene(scene, tmp_path / "a", notify=lambda m: None, progress=True)
+    (chosen, steps, left), = judged
+    assert chosen and steps + left <= 16 - 10  # (the try: 10 frames of 1 step)
+
+
 def test_the_pace_is_judged_over_several_steps_not_one_slow_frame():
     """A radius cow's second step took 2.2 s (its first contact), its next 58 steps 0.12 s
     each: judged on that one step the run said "about 2 min more" and ended 7 s later.  The

@@ -494,7 +494,10 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
                 emit()
                 if bar is not None:
                     bar.update(task, completed=done)
-                    if not told and done - began > first[0]:  # the pace after the first
+                    choosing = not getattr(getattr(sim, "_thread_choice", None), "chosen", 1)
+                    if not told and choosing:  # the pace counts from the threads' choice
+                        first = (done - began, stepped)
+                    elif not told and done - began > first[0]:  # the pace after the first
                         told = _say_if_slow(notify, sim, stepped - first[1],  # (compiling)
                                             done - began - first[0], total - done)
                 if done >= total:
