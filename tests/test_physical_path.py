@@ -982,3 +982,32 @@ def test_a_resting_body_s_stresses_carry_its_weight_and_paraview_gets_them(tmp_p
     # (API trial, session 28: the export's elastic part had the run's name for the total)
     assert "von_mises" not in again and "stress" not in again
     np.testing.assert_allclose(again["elastic_von_mises"][-1], von_mises(want), rtol=1e-9)
+
+
+def test_an_inversion_before_a_resume_is_dated_before_it():
+    """Scale trial (session 28): a run resumed after a tet had turned inside out said it
+    happened "by t = 0.5833 s" (the resumed run's first frame) for an inversion at 0.25 s.
+    A run restored with J <= 0 now says the inversion came before its resume time; a run
+    that inverts by itself still says by when."""
+    import jellysim as js
+
+    model = js.physical_model(js.Body.box(points=216), js.material("gelatin",
+                                                                     damping_ratio=0.3))
+    sim = js.Simulator(model, dt=1 / 60, ground=js.GroundParams(model="contact"))
+    x = sim.state.x
+    top = np.flatnonzero(np.isclose(x[:, 1], x[:, 1].max()))
+    c = top[np.argmin(np.linalg.norm(x[top][:, [0, 2]] - x[:, [0, 2]].mean(0), axis=1))]
+    sim.drag(c, x[c] + [0.0, 0.15, 0.0], radius=0.0, damping_ratio=0.0)
+    with warnings.catch_warnings(record=True) as first:
+        warnings.simplefilter("always")
+        sim.advance(150)  # (the single point pulled undamped inverts a tet: test above)
+    said = [str(w.message) for w in first if "inside out" in str(w.message)]
+    assert sim.min_tet_volume_ratio < 0 and len(said) == 1 and "inside out by t = " in said[0]
+    again = js.Simulator(model, dt=1 / 60, ground=js.GroundParams(model="contact"),
+                         state=sim.state)
+    again.restore_internal_state(sim.internal_state())
+    with warnings.catch_warnings(record=True) as later:
+        warnings.simplefilter("always")
+        again.advance(1)
+    said = [str(w.message) for w in later if "inside out" in str(w.message)]
+    assert len(said) == 1 and "inside out before t = 2.5 s, where this run was resumed" in said[0]

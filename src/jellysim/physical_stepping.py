@@ -468,8 +468,11 @@ class PhysicalStepping:
         self.min_tet_volume_ratio = float(self._min_j[0])
         if self.min_tet_volume_ratio <= 0.0 and not getattr(self, "_warned_inverted", False):
             self._warned_inverted = True
-            self._announce(
-                f"a tet was turned inside out by t = {s.t + done * self.dt:.4g} s (volume ratio "
+            since = vars(self).get("_restored_min_j")  # (J <= 0 restored: a resumed run's
+            when = (f"before t = {since[1]:.4g} s, where this run was resumed" if since
+                    and since[0] <= 0.0 else f"by t = {s.t + done * self.dt:.4g} s")
+            self._announce(  # time said "by t = 0.5833 s" of a 0.25 s inversion: scale trial)
+                f"a tet was turned inside out {when} (volume ratio "
                 f"J = {self.min_tet_volume_ratio:.3g} by then; sim.min_tet_volume_ratio follows "
                 "the run's smallest): the body "
                 "was squashed or pulled harder than its tets hold (their Stable Neo-Hookean "

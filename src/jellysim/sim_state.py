@@ -94,6 +94,8 @@ class InternalState:
         self.cg_iterations = int(d["cg_iterations"])
         self.cg_worst_residual = float(d["cg_worst_residual"])
         self.cg_unconverged = int(d["cg_unconverged"])
+        if "_min_j" in vars(self):  # (an inversion restored with it happened before the
+            self._restored_min_j = (float(self._min_j[0]), float(self.state.t))  # resume)
         if "substeps" in d:
             self._substep_count = int(d["substeps"])  # (the simulator's own, not the user's)
             self.dt_step = self.dt / self.substeps
