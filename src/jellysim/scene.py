@@ -415,8 +415,10 @@ class Scene:
                 refuse_point_mass(self.name, self.given, m["point_mass"], density, model)
                 own = None if body.masses is None else body.masses.sum()
                 new = model.point_mass.sum()
+                fill = (float(np.sum(model.fem.rest_volume)) / float(body.volume)  # (the same
+                        if model.fem is not None and body.volume else 0.0)  # density: quiet)
                 if (self.params["body"]["type"] == "file" and own is not None
-                        and abs(own - new) > 1e-6 * new):  # (the same total: nothing to say)
+                        and abs(own - new) > 1e-6 * new and abs(new / own - fill) > 1e-6):
                     warnings.warn(f"{self.name}: the body file's own masses ({own:.4g} kg) "
                                   f"are replaced by the material's: density x the tets' "
                                   f"volume ({new:.4g} kg)", UserWarning, stacklevel=2)
