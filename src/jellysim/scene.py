@@ -25,7 +25,8 @@ from .scene_schema import SCHEMA
 from .scene_spec import (Spec, as_toml, check_backend, check_body_file, check_given_keys,
                          check_value, given_keys, plain, grid_radius, infer_body_type,
                          missing_path, refuse_point_mass, refuse_unused_keys,
-                         said_springs_ignore, say_slips, from_command_line)
+                         said_springs_ignore, say_slips, from_command_line,
+                         told_from_command_line)
 from .scene_spec import apply_override as _override, check_table as _table
 from .scene_doc import schema_markdown as make
 from .scene_handles import apply_handle_tables, validate_handle_tables
@@ -405,12 +406,8 @@ class Scene:
         if self.params["body"]["type"] == "file" and mat["youngs_modulus"] is None:
             given = check_body_file(self.name, self.params, self.given, body, given, m)
         try:
-            with warnings.catch_warnings(record=True) as caught:  # (a --set value: said so)
-                warnings.simplefilter("always")
+            with told_from_command_line(self.overrides):  # (a --set value: said so)
                 model = self._material_model(body)
-            for w in caught:
-                warnings.warn(str(w.message) + from_command_line(str(w.message), self.overrides),
-                              w.category, stacklevel=2)
             if model is not None:
                 refuse_point_mass(self.name, self.given, m["point_mass"], density, model)
                 own = None if body.masses is None else body.masses.sum()

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -457,6 +458,23 @@ def from_command_line(msg: str, overrides) -> str:
             + ")") if given else ""
 
 
+@contextmanager
+def told_from_command_line(overrides):
+    """The warnings of the block, each with :func:`from_command_line`'s note when it names a
+    ``--set`` item (a no-op without ``overrides``)."""
+    import warnings
+
+    if not overrides:
+        yield
+        return
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        yield
+    for w in caught:
+        warnings.warn(str(w.message) + from_command_line(str(w.message), overrides),
+                      w.category, stacklevel=_user_stacklevel())
+
+
 def say_slips(params: dict, given: dict, name: str, overrides=()) -> None:
     """Warn of values that are valid but likely mean something else (a teacher's trial,
     session 25): a time step given in milliseconds, a friction coefficient given as a
@@ -467,12 +485,8 @@ def say_slips(params: dict, given: dict, name: str, overrides=()) -> None:
     import warnings
 
     if overrides:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
+        with told_from_command_line(overrides):
             say_slips(params, given, name)
-        for w in caught:
-            warnings.warn(str(w.message) + from_command_line(str(w.message), overrides),
-                          w.category, stacklevel=_user_stacklevel())
         return
 
     dt = (params.get("integrator") or {}).get("dt")
