@@ -494,11 +494,8 @@ def _build_body(mesh, *, points, connect, sampling, radius, neighbours, h, surfa
                                        name=name)
     chosen = radius is None
     if chosen:  # (averaged over the interior: the mesh's vertices may be far denser)
-        from scipy.spatial import cKDTree
-
-        radius = choose_radius(pts, neighbours, seed=seed, among=inner if on_surface else None)
-        far = float(cKDTree(pts).query(pts, k=2)[0][:, 1].max())  # every point joined, if
-        radius = far * 1.0001 if radius <= far <= 1.5 * radius else radius  # 1.5x will do
+        radius = choose_radius(pts, neighbours, seed=seed, among=inner if on_surface else None,
+                               reach_all=1.5)
     springs = radius_springs(pts, radius)
     deg = np.bincount(springs.ravel(), minlength=len(pts))
     if np.any(deg == 0):

@@ -74,7 +74,8 @@ def radius_springs(points: np.ndarray, r: float, *, method: str = "auto") -> np.
 
 
 def choose_radius(points: np.ndarray, neighbours: float = 24.0, *, sample: int = 4000,
-                  seed: int = 0, among: np.ndarray | None = None) -> float:
+                  seed: int = 0, among: np.ndarray | None = None,
+                  reach_all: float = 1.0) -> float:
     """Connection radius [m] giving about ``neighbours`` springs per point on average.
 
     Binary search on the mean neighbour count of (up to ``sample``) points, counted exactly
@@ -82,7 +83,9 @@ def choose_radius(points: np.ndarray, neighbours: float = 24.0, *, sample: int =
     has a few more than the mean.  ``among`` [m] (k, 3): average over these of ``points``
     only (a body whose surface points are far denser than its interior: averaged over all,
     the radius followed the surface's spacing and left interior points with no spring, API
-    trial, session 28).
+    trial, session 28).  ``reach_all`` > 1: raise the radius to the farthest nearest-neighbour
+    distance when that is within ``reach_all`` times it, so every point has a spring (the
+    re-trial's 100-point capsule left 5 alone).
     """
     from scipy.spatial import cKDTree
 
@@ -107,4 +110,7 @@ def choose_radius(points: np.ndarray, neighbours: float = 24.0, *, sample: int =
             lo = mid
         else:
             hi = mid
+    if reach_all > 1.0:
+        far = float(tree.query(points, k=2)[0][:, 1].max())
+        hi = far * 1.0001 if hi <= far <= reach_all * hi else hi
     return hi
