@@ -4,11 +4,12 @@
 connects them with one of four spring builders:
 
 =============  ==============================================================================
-``radius``     the report's "implicit" builder: every pair closer than ``r``; ``r`` chosen for
+``radius``     the report's "implicit" builder: every pair at most ``r`` apart; ``r`` chosen for
                a target mean neighbour count when not given (reported in ``body.meta``);
                also tets for the tetrahedral elasticity (Delaunay of the points, carved,
                slivers dropped: :func:`~jellysim.geometry.tetra.cloud_tets`)
 ``marching``   the report's marching-tetrahedra grid: cubes of size ``h``, 6 Kuhn tets each
+               (the report says "several tetrahedra"; six Kuhn tets is our reading)
 ``delaunay``   Qhull Delaunay of the sampled points + surface samples (vertices, sharp edges,
                faces), carved by the inside test, slivers dropped
 ``tetgen``     TetGen's constrained tetrahedralization of the surface itself (closed meshes)

@@ -318,8 +318,9 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
 @click.option("--surface-samples/--no-surface-samples", default=None,
               help="delaunay and radius: also put points on the surface's sharp edges and "
                    "faces at the point spacing, so the body has flat faces to rest on "
-                   "(default: on, as Body.from_mesh; off is the report's way: delaunay with "
-                   "mesh vertices only, radius with exactly --points points inside).")
+                   "(default: on, as Body.from_mesh; off: delaunay with the sampled points "
+                   "and the mesh vertices, radius with exactly --points points inside, as the "
+                   "report).")
 @click.option("--relax", type=click.IntRange(min=0), default=None,
               help="delaunay: Lloyd passes of the interior points before the "
                    "tetrahedralization (default: 10 with surface samples; 0 is the report's "

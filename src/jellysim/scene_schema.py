@@ -33,8 +33,10 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "surface_samples": Spec("bool", None, "Type 'mesh', connect 'delaunay' or 'radius': "
                                 "also put points on the surface (sharp edges, faces) a spacing "
                                 "apart, so the body's surface lies on the mesh (default: on for "
-                                "'delaunay', off for 'radius', the report's ways: mesh vertices "
-                                "only / exactly `points` inside).  A physical radius body wants "
+                                "'delaunay', off for 'radius'; off: delaunay tetrahedralizes "
+                                "the sampled points and the mesh vertices (the vertices our "
+                                "addition), radius joins exactly `points` sampled inside, as "
+                                "the report does).  A physical radius body wants "
                                 "it on: without flat faces it rests on its lowest points."),
         "relax": Spec("int", None, "Type 'mesh', connect 'delaunay': Lloyd passes of the "
                       "sampled interior points before the tetrahedralization (default 10 with "
@@ -80,7 +82,7 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                         "the gelatin preset gets 'marching' unless connect, radius or "
                         "neighbours is given).",
                         choices=("radius", "marching", "delaunay", "tetgen")),
-        "radius": _pos("Connection radius r [m]: every pair closer than r gets a spring "
+        "radius": _pos("Connection radius r [m]: every pair at most r apart gets a spring "
                        "(type 'box': required, but 1.8 spacings for a grid; type 'mesh': "
                        "default from neighbours).", None,
                        unit=" (m)"),
@@ -90,8 +92,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                   unit=" (m)"),
         "snap": Spec("bool", None, "Type 'mesh', connect 'marching': warp the grid onto the "
                      "surface so the body fills the mesh (default); false keeps the "
-                     "report's staircase, the grid's tets wholly inside, up to a cell short "
-                     "of the surface (volumes: BENCHMARKS.md, bench_marching_fill.py)."),
+                     "report's staircase: only the grid's tets whose corners are all inside, up "
+                     "to a cell short of the surface (volumes: BENCHMARKS.md, bench_marching_fill.py)."),
         "stiffness": Spec("float", None, "Spring stiffness k [N/m] (paper mode; give this or "
                           "[material] youngs_modulus).", lambda v: v > 0, "a number > 0 (N/m)"),
     },

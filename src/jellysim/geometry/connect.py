@@ -1,6 +1,6 @@
 """Spring builders.  Here: the report's "implicit" builder (section 4.3).
 
-Every pair of points closer than ``r`` is joined by a spring, found with
+Every pair of points at most ``r`` apart (the report: "within radius r") is joined by a spring, found with
 ``scipy.spatial.cKDTree.query_pairs``.  The tet-based builders (marching grid, Delaunay,
 TetGen) live in :mod:`jellysim.geometry.tetra`.
 """
@@ -30,7 +30,7 @@ GRID_MIN_POINTS = 50_000
 
 
 def radius_springs(points: np.ndarray, r: float, *, method: str = "auto") -> np.ndarray:
-    """All pairs of points closer than ``r`` (report: the "implicit" connection).
+    """All pairs of points at most ``r`` apart (report: the "implicit" connection).
 
     Parameters
     ----------
