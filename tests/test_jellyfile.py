@@ -441,3 +441,20 @@ def test_a_built_body_file_at_the_materials_density_runs_without_a_mass_warning(
         assert bool(replaced) == said, (density, [str(w.message) for w in caught])
         assert float(np.sum(model.point_mass)) == pytest.approx(
             1141.0 * float(np.sum(model.fem.rest_volume)), rel=1e-9)
+
+
+def test_a_body_file_with_no_springs_is_told_to_list_them(tmp_path):
+    """Session 29's report trial: a `.jello` file with `springs 0` was told "none within
+    [springs] radius of another ... a larger radius joins them", though a file body has no
+    radius.  The warning now names the file's springs section; a radius body keeps its own."""
+    from jellysim.scene import Scene
+
+    (tmp_path / "loose.jello").write_text("jello 1\npoints 3\n0 0 0\n1 0 0\n0 1 0\nsprings 0\n"
+                                          "end\n")
+    scene = tmp_path / "s.toml"
+    scene.write_text('[material]\npreset = "paper-2010"\n[body]\ntype = "file"\n'
+                     'path = "loose.jello"\n[mass]\npoint_mass = 0.1\n[integrator]\nsteps = 2\n')
+    with pytest.warns(UserWarning, match=r"no spring \(3 points, its file lists none\).*"
+                      r"give the file a springs section") as got:
+        Scene.load(scene).build_model()
+    assert not any("radius" in str(w.message) for w in got)

@@ -444,10 +444,13 @@ class Scene:
                              point_mass=m["point_mass"] if body.masses is None else None,
                              damping=ph["damping"], gravity=ph["gravity"])
             if model.spring_count == 0 and model.point_count > 1:
+                why, fix = (("its file lists none", "give the file a springs section")
+                            if self.params["body"]["type"] == "file" else
+                            ("none within [springs] radius of another", "a larger radius "
+                             "joins them"))
                 warnings.warn(f"{self.name}: the body has no spring ({model.point_count} "
-                              "points, none within [springs] radius of another): they fall as "
-                              "loose particles; a larger radius joins them", UserWarning,
-                              stacklevel=2)
+                              f"points, {why}): they fall as loose particles; {fix}",
+                              UserWarning, stacklevel=2)
             return model
         except ValueError as exc:
             raise SceneError(f"{self.name}: {exc}") from None
