@@ -24,8 +24,9 @@ own values win).  :data:`PRESETS` maps the name to that partial scene.
   :data:`GELATIN_BOX`, unless its corners or points are given), both carrying tets, unless the
   scene names its springs (``connect``, ``radius`` or ``neighbours``) or a random distribution.
 * ``paper-2010``: the report's section 5.1 run: the body's mass split evenly over its points
-  (the report gives no masses: an even split is our reading; whatever the builder: tet builders otherwise lump it by tet volume; a body file's
-  own masses and spring stiffnesses are the user's and are kept, the latter said), k = 2 N/m, delta = 0.8 kg/s, tau = 0.1 %, one
+  (the report gives no masses: an even split is our reading; whatever the builder: tet
+  builders otherwise lump it by tet volume; a body file's own masses and spring stiffnesses
+  are the user's and are kept, the latter said), k = 2 N/m, delta = 0.8 kg/s, tau = 0.1 %, one
   all-pairs Provot loop (the report's hack of section 4.1/5.2), the mu/nu ground (mu = 0.1, nu =
   0.2), the report's integrator at dt = 0.01 s, and the report's step as we read it (section 4.1,
   checked to 1e-12 m by ``tests/test_paper_step.py``): Provot visits the points in order and

@@ -93,7 +93,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "snap": Spec("bool", None, "Type 'mesh', connect 'marching': warp the grid onto the "
                      "surface so the body fills the mesh (default); false keeps the "
                      "report's staircase: only the grid's tets whose corners are all inside, up "
-                     "to a cell short of the surface (volumes: BENCHMARKS.md, bench_marching_fill.py)."),
+                     "to a cell short of the surface (volumes: BENCHMARKS.md, "
+                     "bench_marching_fill.py)."),
         "stiffness": Spec("float", None, "Spring stiffness k [N/m] (paper mode; give this or "
                           "[material] youngs_modulus).", lambda v: v > 0, "a number > 0 (N/m)"),
     },

@@ -1,8 +1,8 @@
 """Spring builders.  Here: the report's "implicit" builder (section 4.3).
 
-Every pair of points at most ``r`` apart (the report: "within radius r") is joined by a spring, found with
-``scipy.spatial.cKDTree.query_pairs``.  The tet-based builders (marching grid, Delaunay,
-TetGen) live in :mod:`jellysim.geometry.tetra`.
+Every pair of points at most ``r`` apart (the report: "within radius r") is joined by
+a spring, found with ``scipy.spatial.cKDTree.query_pairs``.  The tet-based builders
+(marching grid, Delaunay, TetGen) live in :mod:`jellysim.geometry.tetra`.
 """
 from __future__ import annotations
 

@@ -33,8 +33,8 @@ Indices: each list is sliced first (``first_other[lo:hi]``, ``rest[lo:hi]``, ...
 from 0.  Walked as ``range(first_ptr[p], first_ptr[p + 1])``, the index could be negative for
 all LLVM knew, and numba's wraparound of negative indices made every load of the rest length,
 stiffness and neighbour index a scalar load through a corrected address; from 0 they are
-vector loads.  The sums are bitwise unchanged; the report's step ran 1.2-1.3x faster at 600 and
-100k points (BENCHMARKS.md, "Indices walked from zero").
+vector loads.  The sums are bitwise unchanged; the report's step ran 1.2x faster at 600 points and
+1.4-1.7x at 100k (BENCHMARKS.md, "Indices walked from zero").
 """
 from __future__ import annotations
 
