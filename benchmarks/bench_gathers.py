@@ -6,15 +6,15 @@ position through an index, then a square root, a division and a few multiply-add
 (600 random points in the unit cube, ``--springs`` each (128 by default), one thread, in L1)
 in five forms:
 
-* ``full``: the loop as the kernels write it (force and Provot sums, fast-math vectorised; the
-  point's lists sliced and walked from 0);
+* ``full``: the loop as the kernels write it (force and Provot sums, fast-math vectorised);
 * ``no_sqrt_div``: the same without the square root and the division;
 * ``no_gather``: the same with the other end's position replaced by values read in order
   (no indexed load): what the arithmetic costs alone;
 * ``inv_sqrt``: ``1 / sqrt`` as one division of the square root;
-* ``unsliced``: ``full`` walking the lists from ``ptr[p]`` to ``ptr[p + 1]`` (the kernels' form
-  until session 29): numba's wraparound of indices that might be negative turns every load of
-  the lists into a scalar load through a corrected address.
+* ``sliced``: ``full`` with each point's lists sliced first and walked from 0.  The kernels walk
+  them from ``ptr[p]`` to ``ptr[p + 1]``: numba's wraparound of indices that might be negative
+  then turns every load of the lists into a scalar load through a corrected address; sliced,
+  they are vector loads (faster, but not shipped: BENCHMARKS.md "Indices walked from zero").
 
 Each form runs in a fresh process for each ``JELLYSIM_CPU`` mode (``native``, ``auto``,
 ``avx2``: :mod:`jellysim._cpu`), so each is compiled for those instructions.  Prints one JSON
@@ -45,10 +45,10 @@ def make(mode):
             px, py, pz = x[p, 0], x[p, 1], x[p, 2]
             fx = fy = fz = sx = sy = sz = cnt = 0.0
             lo, hi = ptr[p], ptr[p + 1]
-            if mode == 4:  # (the lists walked from ptr[p]: indices LLVM cannot prove >= 0)
-                o, rr, kk, j0, j1 = other, rest, stiff, lo, hi
-            else:  # (sliced and walked from 0, as the kernels do)
+            if mode == 4:  # (sliced and walked from 0)
                 o, rr, kk, j0, j1 = other[lo:hi], rest[lo:hi], stiff[lo:hi], 0, hi - lo
+            else:  # (walked from ptr[p], as the kernels do: indices LLVM cannot prove >= 0)
+                o, rr, kk, j0, j1 = other, rest, stiff, lo, hi
             for s in range(j0, j1):
                 if mode == 2:
                     ex = rr[s] - px; ey = kk[s] - py; ez = 0.5 * rr[s] - pz
@@ -84,7 +84,7 @@ rest = 0.3 * rng.random(n * d); stiff = np.full(n * d, 2.0)
 res = {"codegen_features": "prefer-no-gather" if "+prefer-no-gather" in
        (numba.config.CPU_FEATURES or "").split(",") else "no AVX-512" if "-avx512f" in
        (numba.config.CPU_FEATURES or "").split(",") else "native"}
-for mode, name in enumerate(("full", "no_sqrt_div", "no_gather", "inv_sqrt", "unsliced")):
+for mode, name in enumerate(("full", "no_sqrt_div", "no_gather", "inv_sqrt", "sliced")):
     f = make(mode)
     f(x, ptr, other, rest, stiff, 0.1, out)
     ts = []

@@ -10,9 +10,6 @@ thread): ``prefer-no-gather`` ran 1.10x faster at 600 points and 1.42x at 100k, 
 (tet) path unchanged (``examples/motion_check.py``); no AVX-512 ran them 1.37x / 1.62x faster
 (at 600 points 1.0-1.38x from one process to the next) but the physical path 10-15 % slower
 (its tet kernel, ~250 operations per tet, spills without AVX-512's 32 vector registers).
-Since the loops walk their lists from 0 (session 29, "Indices walked from zero"), the loop alone
-costs 2.4 ns (``prefer-no-gather``) and 2.7 ns (no AVX-512) at 34 springs per point; whole
-report steps at 600 points still run 1.23x faster without AVX-512.
 
 ``JELLYSIM_CPU`` (read once, when jellysim is imported):
 
