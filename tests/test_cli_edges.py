@@ -362,7 +362,7 @@ def test_render_and_export_with_overwrite_stopped_half_way_keep_the_earlier_outp
 
     monkeypatch.setattr(cv, "render_trajectory", stops_after_two("frame_{:05d}.png"))
     monkeypatch.setattr(cv, "export_pvd_file", stops_after_two("run.pvd"))
-    import meshio   # (export_mesh_sequence stages its frames itself: its writer stops)
+    import meshio   # (export_mesh_sequence stages its frames itself: its writers stop)
 
     calls = []
 
@@ -373,6 +373,10 @@ def test_render_and_export_with_overwrite_stopped_half_way_keep_the_earlier_outp
         Path(path).write_bytes(b"half")
 
     monkeypatch.setattr(meshio, "write", meshio_stops_after_two)
+    from jellysim.io import meshseq  # (its OBJ frames are written by its own _write_obj)
+
+    monkeypatch.setattr(meshseq, "_write_obj", lambda path, *a, **k: meshio_stops_after_two(
+        path, None))
     for args in (["render", str(traj_path), "-o", "frames", "--overwrite", "--quiet"],
                  ["export", str(traj_path), "-o", "run.pvd", "--overwrite"],
                  ["export", str(traj_path), "--sequence", "obj", "seq", "--overwrite"]):

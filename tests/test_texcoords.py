@@ -214,6 +214,46 @@ def test_obj_sequence_writes_welded_vertices_with_per_corner_uvs(cube_run, tmp_p
     np.testing.assert_allclose(uv, traj.skin.uv, atol=1e-9)
 
 
+def test_obj_frames_carry_smooth_normals(cube_run, tmp_path):
+    """Session 29: the OBJ frames had no normals, so Blender's importer shaded every face flat.
+    Each face corner now names its vertex's unit normal (`f a/ta/a`), the area-weighted mean of
+    its faces' normals: on a box at rest, inside a flat face it is that face's normal, and
+    every normal leans to the outside of each face it touches (files without UVs: `f a//a`,
+    tests/test_visual.py)."""
+    from jellysim.io.meshseq import export_mesh_sequence
+
+    traj, _ = cube_run
+
+    def read(path):
+        v, vn, f = [], [], []
+        for line in Path(path).read_text().splitlines():
+            w = line.split()
+            if w and w[0] in ("v", "vn"):
+                (v if w[0] == "v" else vn).append([float(x) for x in w[1:4]])
+            elif w and w[0] == "f":
+                f.append([[int(t) - 1 for t in c.split("/")] for c in w[1:]])
+        return np.array(v), np.array(vn), np.array(f)
+
+    files = export_mesh_sequence(traj, tmp_path / "seq", fmt="obj")
+    for k in (0, len(files) - 1):
+        v, vn, f = read(files[k])
+        assert len(vn) == len(v) and np.array_equal(f[:, :, 2], f[:, :, 0])
+        tri = v[f[:, :, 0]]
+        face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        face_n /= np.linalg.norm(face_n, axis=1, keepdims=True)
+        corner_n = vn[f[:, :, 2]]
+        np.testing.assert_allclose(np.linalg.norm(corner_n, axis=2), 1.0, atol=1e-5)
+        cos = np.einsum("fck,fk->fc", corner_n, face_n)
+        assert cos.min() > 0.0
+        if k == 0:  # a vertex inside a flat face: all its faces share the normal
+            lo, hi = v.min(axis=0), v.max(axis=0)
+            at_bound = np.isclose(v, lo, atol=1e-6) | np.isclose(v, hi, atol=1e-6)
+            flat = at_bound.sum(axis=1) == 1  # on one face of the box, off its edges
+            assert flat.sum() > len(v) // 4
+            axis = np.abs(vn[flat]).max(axis=1)
+            np.testing.assert_allclose(axis, 1.0, atol=1e-5)
+
+
 def test_glb_and_usd_carry_the_uvs(cube_run, tmp_path):
     from jellysim.io.gltf import _accessor, export_glb, read_glb
     from jellysim.io.usd import export_usd

@@ -398,6 +398,13 @@ def test_mesh_sequence_readable(traj, tmp_path, fmt):
     mesh = meshio.read(paths[-1])
     np.testing.assert_allclose(mesh.points, traj.skin_positions(-1), atol=1e-5)
     np.testing.assert_array_equal(mesh.cells_dict["triangle"], traj.skin.faces)
+    if fmt == "obj":  # no UVs: each corner names its vertex and its vertex's normal, `a//a`
+        normals = mesh.point_data["obj:vn"]
+        np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-5)
+        lines = paths[-1].read_text().splitlines()
+        corners = [c for line in lines if line.startswith("f ") for c in line.split()[1:]]
+        assert len(corners) == 3 * len(traj.skin.faces)
+        assert all(c.split("//")[0] == c.split("//")[1] for c in corners)
 
 
 def test_diagnostics_match_hand_computed_values(traj):

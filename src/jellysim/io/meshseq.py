@@ -1,9 +1,14 @@
 """The skin as a sequence of OBJ or PLY files, one per frame (``<stem>_NNNNN.obj``).
 
-A skin with texture coordinates (its mesh file had UVs) writes them into the OBJ files as
-``vt`` lines, each face corner naming its own (``f a/ta b/tb c/tc``), so the vertices stay
-welded and the UV seams stay seams.  meshio's OBJ writer gives a vertex one UV only, so those
-files are written here (the few lines of the format); PLY files carry positions only."""
+OBJ files carry each frame's smooth normals as ``vn`` lines, one per vertex (area-weighted, as
+:func:`.usd.vertex_normals`), each face corner naming its vertex's (``f a//a``): without them
+Blender's importer shades every face flat.  One per vertex keeps the files readable by meshio
+(which takes normals per vertex); a box's edges then shade soft, where the USD and glTF exports
+split the normals along creases.  A skin with texture coordinates (its mesh file had UVs)
+writes them as ``vt`` lines, each face corner naming its own (``f a/ta/a``), so the vertices
+stay welded and the UV seams stay seams.  meshio's OBJ writer gives a vertex one UV only, so
+the OBJ files are written here (the few lines of the format); PLY files carry positions
+only."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -12,7 +17,7 @@ import numpy as np
 
 from ..errors import JellysimError
 from .atomic import atomic_path, guard_folder, staged_output
-from .usd import surface_of, surface_uv
+from .usd import surface_of, surface_uv, vertex_normals
 
 __all__ = ["export_mesh_sequence"]
 
@@ -46,11 +51,16 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
                             "carry positions only")
     images, groups = textures_of(traj, texture), face_groups(traj)
     uv = surface_uv(traj) if fmt == "obj" else None
-    if uv is not None:  # the distinct UVs, and each corner's among them
-        vt, vt_index = np.unique(np.asarray(uv, np.float64).reshape(-1, 2), axis=0,
-                                 return_inverse=True)
-        corners = np.stack([np.asarray(faces, np.int64).reshape(-1) + 1,
-                            vt_index.reshape(-1) + 1], axis=1).reshape(-1, 6)
+    vt = None
+    if fmt == "obj":  # each corner's vertex, UV (the distinct ones) and normal, 1-based
+        tri = np.asarray(faces, np.int64)
+        columns = [tri.reshape(-1)]
+        if uv is not None:
+            vt, vt_index = np.unique(np.asarray(uv, np.float64).reshape(-1, 2), axis=0,
+                                     return_inverse=True)
+            columns.append(vt_index.reshape(-1))
+        columns.append(tri.reshape(-1))
+        corners = np.stack(columns, axis=1).reshape(len(tri), -1) + 1
     directory = Path(directory)
     if directory.exists() and not directory.is_dir():
         raise JellysimError(f"{directory}: is a file; a mesh sequence is written into a "
@@ -75,10 +85,10 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
                                      .format(*JELLO_RGBA))
                 for (run, _), (name, _) in zip(runs, groups)), encoding="utf-8")
         for k, verts in enumerate(frames):
-            if uv is not None:
+            if fmt == "obj":
+                verts = np.asarray(verts, dtype=np.float64)
                 with atomic_path(stage / f"{stem}_{k:05d}.{fmt}") as tmp:
-                    _write_obj(tmp, np.asarray(verts, dtype=np.float64), vt, corners, mtl,
-                               runs)
+                    _write_obj(tmp, verts, vt, vertex_normals(verts, tri), corners, mtl, runs)
                 continue
             mesh = meshio.Mesh(np.asarray(verts, dtype=np.float64),
                                [("triangle", np.asarray(faces, dtype=np.int32))])
@@ -87,18 +97,22 @@ def export_mesh_sequence(traj, directory, *, fmt: str = "obj", stem: str = "skin
     return [directory / f"{stem}_{k:05d}.{fmt}" for k in range(len(frames))]
 
 
-def _write_obj(path, verts: np.ndarray, vt: np.ndarray, corners: np.ndarray,
-               mtl: str | None = None, runs=()) -> None:
-    """An OBJ file of ``verts`` [m] (m, 3), texture coordinates ``vt`` (t, 2) and faces
-    ``corners`` (f, 6): 1-based ``a ta b tb c tc``; ``mtl``: the material library its faces
+def _write_obj(path, verts: np.ndarray, vt: np.ndarray | None, vn: np.ndarray,
+               corners: np.ndarray, mtl: str | None = None, runs=()) -> None:
+    """An OBJ file of ``verts`` [m] (m, 3), texture coordinates ``vt`` (t, 2) or ``None``,
+    unit normals ``vn`` (n, 3) and faces ``corners``, 1-based: (f, 9) ``a ta na b tb nb c tc
+    nc`` with ``vt``, else (f, 6) ``a na b nb c nc``; ``mtl``: the material library its faces
     use, in ``runs`` ``(material name, face rows)``."""
     with open(path, "w", encoding="utf-8") as fh:
         fh.write("# written by jellysim: the skin of one frame, metres\n")
         if mtl:
             fh.write(f"mtllib {mtl}\n")
-        np.savetxt(fh, verts, fmt="v %.9g %.9g %.9g")
-        np.savetxt(fh, vt, fmt="vt %.9g %.9g")
+        np.savetxt(fh, verts, fmt="v %.17g %.17g %.17g")  # (round-trips every float64)
+        if vt is not None:
+            np.savetxt(fh, vt, fmt="vt %.9g %.9g")
+        np.savetxt(fh, vn, fmt="vn %.6f %.6f %.6f")
+        corner = "%d/%d/%d" if vt is not None else "%d//%d"
         for name, rows in (runs if mtl else [(None, slice(None))]):
             if name is not None:
                 fh.write(f"usemtl {name}\n")
-            np.savetxt(fh, corners[rows], fmt="f %d/%d %d/%d %d/%d")
+            np.savetxt(fh, corners[rows], fmt="f " + " ".join([corner] * 3))
