@@ -6,18 +6,18 @@ position through an index, then a square root, a division and a few multiply-add
 (600 random points in the unit cube, ``--springs`` each (128 by default), one thread, in L1)
 in five forms:
 
-* ``full``: the loop as the kernels write it (force and Provot sums, fast-math vectorised);
+* ``full``: the loop as the kernels write it (force and Provot sums, fast-math vectorised; the
+  point's lists sliced and walked from 0);
 * ``no_sqrt_div``: the same without the square root and the division;
 * ``no_gather``: the same with the other end's position replaced by values read in order
   (no indexed load): what the arithmetic costs alone;
 * ``inv_sqrt``: ``1 / sqrt`` as one division of the square root;
-* ``sliced``: ``full`` with each point's lists sliced first and walked from 0.  The kernels walk
-  them from ``ptr[p]`` to ``ptr[p + 1]``: numba's wraparound of indices that might be negative
-  then turns every load of the lists into a scalar load through a corrected address; sliced,
-  they are vector loads (faster, but not shipped: BENCHMARKS.md "Indices walked from zero").
+* ``unsliced``: ``full`` walking the lists from ``ptr[p]`` to ``ptr[p + 1]`` (the kernels' form
+  until session 29): numba's wraparound of indices that might be negative turns every load of
+  the lists into a scalar load through a corrected address.
 
-Each form runs in a fresh process for each ``JELLYSIM_CPU`` mode (``native``, ``auto``,
-``avx2``: :mod:`jellysim._cpu`), so each is compiled for those instructions.  Prints one JSON
+Each form runs in a fresh process for each ``JELLYSIM_CPU`` mode (``native``, the default;
+``nogather``; ``avx2``: :mod:`jellysim._cpu`), so each is compiled for those instructions.  Prints one JSON
 object: ns per spring visit, median of 5 windows, per mode and form, and the instructions the
 ``full`` loop was compiled to (vector square roots and gathers counted in its assembly).
 
@@ -45,10 +45,10 @@ def make(mode):
             px, py, pz = x[p, 0], x[p, 1], x[p, 2]
             fx = fy = fz = sx = sy = sz = cnt = 0.0
             lo, hi = ptr[p], ptr[p + 1]
-            if mode == 4:  # (sliced and walked from 0)
-                o, rr, kk, j0, j1 = other[lo:hi], rest[lo:hi], stiff[lo:hi], 0, hi - lo
-            else:  # (walked from ptr[p], as the kernels do: indices LLVM cannot prove >= 0)
+            if mode == 4:  # (the lists walked from ptr[p]: indices LLVM cannot prove >= 0)
                 o, rr, kk, j0, j1 = other, rest, stiff, lo, hi
+            else:  # (sliced and walked from 0, as the kernels do)
+                o, rr, kk, j0, j1 = other[lo:hi], rest[lo:hi], stiff[lo:hi], 0, hi - lo
             for s in range(j0, j1):
                 if mode == 2:
                     ex = rr[s] - px; ey = kk[s] - py; ez = 0.5 * rr[s] - pz
@@ -84,7 +84,7 @@ rest = 0.3 * rng.random(n * d); stiff = np.full(n * d, 2.0)
 res = {"codegen_features": "prefer-no-gather" if "+prefer-no-gather" in
        (numba.config.CPU_FEATURES or "").split(",") else "no AVX-512" if "-avx512f" in
        (numba.config.CPU_FEATURES or "").split(",") else "native"}
-for mode, name in enumerate(("full", "no_sqrt_div", "no_gather", "inv_sqrt", "sliced")):
+for mode, name in enumerate(("full", "no_sqrt_div", "no_gather", "inv_sqrt", "unsliced")):
     f = make(mode)
     f(x, ptr, other, rest, stiff, 0.1, out)
     ts = []
@@ -111,7 +111,7 @@ def main(argv=None) -> None:
                     "scene has 34 on average)")
     args = ap.parse_args(argv)
     result = {"load_average": os.getloadavg(), "springs_per_point": args.springs, "modes": {}}
-    for mode in ("native", "auto", "avx2"):
+    for mode in ("native", "nogather", "avx2"):
         env = dict(os.environ, JELLYSIM_CPU=mode, NUMBA_NUM_THREADS="1",
                    BENCH_GATHERS_SPRINGS=str(args.springs))
         env.pop("NUMBA_CPU_FEATURES", None)

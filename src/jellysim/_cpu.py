@@ -11,13 +11,22 @@ thread): ``prefer-no-gather`` ran 1.10x faster at 600 points and 1.42x at 100k, 
 (at 600 points 1.0-1.38x from one process to the next) but the physical path 10-15 % slower
 (its tet kernel, ~250 operations per tet, spills without AVX-512's 32 vector registers).
 
+Session 29 (BENCHMARKS.md, "Indices walked from zero"): with the spring loops walking their
+lists from 0, their rest lengths, stiffnesses and neighbour indices load as vectors, and
+numba's own choice on Zen 4 (2.85 ns a visit) beats ``prefer-no-gather`` on the old loops
+(3.57 ns).  ``prefer-no-gather`` itself is no longer the default: with it, the kernels numba
+compiles in a process and the same kernels loaded from its cache by the next gave different
+last bits (1.9e-15 m on a 600-point scene), so a first run and a later one differed and MPI
+ranks disagreed with a serial run (``tests/test_cache_bits.py`` fails under it); numba's own
+choice and ``avx2`` compile alike in both.
+
 ``JELLYSIM_CPU`` (read once, when jellysim is imported):
 
-* ``auto`` (default): ``prefer-no-gather`` on an AMD CPU of family 25 with AVX-512 (Zen 4, the
-  CPU it was measured on); elsewhere numba's own choice;
-* ``native``: numba's own choice (the host's features, gathers where LLVM likes them);
+* ``auto`` (default) and ``native``: numba's own choice (the host's features);
 * ``avx2``: no AVX-512 instructions (spring bodies' fastest on Zen 4; the physical path's
-  slower).
+  10-15 % slower);
+* ``nogather``: the host's features with LLVM's ``prefer-no-gather`` (for measurements only:
+  its cached and freshly compiled kernels can differ in their last bits, above).
 
 A ``NUMBA_CPU_NAME`` or ``NUMBA_CPU_FEATURES`` set by the user wins: nothing is changed.  The
 choice is numba's process-wide target (``NUMBA_CPU_FEATURES``, inherited by child processes:
@@ -32,14 +41,13 @@ import sys
 
 __all__ = ["configure", "MODES"]
 
-MODES = ("auto", "native", "avx2")
+MODES = ("auto", "native", "avx2", "nogather")
 
 
-def configure(environ=None, cpuinfo: str | None = None) -> str | None:
+def configure(environ=None) -> str | None:
     """Set ``NUMBA_CPU_FEATURES`` in ``environ`` (default ``os.environ``) as ``JELLYSIM_CPU``
     asks (module docstring); returns the features set, or ``None`` when numba's own choice
-    stands.  ``cpuinfo``: the text of ``/proc/cpuinfo`` (read when ``None``; tests pass
-    their own)."""
+    stands."""
     env = os.environ if environ is None else environ
     mode = env.get("JELLYSIM_CPU", "auto").strip().lower() or "auto"
     if mode not in MODES:
@@ -48,9 +56,7 @@ def configure(environ=None, cpuinfo: str | None = None) -> str | None:
         warnings.warn(f"JELLYSIM_CPU={env.get('JELLYSIM_CPU')!r} is not one of {MODES}: "
                       "using 'auto'", UserWarning, stacklevel=2)
         mode = "auto"
-    if mode == "native" or env.get("NUMBA_CPU_NAME") or env.get("NUMBA_CPU_FEATURES"):
-        return None
-    if mode == "auto" and not zen4(cpuinfo):
+    if mode in ("auto", "native") or env.get("NUMBA_CPU_NAME") or env.get("NUMBA_CPU_FEATURES"):
         return None
     flat = _features(avx512=mode != "avx2")
     if flat is not None:
@@ -82,25 +88,3 @@ def _set(env, flat: str) -> None:
     env["NUMBA_CPU_FEATURES"] = flat
     if env is os.environ and "numba.core.config" in sys.modules:  # (numba read it already)
         sys.modules["numba.core.config"].CPU_FEATURES = flat
-
-
-def zen4(cpuinfo: str | None = None) -> bool:
-    """Whether the CPU is an AMD of family 25 with AVX-512 (Zen 4; Zen 3, the same family,
-    has no AVX-512), from ``/proc/cpuinfo``'s first processor (``False`` where it cannot be
-    read: other systems keep numba's choice)."""
-    if cpuinfo is None:
-        try:
-            with open("/proc/cpuinfo", encoding="ascii", errors="replace") as f:
-                cpuinfo = f.read(16384)
-        except OSError:
-            return False
-    fields = {}
-    for line in cpuinfo.splitlines():
-        if not line.strip():
-            if fields:
-                break
-            continue
-        key, _, value = line.partition(":")
-        fields.setdefault(key.strip(), value.strip())
-    return (fields.get("vendor_id") == "AuthenticAMD" and fields.get("cpu family") == "25"
-            and "avx512f" in fields.get("flags", "").split())

@@ -28,6 +28,16 @@ functions are inlined into their callers (``inline="always"``), which are compil
 keeps its strict arithmetic (LLVM keeps fast-math flags per instruction).  A non-inlined
 fast-math helper called once per point was measured 1.4x slower (the sums did not vectorise
 as well).
+
+Indices: each list is sliced first (``first_other[lo:hi]``, ``rest[lo:hi]``, ...) and walked
+from 0.  Walked as ``range(first_ptr[p], first_ptr[p + 1])``, the index could be negative for
+all LLVM knew, and numba's wraparound of negative indices made every load of the rest length,
+stiffness and neighbour index a scalar load through a corrected address; from 0 they are
+vector loads.  Against the loops walked from ``first_ptr[p]`` under the former default
+target (LLVM's ``prefer-no-gather`` on Zen 4), the report's step runs 1.16-1.37x faster at 600
+points and 1.2x at 100k on one thread (BENCHMARKS.md, "Indices walked from zero").  The
+sums' lanes are LLVM's choice (fast-math), so the target must compile alike when numba
+compiles and when it loads from its cache: ``tests/test_cache_bits.py``, :mod:`jellysim._cpu`.
 """
 from __future__ import annotations
 
@@ -72,12 +82,14 @@ def point_force_provot(p, x, springs, tau):
         springs.second_ptr, springs.second_other
     px, py, pz = np.float64(x[p, 0]), np.float64(x[p, 1]), np.float64(x[p, 2])
     fx = fy = fz = sx = sy = sz = cnt = 0.0
-    for s in range(first_ptr[p], first_ptr[p + 1]):
-        q = first_other[s]
+    lo, hi = first_ptr[p], first_ptr[p + 1]
+    others, rests, stiffs = first_other[lo:hi], rest[lo:hi], stiff[lo:hi]
+    for s in range(hi - lo):  # (from 0: see the module docstring, "Indices")
+        q = others[s]
         ex = np.float64(x[q, 0]) - px
         ey = np.float64(x[q, 1]) - py
         ez = np.float64(x[q, 2]) - pz
-        c, cp = _scalars(ex, ey, ez, rest[s], stiff[s], tau)
+        c, cp = _scalars(ex, ey, ez, rests[s], stiffs[s], tau)
         fx += c * ex
         fy += c * ey
         fz += c * ez
@@ -85,12 +97,14 @@ def point_force_provot(p, x, springs, tau):
         sy += cp * ey
         sz += cp * ez
         cnt += 1.0 if cp != 0.0 else 0.0
-    for t in range(second_ptr[p], second_ptr[p + 1]):
-        q = second_other[t]
+    lo, hi = second_ptr[p], second_ptr[p + 1]
+    others, rests, stiffs = second_other[lo:hi], srest[lo:hi], sstiff[lo:hi]
+    for t in range(hi - lo):
+        q = others[t]
         ex = np.float64(x[q, 0]) - px
         ey = np.float64(x[q, 1]) - py
         ez = np.float64(x[q, 2]) - pz
-        c, cp = _scalars(ex, ey, ez, srest[t], sstiff[t], tau)
+        c, cp = _scalars(ex, ey, ez, rests[t], stiffs[t], tau)
         fx += c * ex
         fy += c * ey
         fz += c * ez
