@@ -2,7 +2,8 @@
 them from its on-disk cache.
 
 Session 29: with the per-point spring loops sliced and walked from 0 (a 1.2-1.7x faster report
-step, BENCHMARKS.md "Indices walked from zero") and `JELLYSIM_CPU=auto`, a process that compiled
+step, BENCHMARKS.md "Indices walked from zero") and LLVM's `prefer-no-gather` (then the default
+`JELLYSIM_CPU=auto` on Zen 4, now the opt-in `nogather`), a process that compiled
 the kernels and the next one, which loaded them, ended the same scene 1.9e-15 m apart: fast-math
 sums whose lanes LLVM chose differently in the two.  Only the MPI tests' bitwise comparisons
 on the fresh-clone CI's cold cache showed it; this test runs two scenes cold and then warm in a
