@@ -207,16 +207,15 @@ def time_steps(model, backend: str, threads: int, steps: int, repeats: int, dt: 
             t = time.perf_counter()
             sim.advance(steps)
             rates.append(steps / (time.perf_counter() - t))
-            # (the numba kernels record each point's last Provot move; numpy's do not: null)
-            corrected.append(float(np.abs(sim._scratch.max_corr).max())
-                             if backend == "numba" else None)
+            if backend == "numba":  # (it records each point's last Provot move; numpy not)
+                corrected.append(float(np.abs(sim._scratch.max_corr).max()))
             assert np.all(np.isfinite(sim.state.x)) and not np.array_equal(before, sim.state.x)
     except SimulationError as exc:
         return {"failed": str(exc)}
     med = float(np.median(rates))
     return {"steps_per_s": med, "spring_updates_per_s": med * model.spring_count,
             "rates": rates, "provot_last_pass_max_correction_m":
-            max(corrected) if backend == "numba" else None,
+            max(corrected) if corrected else None,
             "on_ground": int(np.sum(sim.state.x[:, 1] == 0.0))}
 
 
