@@ -21,8 +21,8 @@ and each step must read and write the point state, x and v read and written, a w
 exceeds B / MIN_BYTES spring-updates/s; the script prints the achieved fraction of that bound.
 For comparison, the numba step (``kernels/spring_sums_numba.py``: each point visits all its
 springs, each spring seen from both ends) reads per spring, from each end, the other end's
-index (4), the rest length (8) and the stiffness (8; the second end's from the slot-ordered
-copies ``second_rest``/``second_stiff``) = ``LAYOUT_BYTES`` = 40, and writes nothing per
+index (4), the rest length (8) and the stiffness (8; both ends' from their points' visit lists,
+``SpringArrays.visit_*``) = ``LAYOUT_BYTES`` = 40, and writes nothing per
 spring (plus the point arrays).  (The scheme before 2026-12-07 computed each spring once and
 moved 76 bytes: the two indices, rest, stiffness, the slot index, and the force and Provot
 scalars written into the second point's slot, 16 + 16 read for ownership, and read back, 16.)

@@ -79,8 +79,8 @@ def spring_forces(x, springs, spring_scalar):
     n = x.shape[0]
     points = PointArrays(None, None, np.ones(n), 0.0, np.zeros(3))
     acc = np.zeros_like(x)
-    nb.accelerations(x, np.zeros_like(x), points, SpringArrays(*springs[:7], None, None, None),
-                     spring_scalar, acc)
+    springs = SpringArrays._make(list(springs[:7]) + [None] * 5)  # (numpy reads the first 7)
+    nb.accelerations(x, np.zeros_like(x), points, springs, spring_scalar, acc)
     return acc
 
 

@@ -8,9 +8,9 @@ This module gathers the backend's public functions from its parts (one module pe
 
 Parallel loops run over *points*, never over springs with a scatter-add (that would race):
 each point sums the forces and Provot requests of all its springs, each computed from its own
-end (:mod:`.spring_sums_numba`: the springs it is the first point of, in spring order, then
-the ones it is the second point of, in its second-list slots, whose rest lengths and
-stiffnesses are stored in slot order so both loops read contiguously and vectorise).  Nothing
+end (:mod:`.spring_sums_numba`: the springs it is the first point of, then the ones it is the
+second point of, in one list per point whose other ends, rest lengths and stiffnesses are
+stored in list order, so the loop reads contiguously and vectorises).  Nothing
 is written per spring.  Each point's sum is taken in an order fixed by the compiled code, so
 the result is bitwise identical for any number of threads.  Floating-point
 reductions across threads (like the largest Provot correction) are taken from per-point arrays

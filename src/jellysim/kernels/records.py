@@ -28,20 +28,23 @@ import numpy as np
 __all__ = ["OBSTACLE_E", "OBSTACLE_MU_S", "OBSTACLE_MU_K", "OBSTACLE_SLIP", "OBSTACLE_COLUMNS",
            "SpringArrays", "PointArrays", "ProvotOptions", "GroundGuard", "Obstacles",
            "ExplicitScratch", "ImplicitOptions", "ImplicitScratch", "spring_arrays",
-           "point_arrays", "provot_options", "ground_guard", "obstacles",
+           "point_arrays", "visit_lists", "provot_options", "ground_guard", "obstacles",
            "explicit_scratch", "implicit_options", "implicit_scratch"]
 
 SpringArrays = namedtuple("SpringArrays", "ij rest stiff first_ptr second_ptr second_slot "
-                                          "second_other first_other second_rest second_stiff")
+                                          "second_other first_other visit_ptr visit_other "
+                                          "visit_rest visit_stiff")
 """The springs (k of them, sorted by (i, j), i < j): ``ij`` (k, 2) int64, ``rest`` [m] (k,),
 ``stiff`` [N/m] (k,); the CSR adjacency: ``first_ptr`` (n + 1,) (springs whose first point is
 p are ``first_ptr[p]:first_ptr[p+1]``), ``second_ptr`` (n + 1,) into the second-point list,
 ``second_slot`` (k,) int32 (spring -> its slot in that list), ``second_other`` (k,) int32
 (slot -> the spring's first point), ``first_other`` (k,) int32 (spring -> its second point:
-``ij[:, 1]`` in 4 bytes, what the per-point sweeps read); ``second_rest`` [m] and
-``second_stiff`` [N/m] (k,) float64: ``rest`` and ``stiff`` in second-list slot order (slot t
-holds spring ``model.point_second_spring[t]``), so that a point reads the springs it is the
-second point of contiguously (:mod:`.spring_sums_numba`).  See :class:`jellysim.model.Model`."""
+``ij[:, 1]`` in 4 bytes); and each point's springs as ONE list, what the per-point sweeps
+read (:mod:`.spring_sums_numba`): point p's visits are ``visit_ptr[p]:visit_ptr[p+1]``
+(``visit_ptr`` (n + 1,) int64), first the springs p is the first point of (in spring order),
+then those it is the second point of (in slot order), each as ``visit_other`` (2k,) int32 (the
+spring's other end), ``visit_rest`` [m] and ``visit_stiff`` [N/m] (2k,) float64 (its rest length
+and stiffness).  See :class:`jellysim.model.Model`."""
 
 PointArrays = namedtuple("PointArrays", "x0 mass inv_mass damping gravity")
 """Rest positions ``x0`` [m] (n, 3), ``mass`` [kg] (n,), ``inv_mass`` [1/kg] (n,), the damping
@@ -93,8 +96,7 @@ kinetic friction impulse the sliding contact points get inside the solve."""
 
 
 _SPRING_ARRAYS = weakref.WeakKeyDictionary()
-"""Model -> its SpringArrays (built once: the slot-ordered copies cost two gathers over the
-springs, 0.6 s at 73 M springs)."""
+"""Model -> its SpringArrays (built once: the visit lists cost a few scatters over the springs)."""
 
 
 def spring_arrays(model) -> SpringArrays:
@@ -106,18 +108,52 @@ def spring_arrays(model) -> SpringArrays:
         return _SPRING_ARRAYS[m]
     except (KeyError, TypeError):
         pass
-    slot_spring = np.asarray(m.point_second_spring)
     rec = SpringArrays(m.spring_ij, m.spring_rest_length, m.spring_stiffness,
                        m.point_first_ptr, m.point_second_ptr, m.spring_second_slot,
                        m.point_second_other,
-                       np.ascontiguousarray(m.spring_ij[:, 1], dtype=np.int32),
-                       _frozen(np.asarray(m.spring_rest_length)[slot_spring], np.float64),
-                       _frozen(np.asarray(m.spring_stiffness)[slot_spring], np.float64))
+                       _frozen(np.asarray(m.spring_ij)[:, 1], np.int32),
+                       *visit_lists(m.spring_ij, m.spring_rest_length, m.spring_stiffness,
+                                    m.point_first_ptr, m.point_second_ptr,
+                                    m.point_second_spring))
     try:
         _SPRING_ARRAYS[m] = rec
     except TypeError:  # not weak-referenceable: built each time
         pass
     return rec
+
+
+def visit_lists(ij, rest, stiff, first_ptr, second_ptr, second_spring):
+    """Each point's springs as one list (:class:`SpringArrays`' ``visit_*`` fields):
+    ``(visit_ptr, visit_other, visit_rest, visit_stiff)``, read-only.  Point p's first-list
+    springs (``first_ptr[p]:first_ptr[p+1]``, spring order) come first, then its second-list
+    slots (``second_ptr[p]:second_ptr[p+1]``, slot t holding spring ``second_spring[t]``).
+
+    Why one list (BENCHMARKS.md, "One list per point"): the sweeps' loops are vectorised 8
+    springs at a time, and a point's two lists (17 springs each in the paper scene) left a
+    scalar remainder each; one loop of 34 ran the paper scene's sweep 1.28x faster."""
+    from ..model import _frozen
+
+    ij = np.asarray(ij)
+    first_ptr, second_ptr = np.asarray(first_ptr), np.asarray(second_ptr)
+    second_spring = np.asarray(second_spring, dtype=np.int64)
+    n, k = first_ptr.shape[0] - 1, ij.shape[0]
+    n_first, n_second = np.diff(first_ptr), np.diff(second_ptr)
+    visit_ptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(n_first + n_second, out=visit_ptr[1:])
+    first_pos = np.arange(k, dtype=np.int64) + np.repeat(visit_ptr[:-1] - first_ptr[:-1], n_first)
+    second_pos = np.arange(k, dtype=np.int64) + np.repeat(
+        visit_ptr[:-1] + n_first - second_ptr[:-1], n_second)
+    other = np.empty(2 * k, dtype=np.int32)
+    other[first_pos] = ij[:, 1]
+    other[second_pos] = ij[second_spring, 0]
+    out = [_frozen(visit_ptr, np.int64), _frozen(other, np.int32)]
+    for values in (rest, stiff):
+        values = np.asarray(values, dtype=np.float64)
+        v = np.empty(2 * k, dtype=np.float64)
+        v[first_pos] = values
+        v[second_pos] = values[second_spring]
+        out.append(_frozen(v, np.float64))
+    return tuple(out)
 
 
 def point_arrays(model) -> PointArrays:

@@ -2,10 +2,9 @@
 
 Every numba kernel of the springs path (forces, the Jacobi Provot passes, the fused report
 step) is one parallel loop over points that calls one of these: point ``p`` visits all its
-springs, the ones it is the first point of (``first_ptr[p]:first_ptr[p+1]``, in spring order,
-rest length and stiffness read in place) and the ones it is the second point of (its
-second-list slots ``second_ptr[p]:second_ptr[p+1]``, with the slot-ordered copies
-``second_rest``/``second_stiff`` of :class:`.records.SpringArrays`), and sums, in float64:
+springs in one list, ``visit_ptr[p]:visit_ptr[p+1]`` of :class:`.records.SpringArrays` (the
+ones it is the first point of, then the ones it is the second point of, each with the other
+end's index, the rest length and the stiffness stored in the list), and sums, in float64:
 
 * the spring force of report eq. 1, ``k (|e| - L0) e / |e|`` with ``e = x_other - x_p``;
 * Provot's request ``1/2 (|e| - clamp(|e|, (1 - tau) L0, (1 + tau) L0)) e / |e|`` (rounding
@@ -29,8 +28,13 @@ keeps its strict arithmetic (LLVM keeps fast-math flags per instruction).  A non
 fast-math helper called once per point was measured 1.4x slower (the sums did not vectorise
 as well).
 
-Indices: each list is sliced first (``first_other[lo:hi]``, ``rest[lo:hi]``, ...) and walked
-from 0.  Walked as ``range(first_ptr[p], first_ptr[p + 1])``, the index could be negative for
+One list, not two (BENCHMARKS.md, "One list per point"): the loop is vectorised 8 springs at
+a time with a scalar remainder; the paper scene's points have 17 springs as first point and 17
+as second point on average, and two loops (the form until session 30) spent a larger share in
+their two remainders.  One loop ran the sweep 1.28x faster at 600 points, 1.1x at 100k.
+
+Indices: the list is sliced first (``visit_other[lo:hi]``, ``visit_rest[lo:hi]``, ...) and
+walked from 0.  Walked as ``range(first_ptr[p], first_ptr[p + 1])``, the index could be negative for
 all LLVM knew, and numba's wraparound of negative indices made every load of the rest length,
 stiffness and neighbour index a scalar load through a corrected address; from 0 they are
 vector loads.  Against the loops walked from ``first_ptr[p]`` under the former default
@@ -73,38 +77,19 @@ def _scalars(ex, ey, ez, r0, k, tau):
 @njit(**_opts)
 def point_force_provot(p, x, springs, tau):
     """Point p's spring force [N] and Provot request sum [m] with its count:
-    ``(fx, fy, fz, sx, sy, sz, count)`` (count a float).  The two loops are written out: one
-    inlined helper called for each list measured 5-15 % slower (2026-12-07, /tmp prototypes,
-    alternating in one process), as did taking the arrays as tuples made before the loop."""
-    rest, stiff, first_ptr, first_other = springs.rest, springs.stiff, springs.first_ptr, \
-        springs.first_other
-    srest, sstiff, second_ptr, second_other = springs.second_rest, springs.second_stiff, \
-        springs.second_ptr, springs.second_other
+    ``(fx, fy, fz, sx, sy, sz, count)`` (count a float), over p's visit list (its springs as
+    first point, then as second point: :func:`.records.visit_lists`)."""
+    lo, hi = springs.visit_ptr[p], springs.visit_ptr[p + 1]
+    others = springs.visit_other[lo:hi]
+    rests, stiffs = springs.visit_rest[lo:hi], springs.visit_stiff[lo:hi]
     px, py, pz = np.float64(x[p, 0]), np.float64(x[p, 1]), np.float64(x[p, 2])
     fx = fy = fz = sx = sy = sz = cnt = 0.0
-    lo, hi = first_ptr[p], first_ptr[p + 1]
-    others, rests, stiffs = first_other[lo:hi], rest[lo:hi], stiff[lo:hi]
     for s in range(hi - lo):  # (from 0: see the module docstring, "Indices")
         q = others[s]
         ex = np.float64(x[q, 0]) - px
         ey = np.float64(x[q, 1]) - py
         ez = np.float64(x[q, 2]) - pz
         c, cp = _scalars(ex, ey, ez, rests[s], stiffs[s], tau)
-        fx += c * ex
-        fy += c * ey
-        fz += c * ez
-        sx += cp * ex
-        sy += cp * ey
-        sz += cp * ez
-        cnt += 1.0 if cp != 0.0 else 0.0
-    lo, hi = second_ptr[p], second_ptr[p + 1]
-    others, rests, stiffs = second_other[lo:hi], srest[lo:hi], sstiff[lo:hi]
-    for t in range(hi - lo):
-        q = others[t]
-        ex = np.float64(x[q, 0]) - px
-        ey = np.float64(x[q, 1]) - py
-        ez = np.float64(x[q, 2]) - pz
-        c, cp = _scalars(ex, ey, ez, rests[t], stiffs[t], tau)
         fx += c * ex
         fy += c * ey
         fz += c * ez
