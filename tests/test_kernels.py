@@ -23,10 +23,38 @@ def perturbed(m, seed=0, scale=0.03):
     return x, v
 
 
+def test_each_point_visits_exactly_its_springs():
+    """The visit lists the numba sweeps read (records.visit_lists): point p's list is its
+    springs as first point in spring order, then its springs as second point in slot order,
+    each with the other end and that spring's own rest length and stiffness; checked against
+    a loop over the springs, on a body with points of no spring and a stiffness per spring."""
+    rng = np.random.default_rng(3)
+    n, k = 40, 90
+    pairs = set()
+    while len(pairs) < k:
+        i, j = sorted(rng.integers(0, n - 5, 2))  # (the last 5 points: no spring)
+        if i != j:
+            pairs.add((int(i), int(j)))
+    ij = np.array(sorted(pairs), dtype=np.int64)
+    rest, stiff = rng.uniform(0.1, 1.0, k), rng.uniform(1.0, 9.0, k)
+    first_ptr = np.searchsorted(ij[:, 0], np.arange(n + 1))
+    second = np.lexsort((ij[:, 0], ij[:, 1]))  # slots: by second point, then first
+    second_ptr = np.searchsorted(ij[second, 1], np.arange(n + 1))
+    ptr, other, vrest, vstiff = rec.visit_lists(ij, rest, stiff, first_ptr, second_ptr, second)
+    assert ptr[0] == 0 and ptr[-1] == 2 * k and other.dtype == np.int32
+    for p in range(n):
+        want = [(int(j), rest[s], stiff[s]) for s, (i, j) in enumerate(ij) if i == p]
+        want += [(int(ij[s, 0]), rest[s], stiff[s]) for s in second if ij[s, 1] == p]
+        got = list(zip(other[ptr[p]:ptr[p + 1]].tolist(), vrest[ptr[p]:ptr[p + 1]],
+                       vstiff[ptr[p]:ptr[p + 1]]))
+        assert got == want, p
+    assert not other.flags.writeable and not vrest.flags.writeable
+
+
 @pytest.mark.parametrize("uniform", [True, False])
 def test_accelerations_agree(uniform):
-    """numba (each spring from both ends, the second end's rest length and stiffness from
-    their slot-ordered copies) = the numpy spec = a per-spring transcription of eq. 1, also
+    """numba (each spring from both ends, over each point's visit list with its own copies of
+    the rest lengths and stiffnesses) = the numpy spec = a per-spring transcription of eq. 1, also
     with a different stiffness on every spring; and the report's ordered sums the same."""
     m = make_box_model(400, stiffness=30.0, damping=0.3)
     if not uniform:
