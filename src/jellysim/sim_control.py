@@ -53,7 +53,16 @@ class Control:
                              "sim.internal_state() and make a new Simulator from them")
         state = dict(vars(self))
         state["_k"] = None  # (the kernels' module: imported again on the other side)
+        state.pop("_signals", None)  # (an advance's signal catcher: not the simulation's)
         return state
+
+    def __copy__(self):
+        """``copy.copy(sim)``: an independent simulator, as ``copy.deepcopy`` gives (the
+        read-only Model shared).  A shallow copy would share the state arrays, so stepping one
+        would move the other (notebook trial, session 30)."""
+        import copy
+
+        return copy.deepcopy(self, {id(self.model): self.model})
 
     def __setstate__(self, state) -> None:
         from .kernels import get_backend

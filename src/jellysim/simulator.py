@@ -11,6 +11,7 @@ inside the loop.  The state is updated in place.
 """
 from __future__ import annotations
 
+import time
 import warnings
 
 import numpy as np
@@ -27,6 +28,7 @@ from .sim_state import InternalState
 from .physics.contact import start_checks
 from .stability import (MAX_AUTO_SUBSTEPS, StabilityEstimate, estimate_stability,  # noqa: F401
                         implicit_accuracy, springs_auto_substeps)
+from ._interrupts import Deferred
 from .state import check_state, clock
 from . import thread_choice
 
@@ -411,7 +413,27 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
             raise SceneError(f"advance(steps): steps must be a whole number >= 0, got {steps!r}")
         check_state(self.state, self.model.point_count, "advance")
         self._check_moved_inside()  # (a state moved there by hand: refused, as when made)
-        self._advance_scheduled(int(steps))  # (split where a timed handle ends: handles.py)
+        # Ctrl-C (SIGINT) and a stop handler's SIGTERM act between whole steps: an
+        # interrupted advance leaves x, v, t and step of one step (_interrupts.Deferred)
+        with Deferred() as signals:
+            self._signals = signals
+            try:
+                self._advance_scheduled(int(steps))  # (split where a timed handle ends)
+            finally:
+                self._signals = None
+
+    PIECE_SECONDS = 0.2
+    """Wall time [s] of one compiled call at most (about): :meth:`advance` steps in pieces so
+    that a Ctrl-C is acted on within about this long (the physical path: one frame a piece).
+    Results do not depend on the pieces (tested: bitwise the same as one call)."""
+
+    def _piece(self, remaining: int) -> int:
+        if self.physical:
+            return 1
+        per_step = vars(self).get("_step_seconds")
+        if per_step is None:
+            return min(remaining, 8)
+        return max(1, min(remaining, int(self.PIECE_SECONDS / max(per_step, 1e-12))))
 
     def _advance_chunk(self, steps: int) -> None:
         if steps == 0:
@@ -420,22 +442,37 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
         thin_before = self._thinness(s.x) if self._collapse_check else None
         import numba
 
-        previous = numba.get_num_threads()
-        numba.set_num_threads(max(1, min(self.threads, numba.config.NUMBA_NUM_THREADS)))
-        try:
-            if self.physical:
-                done, status = self._advance_physical(int(steps))
-            elif self.integrator is Integrator.IMPLICIT:
-                done, status = self._advance_implicit(int(steps))
-            else:
-                done, status = self._advance_explicit(int(steps))
-        finally:
-            numba.set_num_threads(previous)
-        s.t, s.step = clock(s.t, s.step, self.dt, int(done)), s.step + int(done)
+        implicit = self.integrator is Integrator.IMPLICIT and not self.physical
+        done_all, status, worst = 0, STATUS_OK, 0.0
+        t0, step0 = s.t, s.step  # (the clock counts from here, however the call is cut)
+        while done_all < steps:
+            n = self._piece(steps - done_all)
+            started = time.perf_counter()
+            previous = numba.get_num_threads()
+            numba.set_num_threads(max(1, min(self.threads, numba.config.NUMBA_NUM_THREADS)))
+            try:
+                if self.physical:
+                    done, status = self._advance_physical(n)
+                elif implicit:
+                    done, status = self._advance_implicit(n)
+                    worst = max(worst, self._last_worst)
+                else:
+                    done, status = self._advance_explicit(n)
+            finally:
+                numba.set_num_threads(previous)
+            done_all += int(done)
+            s.t, s.step = clock(t0, step0, self.dt, done_all), step0 + done_all
+            if status != STATUS_OK:
+                break
+            self._step_seconds = (time.perf_counter() - started) / n
+            signals = vars(self).get("_signals")
+            if done_all < steps and signals is not None:
+                signals.deliver()  # (a Ctrl-C raises here, at a whole step)
         if status != STATUS_OK:
             self._raise(status)
-        self._check_collapse(thin_before, int(done))
-        if self.integrator is Integrator.IMPLICIT:
+        self._check_collapse(thin_before, done_all)
+        if implicit:
+            self._last_worst = worst  # (the worst solve of the call, as one piece gave it)
             self._check_solves()
 
     def _check_collapse(self, before, steps) -> None:
