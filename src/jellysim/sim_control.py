@@ -216,10 +216,11 @@ class Control:
         throw them out at once (5 cm into a plane: 15 J).  The steps themselves never leave a
         point inside (it is put on the surface), so this allows 1 % of the body's size (under
         it: a harmless nudge, 0.5-1 mm on a 10 cm body gave 3-10 mJ)."""
-        if self.model.point_count == 0 or not (free := self.handles.pinned == 0).any():
+        pinned = self.handles.pinned
+        if self.model.point_count == 0 or pinned.all():
             return
-        x = self.state.x[free]
-        if not np.all(np.isfinite(x)):
+        x = self.state.x[pinned == 0] if pinned.any() else self.state.x  # (no copy if no pin)
+        if not np.isfinite(x).all():
             return  # (said by the step's own check)
         g = self.ground
         height = float(g.height)
