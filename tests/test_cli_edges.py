@@ -360,7 +360,17 @@ def test_render_and_export_with_overwrite_stopped_half_way_keep_the_earlier_outp
             raise KeyboardInterrupt
         return write
 
-    monkeypatch.setattr(cv, "render_trajectory", stops_after_two("frame_{:05d}.png"))
+    import imageio.v3 as iio3  # (render_trajectory stages a folder's frames itself: its
+    real_imwrite = iio3.imwrite  # image writer stops after two)
+    pictures = []
+
+    def imwrite_stops_after_two(uri, image, **kw):
+        pictures.append(uri)
+        if len(pictures) > 2:
+            raise KeyboardInterrupt
+        return real_imwrite(uri, image, **kw)
+
+    monkeypatch.setattr(iio3, "imwrite", imwrite_stops_after_two)
     monkeypatch.setattr(cv, "export_pvd_file", stops_after_two("run.pvd"))
     import meshio   # (export_mesh_sequence stages its frames itself: its writers stop)
 
@@ -377,7 +387,8 @@ def test_render_and_export_with_overwrite_stopped_half_way_keep_the_earlier_outp
 
     monkeypatch.setattr(meshseq, "_write_obj", lambda path, *a, **k: meshio_stops_after_two(
         path, None))
-    for args in (["render", str(traj_path), "-o", "frames", "--overwrite", "--quiet"],
+    for args in (["render", str(traj_path), "-o", "frames", "--size", "64x48", "--overwrite",
+                  "--quiet"],
                  ["export", str(traj_path), "-o", "run.pvd", "--overwrite"],
                  ["export", str(traj_path), "--sequence", "obj", "seq", "--overwrite"]):
         res = runner.invoke(cli, args)

@@ -85,6 +85,33 @@ def test_mp4_decodes_with_expected_frames_size_not_blank_and_moving(traj, tmp_pa
     assert change > 2.0                                         # the body moved on screen
 
 
+def test_python_renders_plots_and_tables_keep_what_exists_unless_overwrite(traj, tmp_path):
+    """Notebook trial, session 30: render_trajectory, plot_trajectory and write_table replaced
+    an existing file unsaid, and a second render of other frames into a folder mixed with the
+    first's.  Now each refuses (the file's bytes kept) unless overwrite=True, which for a
+    folder leaves only the new render's frames."""
+    from jellysim.errors import OutputError
+    from jellysim.plot import plot_trajectory, write_table
+    from jellysim.render import RenderOptions, render_trajectory
+
+    opts = RenderOptions(size=SIZE)
+    for name, write in (("a.png", lambda p, **k: render_trajectory(traj, p, opts, **k)),
+                        ("t.csv", lambda p, **k: write_table(traj, p, **k)),
+                        ("e.svg", lambda p, **k: plot_trajectory(traj, p, **k))):
+        path = write(tmp_path / name)
+        first = path.read_bytes()
+        with pytest.raises(OutputError, match=r"exists; pass overwrite=True"):
+            write(path)
+        assert path.read_bytes() == first
+        assert write(path, overwrite=True) == path and path.is_file()
+    folder = render_trajectory(traj, tmp_path / "frames", opts, frames=[0, 3])
+    with pytest.raises(OutputError, match=r"already holds 2 file\(s\) like frame_00000.png"):
+        render_trajectory(traj, folder, opts, frames=[5])
+    assert sorted(p.name for p in folder.iterdir()) == ["frame_00000.png", "frame_00003.png"]
+    render_trajectory(traj, folder, opts, frames=[5], overwrite=True)
+    assert sorted(p.name for p in folder.iterdir()) == ["frame_00005.png"]
+
+
 def test_gif_and_png_frames(traj, tmp_path):
     from jellysim.render import RenderOptions, render_trajectory
 

@@ -173,7 +173,8 @@ def write_run_outputs(trajectory, *, video=None, usd=None, glb=None, progress=Tr
     if video or usd or glb:
         _warn_inside_out(traj)
     if video:
-        out.append(render_trajectory(traj, video, progress=progress))
+        out.append(render_trajectory(traj, video, progress=progress,
+                                     overwrite=True))  # (checked before the run)
     if usd:
         out.append(export_usd(traj, usd, overwrite=True))  # (checked before the run)
     if glb:
@@ -404,19 +405,11 @@ def render(trajectory, output, show, size, fps, color, opacity, no_floor, frame,
                                 "per run, in the order of the runs")
         labels = (list(label) if label else [_run_name(tr) for tr in trajectory]
                   if len(runs) > 1 else None)
-        from .render.video import output_kind
-
-        if output_kind(Path(output)) == "pngdir":  # old frames kept until all new are written
-            from .io.atomic import staged_output
-
-            with staged_output(output, ["frame_[0-9]*.png"]) as stage:
-                render_trajectory(traj, stage, options, fps=fps, frames=frames,
-                                  progress=not quiet, beside=runs[1:], labels=labels,
-                                  name=Path(output).name)  # (not the staging folder's)
-            path = Path(output)
-        else:  # (one file: written to a temporary name, then renamed)
-            path = render_trajectory(traj, output, options, fps=fps, frames=frames,
-                                     progress=not quiet, beside=runs[1:], labels=labels)
+        # (a file goes to a temporary name, then renamed; a folder's frames are staged and
+        # replace the old ones once all are written: render_trajectory)
+        path = render_trajectory(traj, output, options, fps=fps, frames=frames,
+                                 progress=not quiet, beside=runs[1:], labels=labels,
+                                 overwrite=overwrite)
     except JellysimError as exc:
         _fail(str(exc))
     click.echo(f"wrote {path}")
@@ -500,7 +493,7 @@ def export(trajectory, target, output, sequence, fps, max_frames, texture=(),
         elif suffix == ".csv":
             from .plot import write_table
 
-            written = [write_table(traj, out)]
+            written = [write_table(traj, out, overwrite=True)]  # (guarded above)
         elif suffix == ".pvd":  # the .pvd and its frame folder replace the old together
             from .io.atomic import staged_output
 
@@ -572,7 +565,8 @@ def plot(trajectory, output, overwrite=False):
 
     try:
         guard_file(output, overwrite)
-        path = plot_trajectory(_load(trajectory), output, title=_run_name(trajectory))
+        path = plot_trajectory(_load(trajectory), output, title=_run_name(trajectory),
+                               overwrite=True)  # (guarded above)
     except JellysimError as exc:
         _fail(str(exc))
     click.echo(f"wrote {path}")

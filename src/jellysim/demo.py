@@ -293,7 +293,8 @@ def run_demo(out_dir="out", *, frames: int | None = None, size=(960, 540), usd: 
     try:  # (each file goes to a temporary name first: a stopped one leaves none)
         written["video"] = render_trajectory(traj, out_dir / f"{stem}.mp4",
                                              RenderOptions(size=size, plate=True,
-                                                           opacity=0.85), progress=progress)
+                                                           opacity=0.85), progress=progress,
+                                             overwrite=True)  # (the demo's own checks: above)
         t_render = time.perf_counter()
         if usd:
             written["usd"] = export_usd(traj, out_dir / f"{stem}.usdc", overwrite=True)

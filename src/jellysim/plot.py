@@ -95,12 +95,16 @@ def _min_volume_ratio(traj, x) -> np.ndarray:
     return np.array([float(np.min(tet_signed_volumes(xf, tets) / rest)) for xf in x])
 
 
-def write_table(traj, path) -> Path:
+def write_table(traj, path, *, overwrite: bool = False) -> Path:
     """Write :func:`diagnostics` as a CSV file: one row per frame, the columns of
-    :data:`TABLE_COLUMNS` (SI units, named in the header line)."""
+    :data:`TABLE_COLUMNS` (SI units, named in the header line).  An existing file is refused
+    unless ``overwrite`` (:class:`~jellysim.errors.OutputError`)."""
+    from .io.atomic import guard_file
+
     path = Path(path)
     if path.suffix.lower() != ".csv":
         raise JellysimError(f"{path}: a table file name must end in .csv")
+    guard_file(path, overwrite, flag="overwrite=True")
     d = diagnostics(traj)
     table = np.column_stack([d[key] for key, _ in TABLE_COLUMNS])
     with atomic_path(path) as tmp:
@@ -129,18 +133,23 @@ def sideways(d) -> dict[str, np.ndarray]:
     return {f"{k} - {k}(0)": d[f"com_{k}"] - d[f"com_{k}"][0] for k in ("x", "z")}
 
 
-def plot_trajectory(traj, path, *, title: str | None = None) -> Path:
+def plot_trajectory(traj, path, *, title: str | None = None,
+                    overwrite: bool = False) -> Path:
     """Draw against time to ``path`` (``.png``, ``.svg`` or ``.pdf``): the kinetic and
     elastic energies (the wobble's exchange, on their own scale), the gravitational and total
     energies' change since the start, the centre-of-mass height, its sideways offsets from
     the start (signed: a sway swings either side of its line; session 28's teacher trial
     found only the distance moved, never negative, which drew a sway as a row of bumps) and
-    the largest strain or squeeze."""
+    the largest strain or squeeze.  An existing file is refused unless ``overwrite``
+    (:class:`~jellysim.errors.OutputError`)."""
+    from .io.atomic import guard_file
+
     path = Path(path)
     if path.suffix.lower() not in (".png", ".svg", ".pdf"):
         raise JellysimError(f"{path}: plot file must end in .png, .svg or .pdf")
     if traj.frame_count == 0:
         raise JellysimError("the trajectory has no frames to plot")
+    guard_file(path, overwrite, flag="overwrite=True")
     import matplotlib
 
     matplotlib.use("Agg")

@@ -87,9 +87,14 @@ def _gif_delays(times, frames, fps: float, real_time: bool) -> list[float]:
     return [10.0 * float(d) for d in hundredths] + [10.0 * step]
 
 
+FRAME_FILES = "frame_[0-9]*.png"
+"""The files of a rendered folder of frames (:func:`render_trajectory`)."""
+
+
 def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
                       fps: float | None = None, frames=None, progress: bool = False,
-                      beside=(), labels=None, name: str | None = None) -> Path:
+                      beside=(), labels=None, name: str | None = None,
+                      overwrite: bool = False) -> Path:
     """Render a loaded trajectory to ``path``.
 
     Parameters
@@ -106,8 +111,13 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
         time to ``traj``'s (its last once it has ended), all panels framed by one camera at
         one scale (side by side: soft vs firm, damped vs not).
     labels: a caption per panel (``traj``'s first), or ``None``.
-    name: what the progress bar says is rendered (default: ``path``'s name; a staging
-        folder's caller gives the output's).
+    name: what the progress bar says is rendered (default: ``path``'s name).
+    overwrite: replace an existing file, or a folder's earlier ``frame_*.png`` (all of them,
+        once the new frames are written: none left to mix); without it those are refused
+        (:class:`~jellysim.errors.OutputError`), as by ``jellysim render`` (notebook trial,
+        session 30: a second render replaced the first unsaid, and a folder of frames mixed
+        two renders).  A file is written under a temporary name and renamed, a folder's
+        frames staged: an interrupted render leaves the earlier output whole.
     """
     path = Path(path)
     kind = output_kind(path)
@@ -143,6 +153,12 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
     if options.background == "transparent" and kind not in ("png", "pngdir"):
         raise JellysimError(f"{path}: a transparent background needs PNG output (a .png or a "
                             f"folder of frames): {kind} has no alpha channel")
+    from ..io.atomic import guard_file, guard_folder, staged_output
+
+    if kind == "pngdir":  # (checked before anything is drawn: a refusal costs nothing)
+        guard_folder(path, [FRAME_FILES], overwrite, flag="overwrite=True")
+    else:
+        guard_file(path, overwrite, flag="overwrite=True")
     runs = [traj, *beside]
     labels = list(labels) if labels is not None else [None] * len(runs)
     with contextlib.ExitStack() as opened:  # every renderer closed, whatever happens
@@ -181,8 +197,8 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
         else:
             import imageio.v3 as iio
 
-            path.mkdir(parents=True, exist_ok=True)
-            for i, img in zip(frames, images):  # named by the run's frame number
-                with atomic_path(path / f"frame_{int(i) % traj.frame_count:05d}.png") as tmp:
-                    iio.imwrite(tmp, img, extension=".png")
+            with staged_output(path, [FRAME_FILES]) as stage:  # (old frames go at the end)
+                for i, img in zip(frames, images):  # named by the run's frame number
+                    iio.imwrite(stage / f"frame_{int(i) % traj.frame_count:05d}.png", img,
+                                extension=".png")
     return path
