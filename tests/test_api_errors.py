@@ -174,3 +174,33 @@ def test_a_scene_says_values_that_likely_mean_another_unit():
         warnings.simplefilter("always")
         Scene.from_text(springs, name="s.toml")
     assert not [w for w in caught if "restitution" in str(w.message)]
+
+
+@pytest.mark.parametrize("kw, says", [
+    (dict(lower=(0.0, 0.0), upper=(0.1, 0.1)), r"lower must be a corner \(x, y, z\) \[m\], three "
+                                               r"numbers, got \(0\.0, 0\.0\)"),
+    (dict(upper="0.1"), r"upper must be a corner .* got '0\.1'"),
+    (dict(upper=None), r"upper must be a corner .* got None")])
+def test_a_box_corner_that_is_not_three_numbers_is_named(kw, says):
+    """Notebook trial, session 30: Body.box(lower=(0, 0), ...) raised numpy's "cannot reshape
+    array of size 2 into shape (3,)" from inside; now the corner is named."""
+    with pytest.raises(errors.ParameterError, match=says):
+        js.Body.box(**kw)
+
+
+@pytest.mark.parametrize("name, value", [("stiffness", "2"), ("density", "1141"),
+                                         ("damping", True), ("point_mass", b"1"),
+                                         ("stiffness", [1.0, "a"]), ("gravity", (0, "-9.81", 0))])
+def test_finalize_refuses_text_where_it_needs_numbers(name, value):
+    """Notebook trial, session 30: finalize(body, stiffness='2') made a model (numpy reads the
+    text as 2.0), while material(youngs_modulus='10k') was refused; now finalize names the
+    parameter, its unit and what it got.  Numbers of any numpy type still pass."""
+    body = js.Body.box(points=27, distribution="uniform", radius=0.5, seed=1)
+    kw = dict(stiffness=2.0, density=1141.0)
+    kw[name] = value
+    with pytest.raises(errors.ParameterError, match=rf"finalize: {name} must be numeric \[.*\], "
+                                                    r"got .*\((str|bool|bytes|list|tuple)\)"):
+        js.finalize(body, **kw)
+    model = js.finalize(body, stiffness=np.float32(2.0), density=np.int64(1141), damping=0,
+                        gravity=np.array([0.0, -9.81, 0.0]))
+    assert model.spring_stiffness.min() == 2.0

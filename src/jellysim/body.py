@@ -290,8 +290,8 @@ class Body:
         """A box of jello between corners ``lower`` and ``upper`` [m] (default: a 10 cm cube
         on the ground), as a scene's ``[body] type = "box"`` builds it.
 
-        ``distribution = "grid"`` (default): a cubic lattice of about ``points`` cells,
-        corners included (1000: 11^3 points), with its mirrored Kuhn tets (6 per cell: the
+        ``distribution = "grid"`` (default): a cubic lattice of about ``points`` *cells*,
+        corners included (1000: 10^3 cells, 11^3 = 1,331 points; 343: 8^3 = 512 points), with its mirrored Kuhn tets (6 per cell: the
         physical path's best-shaped tets) and springs to every point within ``radius``
         (default 1.8 spacings: the 26 nearest).  ``"uniform"`` or ``"edge"`` (the report's
         random fields, ``seed``): ``points`` random points joined within ``radius``
@@ -303,8 +303,14 @@ class Body:
         from .geometry.connect import radius_springs
         from .geometry.sampling import box_field
 
-        lo = np.asarray(lower, dtype=np.float64).reshape(3)
-        hi = np.asarray(upper, dtype=np.float64).reshape(3)
+        corners = []
+        for what, corner in (("lower", lower), ("upper", upper)):
+            try:
+                corners.append(np.asarray(corner, dtype=np.float64).reshape(3))
+            except (TypeError, ValueError):
+                raise ParameterError(f"{name}: {what} must be a corner (x, y, z) [m], three "
+                                     f"numbers, got {corner!r}") from None
+        lo, hi = corners
         if not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)) or not np.all(hi > lo):
             raise ParameterError(f"{name}: the box needs upper > lower in x, y and z [m], got "
                              f"lower = {lo.tolist()}, upper = {hi.tolist()}")

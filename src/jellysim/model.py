@@ -131,6 +131,10 @@ def finalize(
     damping: velocity damping delta [kg/s], >= 0.
     gravity: [m/s^2], shape (3,).
     """
+    for name, value, unit in (("stiffness", stiffness, "N/m"), ("density", density, "kg/m^3"),
+                              ("volume", volume, "m^3"), ("point_mass", point_mass, "kg"),
+                              ("damping", damping, "kg/s"), ("gravity", gravity, "m/s^2")):
+        _numeric(name, value, unit)
     points = np.asarray(body.points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3 or points.shape[0] == 0:
         raise ParameterError(f"body points must have shape (n, 3) with n >= 1, got {points.shape}")
@@ -195,6 +199,23 @@ def finalize(
         gravity=_frozen(gravity, np.float64),
         body=body,
     )
+
+
+def _numeric(name: str, value, unit: str) -> None:
+    """Refuse text or other non-numbers where finalize needs numbers [``unit``] (numpy would
+    read ``stiffness='2'`` as 2.0: notebook trial, session 30)."""
+    if value is None:
+        return
+    bad = isinstance(value, (str, bytes, bool))
+    if not bad:
+        try:
+            kind = np.asarray(value).dtype.kind
+        except (TypeError, ValueError):
+            kind = "O"
+        bad = kind not in "iuf"
+    if bad:
+        raise ParameterError(f"finalize: {name} must be numeric [{unit}], got "
+                             f"{value!r} ({type(value).__name__})")
 
 
 def _say_coincident(springs, rest) -> None:
