@@ -204,3 +204,25 @@ def test_finalize_refuses_text_where_it_needs_numbers(name, value):
     model = js.finalize(body, stiffness=np.float32(2.0), density=np.int64(1141), damping=0,
                         gravity=np.array([0.0, -9.81, 0.0]))
     assert model.spring_stiffness.min() == 2.0
+
+
+def test_every_bad_argument_is_a_parameter_error_and_choices_ignore_case():
+    """Notebook trial, session 30: the Simulator's refusals were SceneError, material's and
+    finalize's ParameterError; now one ``except ParameterError`` catches both kinds, and a
+    choice written in capitals is the same choice."""
+    sim = _gelatin_sim()
+    for call in (lambda: sim.advance(-1), lambda: js.Simulator(sim.model, dt=0.0),
+                 lambda: js.material("gelatin", youngs_modulus=-1.0)):
+        with pytest.raises(errors.ParameterError):
+            call()
+    assert issubclass(errors.SceneError, errors.ParameterError)
+    body = js.Body.box(points=27, distribution="uniform", radius=0.5, seed=1)
+    model = js.finalize(body, stiffness=20.0, density=1000.0, damping=0.1)
+    sims = [js.Simulator(model, dt=1e-3, integrator=name, ground=js.GroundParams(model=g))
+            for name, g in (("symplectic", "paper"), ("SYMPLECTIC", "Paper"))]
+    assert sims[0].integrator is sims[1].integrator is js.Integrator.SYMPLECTIC
+    for sim in sims:
+        sim.advance(20)
+    np.testing.assert_array_equal(sims[0].state.x, sims[1].state.x)
+    with pytest.raises(errors.SceneError, match=r"integrator must be one of"):
+        js.Simulator(model, dt=1e-3, integrator="sympl")

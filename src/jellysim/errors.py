@@ -20,15 +20,18 @@ class JellysimError(Exception):
     """Base class of every error jellysim raises on purpose."""
 
 
-class SceneError(JellysimError, ValueError):
-    """A scene file or scene parameter is invalid; also what :class:`~jellysim.Simulator`, its
-    ``advance`` and its handles (``pin``, ``apply_force``, ``select_points``...) raise for a bad
-    argument (the scene reader adds the scene file's name to the same messages)."""
-
-
 class ParameterError(JellysimError, ValueError):
     """A Python API argument is invalid (a shape, a unit's range, a choice): the message names
-    the parameter and what would fix it."""
+    the parameter and what would fix it.  ``except ParameterError`` catches every bad argument,
+    :class:`SceneError` included."""
+
+
+class SceneError(ParameterError):
+    """A scene file or scene parameter is invalid; also what :class:`~jellysim.Simulator`, its
+    ``advance`` and its handles (``pin``, ``apply_force``, ``select_points``...) raise for a bad
+    argument (the scene reader adds the scene file's name to the same messages).  A
+    :class:`ParameterError` (notebook trial, session 30: the Simulator's bad arguments raised
+    one class, ``material``'s and ``finalize``'s the other)."""
 
 
 class SimulationError(JellysimError, RuntimeError):

@@ -48,7 +48,20 @@ MAX_ALL_PAIRS_POINTS = 4000
 10-50 ms per loop here.  Above this the O(n^2) hack is refused."""
 
 
-class Integrator(str, Enum):
+class _Choice(str, Enum):
+    """A named choice, matched whatever its case (``"SYMPLECTIC"`` is ``"symplectic"``:
+    notebook trial, session 30)."""
+
+    @classmethod
+    def _missing_(cls, value):
+        if isinstance(value, str):
+            for member in cls:
+                if member.value == value.strip().lower():
+                    return member
+        return None
+
+
+class Integrator(_Choice):
     """Time integrators.
 
     ``PAPER``: the report's order (section 4.1): ``x += v dt; v += a dt; a = F(x, v) / m``.
@@ -70,7 +83,7 @@ class Integrator(str, Enum):
     IMPLICIT = "implicit"
 
 
-class GroundModel(str, Enum):
+class GroundModel(_Choice):
     """Which ground rule acts at ``y = height``."""
 
     PAPER = "paper"
@@ -79,7 +92,7 @@ class GroundModel(str, Enum):
     """Non-penetration with restitution and Coulomb friction (:mod:`jellysim.physics.contact`)."""
 
 
-class ProvotPairs(str, Enum):
+class ProvotPairs(_Choice):
     """Which point pairs Provot strain limiting acts on."""
 
     SPRINGS = "springs"
@@ -89,7 +102,7 @@ class ProvotPairs(str, Enum):
     5.2), O(n^2), refused above :data:`MAX_ALL_PAIRS_POINTS` points."""
 
 
-class ProvotOrder(str, Enum):
+class ProvotOrder(_Choice):
     """Order in which Provot corrections are applied within one loop."""
 
     JACOBI = "jacobi"
@@ -239,7 +252,7 @@ _GROUND_DEFAULTS = {"mu": 0.1, "nu": 0.2, "restitution": CONTACT_RESTITUTION,
 with a non-default value is refused)."""
 
 
-class ImplicitScheme(str, Enum):
+class ImplicitScheme(_Choice):
     """Time discretisation of :attr:`Integrator.IMPLICIT` (see :class:`ImplicitParams`)."""
 
     THETA = "theta"
@@ -293,7 +306,7 @@ class ImplicitParams:
             raise ParameterError(f"implicit max_iterations must be >= 1, got {self.max_iterations}")
 
 
-class MaterialModel(str, Enum):
+class MaterialModel(_Choice):
     """How a body's elasticity is modelled on the physical path."""
 
     FEM = "fem"
