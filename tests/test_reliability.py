@@ -506,6 +506,29 @@ def test_one_run_per_output_folder(tmp_path):
     assert res.steps == scene.steps and not lock.exists() and not partial.exists()
 
 
+def test_a_folder_holding_only_a_killed_run_s_lock_is_free(tmp_path):
+    """Sweep trial, session 30: a pool worker killed before writing anything left only its
+    lock, and `jellysim run --out` there said "the folder is not empty (1 entries:
+    .jellysim.lock); pass --overwrite".  A dead process's lock is not a run: the run goes
+    ahead without --overwrite and takes the lock over."""
+    from click.testing import CliRunner
+
+    from jellysim.cli import cli
+    from jellysim.io.lock import LOCK_NAME
+
+    scene = tmp_path / "scene.toml"
+    scene.write_text(EXPLICIT)
+    out = tmp_path / "out"
+    out.mkdir()
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    (out / LOCK_NAME).write_text(f"{gone.pid} {__import__('socket').gethostname()}\n")
+    r = CliRunner().invoke(cli, ["run", str(scene), "--out", str(out), "--quiet"])
+    assert r.exit_code == 0, r.output
+    assert (out / "trajectory.npz").exists() and not (out / LOCK_NAME).exists()
+    assert load_trajectory(out / "trajectory.npz").frame_count > 1
+
+
 def test_python_run_into_an_earlier_run_is_refused_unless_overwrite(tmp_path):
     """``run_scene`` into a folder holding an earlier run: refused, nothing touched; with
     ``overwrite=True`` the earlier run's files go first (no stale frame survives, the

@@ -31,7 +31,7 @@ from .errors import (BuildError, CheckpointError, JellysimError, NothingToResume
                      ParameterError, RunInterrupted, SimulationError)
 from .io.checkpoint import (CHECKPOINT, FINAL_CHECKPOINT, mpiexec_interruption,
                             read_checkpoint, write_checkpoint)
-from .io.lock import claim, refuse_if_held
+from .io.lock import LOCK_NAME, claim, refuse_if_held
 from .io.stream import (STREAM_DIR, TrajectoryStream, finalize_stream, reopen_stream,
                         stream_frames, stream_steps)
 from .io.trajectory import load_trajectory, skin_bounds, trajectory_meta
@@ -76,7 +76,11 @@ def prepare_out_dir(out_dir, *, overwrite: bool = False, owned=RUN_FILES,
         raise JellysimError(f"{option} {out_dir}: exists and is not a folder")
     if out_dir.is_dir() and not held:
         refuse_if_held(out_dir)
-    present = sorted(out_dir.iterdir()) if out_dir.is_dir() else []
+    # (a live run's lock was refused above: what is left is this run's own or a killed
+    # run's, which says nothing of a run's files: sweep trial, session 30, a folder holding
+    # only a dead worker's lock was called "not empty")
+    present = sorted(p for p in out_dir.iterdir() if p.name != LOCK_NAME) if (
+        out_dir.is_dir()) else []
     if present and not overwrite:
         names = ", ".join(p.name for p in present[:3]) + (", ..." if len(present) > 3 else "")
         quoted = shlex.quote(str(out_dir))
