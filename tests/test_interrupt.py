@@ -145,3 +145,45 @@ def test_a_shallow_copy_is_an_independent_simulator():
     assert sim.state.step == 3 and other.state.step == 8 and other.model is sim.model
     np.testing.assert_array_equal(sim.state.x, x)
     assert not np.array_equal(other.state.x, x)
+
+
+FORK_POOL = r"""
+import multiprocessing as mp, sys
+import jellysim as js
+
+def job(k):
+    body = js.Body.box(points=27, distribution="uniform", radius=0.5, seed=k)
+    model = js.finalize(body, stiffness=2.0, density=1000.0)
+    sim = js.Simulator(model, dt=1e-3, integrator="symplectic")
+    sim.advance(5)
+    return float(sim.state.x[:, 1].mean())
+
+if __name__ == "__main__":
+    job(0)  # the parent runs jellysim's threads first
+    try:
+        with mp.get_context("fork").Pool(2) as pool:
+            print(pool.map(job, [1, 2]))
+    except js.errors.JellysimError as exc:
+        print("REFUSED:", exc)
+    with mp.get_context("spawn").Pool(2) as pool:
+        print("SPAWN:", pool.map(job, [1, 2]) == [job(1), job(2)])
+"""
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="fork() exists on POSIX only")
+def test_a_pool_forked_after_a_run_is_told_to_spawn_instead_of_hanging(tmp_path):
+    """Sweep trial, session 30: after one simulation in the parent, a fork-started
+    multiprocessing.Pool hung for ever (numba ended each worker at its first OpenMP kernel).
+    Now the worker raises a JellysimError naming the fix, which the pool hands back; a spawn
+    pool gives the parent's own numbers."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "pool.py"
+    script.write_text(FORK_POOL)
+    res = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                         timeout=300, cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "REFUSED: Simulator: this process was forked" in res.stdout
+    assert "get_context('spawn')" in res.stdout and "SPAWN: True" in res.stdout
+    assert "Terminating" not in res.stderr

@@ -30,6 +30,7 @@ if _os.environ.get("JELLYSIM_THREADING", "").lower() != "spin":
     _os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
     _os.environ.setdefault("KMP_BLOCKTIME", "0")
 from ._cpu import configure as _configure_cpu
+from . import _forked  # noqa: F401  (a forked child's clear error: jellysim._forked)
 
 _configure_cpu()
 from .body import Body

@@ -240,6 +240,9 @@ def build_body(mesh, *, points: int = 5000, connect: Connect | str = Connect.RAD
         mould can still end a frame inverted: use ``marching`` for hard drops), and needs 93
         instead of 153 substeps per frame.
     """
+    from ._forked import check as _check_fork
+
+    _check_fork("build_body")  # (a forked pool worker: a clear error, not a hang)
     keep: dict = {}
     body = _build_body(mesh, points=points, connect=connect, sampling=sampling, radius=radius,
                        neighbours=neighbours, h=h, surface_vertices=surface_vertices,

@@ -164,6 +164,9 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
                  state=None, substeps: int | str = "auto", implicit: ImplicitParams =
                  ImplicitParams(), obstacles=(), rest_speed: float | None = None,
                  device: str | None = None, precision: str = "float64"):
+        from ._forked import check as _check_fork
+
+        _check_fork("Simulator")  # (a forked pool worker: a clear error, not a hang)
         if isinstance(dt, bool) or not isinstance(dt, (int, float, np.number)) or not (
                 np.isfinite(dt) and dt > 0):
             raise SceneError(f"time step dt must be a positive number of seconds, got {dt!r}")
