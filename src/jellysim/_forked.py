@@ -14,6 +14,8 @@ from __future__ import annotations
 import os
 import sys
 
+from .errors import JellysimError
+
 __all__ = ["check"]
 
 _FORKED_AFTER_THREADS = False
@@ -34,8 +36,6 @@ def check(where: str) -> None:
     """Raise in a child forked after the parent ran jellysim's (numba's OpenMP) threads."""
     if not _FORKED_AFTER_THREADS:
         return
-    from .errors import JellysimError
-
     raise JellysimError(
         f"{where}: this process was forked (multiprocessing's default 'fork' start method) from "
         "one that had already run jellysim's threads, and GNU OpenMP cannot run in it (numba "
