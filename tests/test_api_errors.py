@@ -158,13 +158,13 @@ def test_a_scene_says_values_that_likely_mean_another_unit():
         Scene.from_text(base + "[integrator]\nsteps = 1\n", name="lesson.toml",
                         overrides=("ground.friction=30",))
     assert [str(w.message) for w in caught] == [
-        mu + " (given on the command line: --set ground.friction=30)"]
+        mu + " (given as an override: --set ground.friction=30)"]
     with warnings.catch_warnings(record=True) as caught:  # (the material's own, built later)
         warnings.simplefilter("always")
         Scene.from_text(base + "[integrator]\nsteps = 1\n", name="lesson.toml",
                         overrides=("material.density=1.141",)).build_model()
     said = [str(w.message) for w in caught if "1.141 would be g/cm^3" in str(w.message)]
-    assert said and all(s.endswith("(given on the command line: --set material.density=1.141)")
+    assert said and all(s.endswith("(given as an override: --set material.density=1.141)")
                         for s in said)
     # a springs body (no elastic material): e is each point's, as for free particles
     springs = ('[body]\npoints = 27\nlower = [0.0, 0.0, 0.0]\nupper = [0.03, 0.03, 0.03]\n'
@@ -226,3 +226,13 @@ def test_every_bad_argument_is_a_parameter_error_and_choices_ignore_case():
     np.testing.assert_array_equal(sims[0].state.x, sims[1].state.x)
     with pytest.raises(errors.SceneError, match=r"integrator must be one of"):
         js.Simulator(model, dt=1e-3, integrator="sympl")
+    # a scene's choices (a file's value or an override) likewise
+    from pathlib import Path
+
+    cube = Path(__file__).resolve().parents[1] / "examples" / "gelatin_cube.toml"
+    scenes = [js.Scene.from_file(cube, overrides=[f"integrator.name={name}",
+                                                  f"ground.model={g}"])
+              for name, g in (("implicit", "contact"), ("Implicit", "CONTACT"))]
+    assert scenes[0].params == scenes[1].params
+    with pytest.raises(errors.SceneError, match=r"unknown choice"):
+        js.Scene.from_file(cube, overrides=["integrator.name=implicitly"])

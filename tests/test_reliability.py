@@ -126,13 +126,18 @@ def test_resume_command_repeats_the_set_overrides(tmp_path):
     res = run_scene(Scene.load(path, overrides=again), tmp_path / "cut", progress=False,
                     resume=True)
     assert load_trajectory(res.trajectory).steps[-1] == 80
-    with pytest.raises(SceneError, match=r"given on the command line: --set body\.pionts=5"):
+    with pytest.raises(SceneError, match=r"given as an override: --set body\.pionts=5"):
         Scene.load(path, overrides=("body.pionts=5",))
     # a misspelt section given on the command line is said to come from there too (the
     # reliability trial: "unknown section [bdy]" seemed to be the file's)
-    with pytest.raises(SceneError, match=r"unknown section \[bdy\].*\(given on the command "
-                                         r"line: --set bdy\.points=5\)"):
+    with pytest.raises(SceneError, match=r"unknown section \[bdy\].*\(given as an "
+                                         r"override: --set bdy\.points=5\)"):
         Scene.load(path, overrides=("bdy.points=5",))
+    # one string is one override, not one per character (sweep trial, session 30: a bare
+    # string was read as --set 'b', --set 'o', ...)
+    with pytest.raises(SceneError, match=r"\(given as an override: --set body\.pionts=5\)"):
+        Scene.load(path, overrides="body.pionts=5")
+    assert Scene.load(path, overrides="integrator.steps=7").steps == 7
 
 
 def test_a_resume_finishes_the_steps_the_interrupted_run_asked(tmp_path):

@@ -72,7 +72,9 @@ class Scene:
     @classmethod
     def load(cls, path, *, overrides=()) -> "Scene":
         """Read and validate a TOML scene file (also :meth:`from_file`).  ``overrides``:
-        ``"section.key=value"`` strings (TOML values) applied over the file's values."""
+        ``"section.key=value"`` strings (TOML values) applied over the file's values, as
+        ``jellysim run --set`` does (one string is one override), e.g.
+        ``Scene.from_file("cube.toml", overrides=["material.youngs_modulus=2e4"])``."""
         path = Path(path)
         suffix = path.suffix.lower()
         if suffix in MESH_SUFFIXES or suffix in (".jello", ".npz"):
@@ -99,6 +101,8 @@ class Scene:
     def from_text(cls, text: str, *, name: str = "<scene>", overrides=()) -> "Scene":
         """Parse and validate a scene from TOML ``text``; ``name`` is the file name its errors
         (:class:`~jellysim.errors.SceneError`) show; ``overrides`` as in :meth:`load`."""
+        if isinstance(overrides, str):  # (one override, not its characters: sweep trial)
+            overrides = (overrides,)
         try:
             raw = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:

@@ -87,7 +87,10 @@ def check_value(name: str, section: str, key: str, spec: Spec, value: Any) -> An
             raise fail("wrong type", spec.allowed or
                        "one of " + ", ".join(repr(c) for c in spec.choices))
         if spec.choices and value not in spec.choices:
-            raise fail("unknown choice", "one of " + ", ".join(repr(c) for c in spec.choices))
+            if value.strip().lower() not in spec.choices:  # (any case: as in Python)
+                raise fail("unknown choice", "one of " + ", ".join(repr(c) for c in
+                                                                  spec.choices))
+            value = value.strip().lower()
     elif kind == "vec3":
         ok = (isinstance(value, list) and len(value) == 3 and all(
             isinstance(c, (int, float)) and not isinstance(c, bool) for c in value))
@@ -449,12 +452,13 @@ def check_body_file(name, params, given, body, stiffness, mass):
 
 
 def from_command_line(msg: str, overrides) -> str:
-    """`` (given on the command line: --set ...)`` for the ``--set`` items whose key or
-    section ``msg`` names, or ``""``."""
+    """`` (given as an override: --set ...)`` for the ``--set`` items (``overrides=`` in
+    Python) whose key or section ``msg`` names, or ``""`` (sweep trial, session 30: "given on
+    the command line" misled a Python user)."""
     given = [item for item in overrides  # (its key, or its section, named)
              if item.partition("=")[0].strip().rpartition(".")[2] in msg
              or f"[{item.partition('.')[0].strip()}]" in msg]
-    return (" (given on the command line: " + ", ".join(f"--set {item}" for item in given)
+    return (" (given as an override: " + ", ".join(f"--set {item}" for item in given)
             + ")") if given else ""
 
 
