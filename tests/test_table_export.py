@@ -3,6 +3,7 @@ energies, checked against an independent computation from the trajectory and aga
 flight (no horizontal force: the centre of mass moves at the launch speed; gravity alone
 changes its vertical velocity by -g t, whatever the springs do inside)."""
 import numpy as np
+import pytest
 from click.testing import CliRunner
 
 from jellysim.cli import cli
@@ -100,3 +101,37 @@ def test_a_physical_runs_table_gives_its_tets_smallest_volume_ratio(tmp_path):
     assert not (fly.params or {}).get("fem") and len(fly.tets) > 0
     np.testing.assert_allclose(diagnostics(fly)["min_volume_ratio"],
                                [smallest_j(x, fly) for x in fly.positions], rtol=1e-12)
+
+
+def test_a_straight_drop_s_sideways_panel_is_not_scaled_to_rounding_noise(tmp_path,
+                                                                          monkeypatch):
+    """Sweep trial, session 30: a cube falling straight down (here in free fall: its centre of
+    mass moves sideways by rounding only, ~1e-16 m) had its sideways panel autoscaled to
+    +-2e-16 m, so the noise looked like a drift.  That panel now spans at least 1e-4 of the body's size;
+    a real sway keeps matplotlib's own scale."""
+    import matplotlib.figure
+
+    from jellysim.plot import plot_trajectory, sideways, diagnostics
+
+    scene = ('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 27\n'
+             'lower = [0.0, 0.02, 0.0]\nupper = [0.03, 0.05, 0.03]\n'
+             '[ground]\nenabled = false\n[integrator]\nsteps = 12\n[output]\nvtu = false\n')
+    spans = []
+    real = matplotlib.figure.Figure.savefig
+
+    def keep_span(fig, *a, **k):
+        spans.append(fig.axes[3].get_ylim())
+        return real(fig, *a, **k)
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", keep_span)
+    for name, extra in (("straight", ""), ("sway", "velocity = [0.3, 0.0, 0.0]\n")):
+        text = scene.replace("[ground]", extra + "[ground]")  # (into [body])
+        run_scene(Scene.from_text(text, name=f"{name}.toml"), tmp_path / name, progress=False)
+        traj = load_trajectory(tmp_path / name)
+        plot_trajectory(traj, tmp_path / f"{name}.png")
+        moved = max(float(np.abs(v).max()) for v in sideways(diagnostics(traj)).values())
+        low, high = spans[-1]
+        if name == "straight":
+            assert moved < 1e-12 and (low, high) == pytest.approx((-3e-6, 3e-6))
+        else:
+            assert moved > 1e-3 and high - low < 4 * moved

@@ -175,9 +175,14 @@ def plot_trajectory(traj, path, *, title: str | None = None,
     axes[2].plot(t, d["com_height"], color="C3")
     axes[2].set_ylabel("centre of mass height [m]")
     ax = axes[3]  # on their own scale: a millimetre sway beside a 5 cm height would be flat
-    for (label, series), colour in zip(sideways(d).items(), ("C2", "C1")):
+    offsets = sideways(d)
+    for (label, series), colour in zip(offsets.items(), ("C2", "C1")):
         ax.plot(t, series, color=colour, label=label)
     ax.axhline(0.0, color="k", lw=0.8, ls=":")
+    size = float(np.ptp(np.asarray(traj.rest_positions), axis=0).max())
+    floor = 1e-4 * size  # (sweep trial, session 30: no sway was drawn as +-2e-16 m of noise)
+    if floor > 0 and max(float(np.abs(v).max()) for v in offsets.values()) < floor:
+        ax.set_ylim(-floor, floor)
     ax.set_ylabel("centre of mass, sideways [m]")
     ax.legend(loc="best")
     ax = axes[4]
