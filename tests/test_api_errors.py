@@ -236,3 +236,17 @@ def test_every_bad_argument_is_a_parameter_error_and_choices_ignore_case():
     assert scenes[0].params == scenes[1].params
     with pytest.raises(errors.SceneError, match=r"unknown choice"):
         js.Scene.from_file(cube, overrides=["integrator.name=implicitly"])
+
+
+@pytest.mark.parametrize("given, plain", [("'10kPa'", "10000"), ("'5 cm'", "0.05"),
+                                          ("'0.02'", "0.02")])
+def test_a_number_written_with_its_unit_is_told_the_plain_si_number(given, plain):
+    """Sweep trial, session 30: --set material.youngs_modulus=10kPa was refused as the wrong
+    type without the fix; the refusal now gives the SI number to write."""
+    from pathlib import Path
+
+    cube = Path(__file__).resolve().parents[1] / "examples" / "gelatin_cube.toml"
+    key = "springs.radius" if "cm" in given else "material.youngs_modulus"
+    with pytest.raises(errors.SceneError, match=rf"wrong type; expected .*; write {plain} "
+                                                r"\(SI units"):
+        js.Scene.from_file(cube, overrides=[f"{key}={given}"])

@@ -60,6 +60,28 @@ def plain(value: Any) -> Any:
     return value
 
 
+_PREFIXES = {"": 1.0, "k": 1e3, "M": 1e6, "G": 1e9, "m": 1e-3, "u": 1e-6, "\u00b5": 1e-6,
+             "c": 1e-2}
+
+
+def _plain_number(value) -> str:
+    """``"; write 10000 (SI units, no suffix)"`` for text such as ``'10kPa'`` or ``'5 cm'``
+    (a number with a unit: sweep trial, session 30), else ``""``."""
+    import re
+
+    m = re.fullmatch(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([kMGmcu\u00b5]?)"
+                     r"([A-Za-z/^0-9]*)\s*", value) if isinstance(value, str) else None
+    if m is None:
+        return ""
+    number, prefix, unit = float(m.group(1)), m.group(2), m.group(3)
+    if prefix and not unit:  # ('5m': metres, not milli-)
+        prefix, unit = "", prefix
+    if unit in ("m", "kg", "s", "N", "Pa", "N/m", "kg/m^3", "m/s", "Hz", "") and prefix != "c" \
+            or (prefix == "c" and unit == "m"):
+        return f"; write {number * _PREFIXES[prefix]:g} (SI units: m, kg, s, Pa; no suffix)"
+    return ""
+
+
 def check_value(name: str, section: str, key: str, spec: Spec, value: Any) -> Any:
     label = section if section.startswith("[") else f"[{section}]"
     where = f"{name}: {label} {key}"
@@ -70,7 +92,7 @@ def check_value(name: str, section: str, key: str, spec: Spec, value: Any) -> An
 
     if kind == "float":
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise fail("wrong type", spec.allowed or "a number")
+            raise fail("wrong type", (spec.allowed or "a number") + _plain_number(value))
         value = float(value)
         if not math.isfinite(value):
             raise fail("not a finite number", spec.allowed or "a finite number")
