@@ -71,10 +71,8 @@ class Scene:
 
     @classmethod
     def load(cls, path, *, overrides=()) -> "Scene":
-        """Read and validate a TOML scene file (also :meth:`from_file`).  ``overrides``:
-        ``"section.key=value"`` strings (TOML values) applied over the file's values, as
-        ``jellysim run --set`` does (one string is one override), e.g.
-        ``Scene.from_file("cube.toml", overrides=["material.youngs_modulus=2e4"])``."""
+        """Read and validate a TOML scene file (also :meth:`from_file`).  ``overrides``: what
+        ``jellysim run --set`` gives, ``"section.key=value"`` strings (one string: one)."""
         path = Path(path)
         suffix = path.suffix.lower()
         if suffix in MESH_SUFFIXES or suffix in (".jello", ".npz"):
@@ -101,8 +99,7 @@ class Scene:
     def from_text(cls, text: str, *, name: str = "<scene>", overrides=()) -> "Scene":
         """Parse and validate a scene from TOML ``text``; ``name`` is the file name its errors
         (:class:`~jellysim.errors.SceneError`) show; ``overrides`` as in :meth:`load`."""
-        if isinstance(overrides, str):  # (one override, not its characters: sweep trial)
-            overrides = (overrides,)
+        overrides = (overrides,) if isinstance(overrides, str) else overrides  # (not chars)
         try:
             raw = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
@@ -110,8 +107,7 @@ class Scene:
         for item in overrides:
             _override(raw, item, name)
         if overrides:   # the recorded text says what ran
-            text += "\n# overridden on the command line:\n" + "".join(
-                f"#   --set {item}\n" for item in overrides)
+            text += "\n# overridden:\n" + "".join(f"#   --set {item}\n" for item in overrides)
         given = given_keys(raw, SCHEMA, PRESETS, by_value=False)
         try:
             params = cls._validate(raw, name, user=given)
