@@ -60,26 +60,29 @@ def plain(value: Any) -> Any:
     return value
 
 
-_PREFIXES = {"": 1.0, "k": 1e3, "M": 1e6, "G": 1e9, "m": 1e-3, "u": 1e-6, "\u00b5": 1e-6,
-             "c": 1e-2}
+_UNITS = ("m", "kg", "s", "N", "Pa", "N/m", "kg/m^3", "m/s", "Hz")
+_PREFIXES = {"k": 1e3, "M": 1e6, "G": 1e9, "m": 1e-3, "u": 1e-6, "\u00b5": 1e-6}
 
 
 def _plain_number(value) -> str:
-    """``"; write 10000 (SI units, no suffix)"`` for text such as ``'10kPa'`` or ``'5 cm'``
-    (a number with a unit: sweep trial, session 30), else ``""``."""
+    """``"; write 10000 (SI units ...)"`` for text such as ``'10kPa'``, ``'5 cm'``, ``'2 kg'``
+    or ``'0.02'`` (a number with its unit, or quoted: sweep trial, session 30), else ``""``."""
     import re
 
-    m = re.fullmatch(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([kMGmcu\u00b5]?)"
-                     r"([A-Za-z/^0-9]*)\s*", value) if isinstance(value, str) else None
+    m = re.fullmatch(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S*)\s*", value) \
+        if isinstance(value, str) else None
     if m is None:
         return ""
-    number, prefix, unit = float(m.group(1)), m.group(2), m.group(3)
-    if prefix and not unit:  # ('5m': metres, not milli-)
-        prefix, unit = "", prefix
-    if unit in ("m", "kg", "s", "N", "Pa", "N/m", "kg/m^3", "m/s", "Hz", "") and prefix != "c" \
-            or (prefix == "c" and unit == "m"):
-        return f"; write {number * _PREFIXES[prefix]:g} (SI units: m, kg, s, Pa; no suffix)"
-    return ""
+    number, suffix = float(m.group(1)), m.group(2)
+    if suffix in _UNITS or not suffix:
+        factor = 1.0
+    elif suffix == "cm":
+        factor = 1e-2
+    elif suffix[:1] in _PREFIXES and suffix[1:] in _UNITS:
+        factor = _PREFIXES[suffix[:1]]
+    else:
+        return ""
+    return f"; write {number * factor:g} (SI units: m, kg, s, Pa; no suffix)"
 
 
 def check_value(name: str, section: str, key: str, spec: Spec, value: Any) -> Any:
