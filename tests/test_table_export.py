@@ -56,6 +56,9 @@ def test_the_table_is_the_trajectorys_centre_of_mass_and_energies(tmp_path):
                                    atol=1e-12)
     kinetic = 0.5 * np.einsum("n,fnd,fnd->f", m, traj.velocities, traj.velocities)
     np.testing.assert_allclose(col["kinetic_J"], kinetic, rtol=1e-9)
+    # the highest point above the plate (y = 0 here, gravity along -y)
+    np.testing.assert_allclose(col["top_height_m"], traj.positions[:, :, 1].max(axis=1),
+                               rtol=1e-9, atol=1e-12)
     # free flight: momentum across g is kept, and gravity alone changes it along g
     np.testing.assert_allclose(col["com_vx_m_per_s"], 0.7, rtol=1e-9)
     np.testing.assert_allclose(col["com_vz_m_per_s"], -0.2, rtol=1e-9)

@@ -33,7 +33,8 @@ __all__ = ["diagnostics", "plot_trajectory", "write_table"]
 TABLE_COLUMNS = (("time", "time_s"), ("com_x", "com_x_m"), ("com_y", "com_y_m"),
                  ("com_z", "com_z_m"), ("com_vx", "com_vx_m_per_s"),
                  ("com_vy", "com_vy_m_per_s"), ("com_vz", "com_vz_m_per_s"),
-                 ("com_height", "com_height_m"), ("travel", "travel_xz_m"),
+                 ("com_height", "com_height_m"), ("top_height", "top_height_m"),
+                 ("travel", "travel_xz_m"),
                  ("kinetic", "kinetic_J"), ("elastic", "elastic_J"), ("gravity", "gravity_J"),
                  ("total", "total_J"), ("max_strain", "max_spring_strain"),
                  ("min_volume_ratio", "min_tet_volume_ratio"))
@@ -43,7 +44,8 @@ TABLE_COLUMNS = (("time", "time_s"), ("com_x", "com_x_m"), ("com_y", "com_y_m"),
 def diagnostics(traj) -> dict[str, np.ndarray]:
     """Per-frame diagnostics, each shape (F,): ``time`` [s], ``kinetic`` [J], ``spring`` [J]
     (the springs' energy), ``tets`` [J] (the FEM tets' energy; zeros without), ``gravity``
-    [J], ``total`` [J], ``com_height`` [m] (above the ground plane), ``max_strain`` [-] (of
+    [J], ``total`` [J], ``com_height`` [m] (above the ground plane), ``top_height`` [m] (the
+    highest point's, above the ground plane: a sweep's resting height), ``max_strain`` [-] (of
     the springs, a fraction); the centre
     of mass ``com_x``, ``com_y``, ``com_z`` [m] and its velocity ``com_vx`` ... [m/s];
     ``travel`` [m] its distance in the x-z plane (along the ground) from the first frame;
@@ -77,6 +79,7 @@ def diagnostics(traj) -> dict[str, np.ndarray]:
     out = {"time": np.asarray(traj.times, dtype=np.float64), "kinetic": kinetic,
            "spring": spring, "tets": tets, "elastic": spring + tets, "gravity": grav,
            "total": kinetic + spring + tets + grav, "com_height": centre[:, 1] - float(ground),
+           "top_height": height.max(axis=1) if height.shape[1] else np.zeros(len(x)),
            "max_strain": strain, "travel": travel}
     for k, axis in enumerate("xyz"):
         out[f"com_{axis}"], out[f"com_v{axis}"] = centre[:, k], velocity[:, k]
