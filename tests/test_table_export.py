@@ -106,12 +106,11 @@ def test_a_physical_runs_table_gives_its_tets_smallest_volume_ratio(tmp_path):
                                [smallest_j(x, fly) for x in fly.positions], rtol=1e-12)
 
 
-def test_a_straight_drop_s_sideways_panel_is_not_scaled_to_rounding_noise(tmp_path,
-                                                                          monkeypatch):
+def test_a_straight_fall_s_sideways_panel_is_not_scaled_to_noise(tmp_path, monkeypatch):
     """Sweep trial, session 30: a cube falling straight down (here in free fall: its centre of
     mass moves sideways by rounding only, ~1e-16 m) had its sideways panel autoscaled to
-    +-2e-16 m, so the noise looked like a drift.  That panel now spans at least 1e-4 of the body's size;
-    a real sway keeps matplotlib's own scale."""
+    +-2e-16 m, so the noise looked like a drift.  That panel now spans at least 1e-4 of the
+    body's size; a real sway keeps matplotlib's own scale."""
     import matplotlib.figure
 
     from jellysim.plot import plot_trajectory, sideways, diagnostics

@@ -291,11 +291,11 @@ class Body:
         on the ground), as a scene's ``[body] type = "box"`` builds it.
 
         ``distribution = "grid"`` (default): a cubic lattice of about ``points`` *cells*,
-        corners included (1000: 10^3 cells, 11^3 = 1,331 points; 343: 8^3 = 512 points), with its mirrored Kuhn tets (6 per cell: the
-        physical path's best-shaped tets) and springs to every point within ``radius``
-        (default 1.8 spacings: the 26 nearest).  ``"uniform"`` or ``"edge"`` (the report's
-        random fields, ``seed``): ``points`` random points joined within ``radius``
-        (required), with the Delaunay tets of the points for ``Material(model="fem")``.
+        corners included (1000: 10^3 cells, 11^3 = 1,331 points; 343: 8^3 = 512 points),
+        with its mirrored Kuhn tets (6 per cell: the physical path's best-shaped tets) and
+        springs to every point within ``radius`` (default 1.8 spacings: the 26 nearest).
+        ``"uniform"`` or ``"edge"`` (the report's random fields, ``seed``): ``points`` random
+        points joined within ``radius`` (required), with the Delaunay tets of the points for ``Material(model="fem")``.
         Masses come from the material (``physical_model(body, material)``), or for the
         report's springs from ``finalize(body, stiffness=..., density=...)``.
         """

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import JellysimError
-from .io.atomic import atomic_path
+from .io.atomic import atomic_path, guard_file
 
 __all__ = ["diagnostics", "plot_trajectory", "write_table"]
 
@@ -102,8 +102,6 @@ def write_table(traj, path, *, overwrite: bool = False) -> Path:
     """Write :func:`diagnostics` as a CSV file: one row per frame, the columns of
     :data:`TABLE_COLUMNS` (SI units, named in the header line).  An existing file is refused
     unless ``overwrite`` (:class:`~jellysim.errors.OutputError`)."""
-    from .io.atomic import guard_file
-
     path = Path(path)
     if path.suffix.lower() != ".csv":
         raise JellysimError(f"{path}: a table file name must end in .csv")
@@ -145,8 +143,6 @@ def plot_trajectory(traj, path, *, title: str | None = None,
     found only the distance moved, never negative, which drew a sway as a row of bumps) and
     the largest strain or squeeze.  An existing file is refused unless ``overwrite``
     (:class:`~jellysim.errors.OutputError`)."""
-    from .io.atomic import guard_file
-
     path = Path(path)
     if path.suffix.lower() not in (".png", ".svg", ".pdf"):
         raise JellysimError(f"{path}: plot file must end in .png, .svg or .pdf")

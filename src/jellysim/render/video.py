@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import JellysimError
-from ..io.atomic import atomic_path
+from ..io.atomic import atomic_path, guard_file, guard_folder, staged_output
 from ..io.timing import default_fps, gif_delay, real_time_playback
 from .offscreen import RenderOptions, Renderer
 
@@ -153,8 +153,6 @@ def render_trajectory(traj, path, options: RenderOptions = RenderOptions(), *,
     if options.background == "transparent" and kind not in ("png", "pngdir"):
         raise JellysimError(f"{path}: a transparent background needs PNG output (a .png or a "
                             f"folder of frames): {kind} has no alpha channel")
-    from ..io.atomic import guard_file, guard_folder, staged_output
-
     if kind == "pngdir":  # (checked before anything is drawn: a refusal costs nothing)
         guard_folder(path, [FRAME_FILES], overwrite, flag="overwrite=True")
     else:
