@@ -295,8 +295,8 @@ class Body:
         with its mirrored Kuhn tets (6 per cell: the physical path's best-shaped tets) and
         springs to every point within ``radius`` (default 1.8 spacings: the 26 nearest).
         ``"uniform"`` or ``"edge"`` (the report's random fields, ``seed``): ``points`` random
-        points joined within ``radius`` (required), with the Delaunay tets of the points for ``Material(model="fem")``.
-        Masses come from the material (``physical_model(body, material)``), or for the
+        points joined within ``radius`` (required), with the Delaunay tets of the points for
+        ``Material(model="fem")``.  Masses come from the material (``physical_model(body, material)``), or for the
         report's springs from ``finalize(body, stiffness=..., density=...)``.
         """
         from .build import _radius_tets
