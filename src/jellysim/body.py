@@ -296,8 +296,9 @@ class Body:
         springs to every point within ``radius`` (default 1.8 spacings: the 26 nearest).
         ``"uniform"`` or ``"edge"`` (the report's random fields, ``seed``): ``points`` random
         points joined within ``radius`` (required), with the Delaunay tets of the points for
-        ``Material(model="fem")``.  Masses come from the material (``physical_model(body, material)``), or for the
-        report's springs from ``finalize(body, stiffness=..., density=...)``.
+        ``Material(model="fem")``.  Masses come from the material (``physical_model(body,
+        material)``), or for the report's springs from ``finalize(body, stiffness=...,
+        density=...)``.
         """
         from .build import _radius_tets
         from .geometry.connect import radius_springs
