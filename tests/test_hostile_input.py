@@ -1104,10 +1104,10 @@ def test_handle_tables_that_overlap_or_push_pinned_points_are_said():
     assert len([w for w in said if "follows its pin" in str(w.message)]) == 1
     sim = Scene.from_text(base, name="h.toml").simulator()
     sim.pin([0, 1])
-    with pytest.warns(UserWarning, match=r"apply_force: 1 of the points are pinned \(point 1\)"
-                                         r".*the force does nothing there"):
+    with pytest.warns(UserWarning, match=r"apply_force: 1 of the 2 points given is pinned "
+                                         r"\(point 1\).*the force does nothing there"):
         sim.apply_force([1, 2], [0.0, 0.1, 0.0])
-    with pytest.warns(UserWarning, match=r"set_gravity_scale: 2 of the points are pinned"):
+    with pytest.warns(UserWarning, match=r"set_gravity_scale: 2 of the 3 points given are pinned"):
         sim.set_gravity_scale([0, 1, 2], 0.5)
     with pytest.raises(SceneError, match=r"indices must be point numbers, not true/false"):
         Scene.from_text(base + '[[handle]]\nkind = "pin"\nindices = [true, 2]\n',

@@ -21,6 +21,7 @@ import numpy as np
 
 from .errors import SceneError, ParameterError
 from .params import _user_stacklevel
+from .handle_warnings import force_warnings, path_warnings
 
 __all__ = ["DragSpring", "Handles", "HandleMethods", "PinPath", "select_points"]
 
@@ -59,7 +60,9 @@ def select_points(points: np.ndarray, *, box=None, sphere=None, indices=None,
         if idx.ndim != 1 or not np.issubdtype(idx.dtype, np.integer):
             raise SceneError(f"{what}: indices must be a list of integers")
         if idx.size and (idx.min() < 0 or idx.max() >= n):
-            raise SceneError(f"{what}: indices must lie in [0, {n - 1}]")
+            bad = idx.min() if idx.min() < 0 else idx.max()
+            raise SceneError(f"{what}: index {bad} is out of range: indices must lie in "
+                             f"[0, {n - 1}] (the body has {n} points)")
         out = np.unique(idx.astype(np.int64))
     elif box is not None:
         try:
@@ -117,7 +120,9 @@ class PinPath:
             raise SceneError(f"{what}: give rows [t, dx, dy, dz] (s, m), got shape "
                              f"{arr.shape}")
         if not np.all(np.isfinite(arr)):
-            raise SceneError(f"{what}: every number must be finite")
+            k = int(np.flatnonzero(~np.isfinite(arr).all(axis=1))[0])
+            raise SceneError(f"{what}: every number must be finite; row {k + 1} is "
+                             f"{arr[k].tolist()}")
         if np.any(np.diff(arr[:, 0]) <= 0):
             raise SceneError(f"{what}: times must increase strictly")
         return cls(arr[:, 0].copy(), arr[:, 1:].copy())
@@ -282,24 +287,24 @@ class HandleMethods:
         hd.paths = [(i, p) for i, p in hd.paths if not np.isin(i, idx).any()]
         if path is not None:
             hd.paths.append((idx, path))
-            ground = getattr(self, "ground", None)
-            low = float(self.state.x[idx, 1].min() + path.offsets[:, 1].min())
-            if ground is not None and ground.enabled and low < float(ground.height) - 1e-9:
-                import warnings  # (the contact holds them on it: not where the path says)
+            for message in path_warnings(self, idx, path):
+                import warnings
 
-                warnings.warn(f"pin: the path takes pinned points {float(ground.height) - low:.3g}"
-                              " m below the ground, which holds them on it there", UserWarning,
-                              stacklevel=2)
+                warnings.warn(message, UserWarning, stacklevel=_user_stacklevel())
 
     def move_pinned(self, indices, offset, *, seconds: float | None = None) -> None:
         """Move pinned points by ``offset`` [m], shape (3,), from where they are now, linearly
         over the next ``seconds`` [s] (default: one step, ``dt``): an app's handle moved frame
         by frame (API trial, session 28: that took ``pin(idx, path=[[t + dt, dx, dy, dz]])``
-        each frame, which this is).  Every point must be pinned already (:meth:`pin`)."""
+        each frame, which this is).  Every point must be pinned already (:meth:`pin`).  Like
+        :meth:`pin` with a path, it replaces the path those points were following: the rest
+        of an earlier path is dropped (to move along a path and then on, give ``pin`` one
+        path with both)."""
         idx = self._point_indices(indices, "move_pinned")
         loose = idx[self.handles.pinned[idx] == 0]
         if len(loose):
-            raise SceneError(f"move_pinned: {len(loose)} of the points are not pinned (point "
+            raise SceneError(f"move_pinned: {len(loose)} of the {len(idx)} points given "
+                             f"{'is' if len(loose) == 1 else 'are'} not pinned (point "
                              f"{loose[0]}): pin them first, sim.pin(indices)")
         off = _vec3(offset, "move_pinned: offset [m]")
         seconds = self.dt if seconds is None else seconds
@@ -335,6 +340,10 @@ class HandleMethods:
         if release is not None:
             self.__dict__.setdefault("_releases", []).append((release, idx))
         self.handles.point_force[idx] = f / len(idx) if total else f
+        for message in force_warnings(self, idx, f, total):
+            import warnings
+
+            warnings.warn(message, UserWarning, stacklevel=_user_stacklevel())
 
     def _advance_scheduled(self, steps: int) -> None:
         """``advance(steps)``, stopping where a timed force ends (:func:`advance_releasing`)."""
@@ -402,7 +411,8 @@ class HandleMethods:
         if len(held):
             import warnings
 
-            warnings.warn(f"{call}: {len(held)} of the points are pinned (point {held[0]}): a "
+            warnings.warn(f"{call}: {len(held)} of the {len(idx)} points given "
+                          f"{'is' if len(held) == 1 else 'are'} pinned (point {held[0]}): a "
                           f"pinned point follows its pin, so the {what} does nothing there",
                           UserWarning, stacklevel=_user_stacklevel())
 

@@ -451,10 +451,12 @@ class PhysicalStepping:
                 self._substep_count *= 2  # (the property's setter is the user's)
                 self.dt_step = self.dt / self.substeps
                 self._relax[0] = -1
-                self._announce(f"an unstable impact at t = {t0:.4g} s: the physical path took "
-                               f"those 1 frame(s) again with {self.substeps} substeps per frame "
-                               f"(kept until {self.RELAX_AFTER_FRAMES} frames pass without "
-                               "another)")
+                cause = ("an impact, or a handle's pull or push" if self.handles.active
+                         else "an impact")  # (handles trial: a 1e6 N push was "an impact")
+                self._announce(f"an unstable frame at t = {t0:.4g} s ({cause} too strong for "
+                               f"the substeps): the physical path took that frame again with "
+                               f"{self.substeps} substeps per frame (kept until "
+                               f"{self.RELAX_AFTER_FRAMES} frames pass without another)")
             if self._min_j[0] < self.RETAKE_BELOW_J + 0.05:
                 self._squeezed[0] = self.SQUEEZED_FRAMES
             elif self._squeezed[0] > 0:
@@ -562,12 +564,16 @@ def blowup_error(sim, failed: int, what: str, status: int):
     from .errors import SimulationError
 
     handles = sim.handles.active
-    cause = ("a force, drag or pin path too strong for the material, or a body squashed inside "
-             "out" if handles else "a body squashed inside out")
+    more = (f"more substeps ([integrator] substeps = {4 * sim.substeps}; Python: "
+            "Simulator(substeps=...))")
+    fix = (f"check the handles first (a pin path's offsets are metres, forces newtons: a "
+           f"path typed in millimetres or a force far beyond the body's weight does this), "
+           f"then {more}, a stiffer material or a gentler drop help" if handles else
+           f"{more}, a stiffer material or a gentler drop help")
     return SimulationError(
         f"simulation went unstable at step {failed} (t = {sim.state.t:.6g} s): {what}, with "
         f"{sim.substeps} substeps per step (doubled up to {sim.MAX_SUBSTEP_DOUBLINGS} times "
-        f"after a blow-up); {cause} does that: more substeps ([integrator] substeps = "
-        f"{4 * sim.substeps}; Python: Simulator(substeps=...)), "
-        + ("gentler handles, " if handles else "") + "a stiffer material or a gentler drop help",
+        f"after a blow-up); " + ("a force, drag or pin path too strong for the material, or "
+                                 "a body squashed inside out" if handles else
+                                 "a body squashed inside out") + f" does that: {fix}",
         step=failed, status=status)

@@ -36,7 +36,9 @@ def schema_markdown() -> str:
               "per handle, taken at the start positions.  Tables of one kind may not "
               "share points (a pin along a path, a force, a gravity scale: the later one "
               "would replace the earlier there; refused, naming both); a force on pinned "
-              "points does nothing and is warned.", "",
+              "points does nothing and is warned, as is a pin path into the ground or an "
+              "obstacle (their contact holds the points on the surface: it wins over the "
+              "pin) and a path or force likely typed in other units.", "",
               "| key | type | meaning |", "|---|---|---|",
               "| `kind` | str | 'pin' (fix the points, or move them along `path`), 'force' "
               "(a constant total `force`), 'gravity' (multiply gravity by `scale`). |",

@@ -188,14 +188,7 @@ def user_obstacles(obstacles, x0=None, tol: float | None = None) -> tuple:
     x = np.asarray(x0, dtype=np.float64)
     tol = max(1e-9, 1e-6 * float(np.ptp(x, axis=0).max())) if tol is None else tol
     for k, o in enumerate(obstacles):
-        kind, v = o.row()
-        if kind == 0:
-            n = np.asarray(v[3:6])
-            depth = -(x - np.asarray(v[:3])) @ n
-        elif kind == 1:
-            depth = v[3] - np.linalg.norm(x - np.asarray(v[:3]), axis=1)
-        else:
-            depth = np.minimum(x - np.asarray(v[:3]), np.asarray(v[3:6]) - x).min(axis=1)
+        depth = depth_inside(o, x)
         inside = depth > tol
         if inside.any():
             raise ParameterError(f"obstacle #{k + 1} ({o!r}): {int(inside.sum())} of "
@@ -203,6 +196,18 @@ def user_obstacles(obstacles, x0=None, tol: float | None = None) -> tuple:
                              f"{float(depth.max()):.3g} m deep): its contact would throw them "
                              "out at once; move the body or the obstacle")
     return obstacles
+
+
+def depth_inside(obstacle, x) -> np.ndarray:
+    """How deep [m] each point of ``x`` [m], shape (n, 3), lies inside ``obstacle`` (a
+    :class:`Plane`, :class:`Sphere` or :class:`Box`): > 0 inside, <= 0 outside."""
+    kind, v = obstacle.row()
+    x = np.asarray(x, dtype=np.float64)
+    if kind == 0:
+        return -(x - np.asarray(v[:3])) @ np.asarray(v[3:6])
+    if kind == 1:
+        return v[3] - np.linalg.norm(x - np.asarray(v[:3]), axis=1)
+    return np.minimum(x - np.asarray(v[:3]), np.asarray(v[3:6]) - x).min(axis=1)
 
 
 def check_ground_placement(x0, height: float) -> None:

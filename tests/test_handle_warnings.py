@@ -1,0 +1,120 @@
+"""What a handle cannot do as asked is said when it is given (handles trial, session 31).
+
+The trial pinned a cube's top face and moved it into a sphere obstacle: the contact held the
+points on the sphere's surface, 18 mm from their path, without a word (the ground said so);
+a path typed in millimetres and a force far beyond the body's weight were taken in silence and
+blew the run up with advice about substeps.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import jellysim
+from jellysim.errors import SceneError, SimulationError
+from jellysim.handles import PinPath, select_points
+
+CENTER = np.array([0.01, 0.10, 0.01])
+RADIUS = 0.02
+
+
+def _cube(**kw):
+    """A 2 cm gelatin cube held 5 cm above the ground by its pinned top face (y = 0.07 m)."""
+    body = jellysim.Body.box((0, 0.05, 0), (0.02, 0.07, 0.02), points=64)
+    model = jellysim.physical_model(body, jellysim.material("gelatin"))
+    sim = jellysim.Simulator(model, dt=1 / 60, **kw)
+    top = np.flatnonzero(body.points[:, 1] > 0.07 - 1e-9)
+    return sim, top
+
+
+def test_a_pin_path_into_an_obstacle_is_said_and_the_obstacle_wins_as_said():
+    """The top face lifted 2 cm into a sphere whose lowest point is 1 cm above it: the deepest
+    pinned point would end 1 cm inside (the face's centre, on the sphere's axis).  The
+    warning names the obstacle and that depth; run on, every pinned point ends on or outside
+    the sphere's surface (the contact wins, as the warning says), the face's centre on the
+    sphere's lowest point, 1 cm short of its path's end.  The same lift beside the sphere says
+    nothing."""
+    sphere = jellysim.Sphere(center=tuple(CENTER), radius=RADIUS)
+    sim, top = _cube(obstacles=[sphere])
+    with pytest.warns(UserWarning, match=r"pin: the path takes pinned points 0\.01 m into "
+                                         r"obstacle #1 \(Sphere.*the obstacle wins"):
+        sim.pin(top, path=[[0.5, 0.0, 0.02, 0.0]])
+    start = sim.state.x[top].copy()
+    sim.advance(60)
+    dist = np.linalg.norm(sim.state.x[top] - CENTER, axis=1)
+    assert dist.min() >= RADIUS * (1 - 1e-3)
+    mid = int(np.argmin(np.linalg.norm(start[:, [0, 2]] - CENTER[[0, 2]], axis=1)))
+    assert np.linalg.norm(start[mid, [0, 2]] - CENTER[[0, 2]]) < 1e-9  # (on the axis)
+    assert abs(dist[mid] - RADIUS) < 1e-3 * RADIUS
+    assert abs((start[mid, 1] + 0.02) - sim.state.x[top][mid, 1] - 0.01) < 1e-4
+    beside = jellysim.Sphere(center=(0.2, 0.10, 0.01), radius=RADIUS)
+    sim, top = _cube(obstacles=[beside])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.pin(top, path=[[0.5, 0.0, 0.02, 0.0]])
+
+
+def test_a_path_through_an_obstacle_between_keyframes_is_said():
+    """The path is straight between keyframes: one that passes through the sphere from a
+    keyframe below it to one beside it (both outside) is still said."""
+    sphere = jellysim.Sphere(center=tuple(CENTER), radius=RADIUS)
+    sim, top = _cube(obstacles=[sphere])
+    with pytest.warns(UserWarning, match=r"into obstacle #1"):
+        sim.pin(top, path=[[0.5, -0.05, 0.03, 0.0], [1.0, 0.05, 0.03, 0.0]])
+
+
+def test_millimetres_and_a_crushing_force_are_said_as_likely_slips_of_units():
+    """A path of 50 'm' on a 2 cm body (2,500 times its size) and a force of 100 N on a
+    9 g body (over 1,000 g) are said as likely slips of units; 1.5 m (75 sizes) and 1 N
+    (11 g) are not."""
+    sim, top = _cube()
+    mass = float(np.sum(sim.model.point_mass))
+    assert mass == pytest.approx(1141 * 0.02**3, rel=1e-6)
+    with pytest.warns(UserWarning, match=r"pin: the path moves the pinned points up to 50 m, "
+                                         r"2500 times the body's size.*likely a slip of units"):
+        sim.pin(top, path=[[0.5, 0.0, 50.0, 0.0]])
+    with pytest.warns(UserWarning, match=r"apply_force: 100 N would accelerate the whole body "
+                                         r"\(0\.009128 kg\) at \d+ g: likely a slip of units"):
+        sim.apply_force([0], [0.0, 100.0, 0.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.pin(top, path=[[0.5, 0.0, 1.5, 0.0]])
+        sim.apply_force([0], [0.0, 1.0, 0.0])
+    sim.apply_force([0], [0.0, 1e7, 0.0])
+    with pytest.raises(SimulationError, match=r"check the handles first \(a pin path's offsets "
+                                              r"are metres, forces newtons"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sim.advance(3)
+
+
+def test_bad_rows_and_indices_are_named():
+    """A path's non-finite number names its row; an index out of range names the index."""
+    with pytest.raises(SceneError, match=r"every number must be finite; row 2 is "
+                                         r"\[0\.2, nan, 0\.0, 0\.0\]"):
+        PinPath.of([[0.1, 0.0, 0.0, 0.0], [0.2, float("nan"), 0.0, 0.0]])
+    pts = np.zeros((10, 3))
+    with pytest.raises(SceneError, match=r"index 12 is out of range: indices must lie in "
+                                         r"\[0, 9\] \(the body has 10 points\)"):
+        select_points(pts, indices=[1, 12])
+    with pytest.raises(SceneError, match=r"index -1 is out of range"):
+        select_points(pts, indices=[-1, 2])
+
+
+def test_move_pinned_replaces_the_path_as_documented():
+    """``move_pinned`` drops the rest of the path the points followed (its docstring says
+    so): after it, the earlier path's later keyframe no longer moves them."""
+    sim, top = _cube()
+    sim.pin(top, path=[[1.0, 0.0, 0.02, 0.0]])
+    sim.advance(6)
+    sim.move_pinned(top, [0.01, 0.0, 0.0])
+    held = sim.state.x[top].copy()
+    sim.advance(1)
+    moved = sim.state.x[top] - held
+    np.testing.assert_allclose(moved, np.tile([0.01, 0.0, 0.0], (len(top), 1)), atol=1e-12)
+    after = sim.state.x[top].copy()
+    sim.advance(60)
+    np.testing.assert_allclose(sim.state.x[top], after, atol=1e-12)
+    assert "replaces the path" in jellysim.Simulator.move_pinned.__doc__
