@@ -118,3 +118,34 @@ def test_move_pinned_replaces_the_path_as_documented():
     sim.advance(60)
     np.testing.assert_allclose(sim.state.x[top], after, atol=1e-12)
     assert "replaces the path" in jellysim.Simulator.move_pinned.__doc__
+
+
+def test_a_runs_handles_are_fields_of_its_paraview_frames(tmp_path):
+    """Handles trial: pins and forces were invisible in a run's outputs.  Each ``.vtu`` frame
+    of a run with handles carries ``pinned`` (1 on exactly the points the pin's box selects),
+    ``point_force`` [N] (summing to the handle's force, on its points only) and
+    ``gravity_scale``; the frames stay under the full-disk bound."""
+    import meshio
+
+    from jellysim.run_disk import _vtu_frame_bound
+    from jellysim.runner import run_scene
+    from jellysim.scene import Scene
+
+    text = ('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 125\n'
+            'lower = [0.0, 0.01, 0.0]\nupper = [0.04, 0.05, 0.04]\n[integrator]\nsteps = 4\n'
+            '[output]\nevery = 2\nvtu = true\n'
+            '[[handle]]\nkind = "pin"\nbox = [[-1, 0.049, -1], [1, 1, 1]]\n'
+            '[[handle]]\nkind = "force"\nindices = [0, 1]\nforce = [0.0, 0.0, 0.03]\n')
+    scene = Scene.from_text(text, name="h.toml")
+    run_scene(scene, tmp_path / "run", progress=False)
+    x0 = scene.build_model().point_x0
+    top = np.flatnonzero(x0[:, 1] >= 0.049)
+    frames = sorted((tmp_path / "run").glob("body_*.vtu"))
+    assert len(frames) == 3
+    for path in frames:
+        data = meshio.read(path).point_data
+        np.testing.assert_array_equal(np.flatnonzero(data["pinned"]), top)
+        force = data["point_force"]
+        np.testing.assert_allclose(force[[0, 1]].sum(axis=0), [0.0, 0.0, 0.03], rtol=1e-12)
+        assert not force[2:].any() and np.all(data["gravity_scale"] == 1.0)
+        assert path.stat().st_size < _vtu_frame_bound(scene.build_model(), None)

@@ -546,6 +546,17 @@ def advance_releasing(sim, steps: int, step, chunk) -> None:
         chunk(stop - step())
 
 
+def handle_fields(sim) -> dict | None:
+    """A frame's handles as per-point fields of its ``.vtu`` (copies; None without any
+    handle, handles trial: they were invisible in ParaView): ``pinned`` (1 or 0),
+    ``point_force`` [N] (n, 3) and ``gravity_scale`` [-]."""
+    hd = getattr(sim, "handles", None)
+    if hd is None or not hd.active:
+        return None
+    return {"pinned": (hd.pinned != 0).astype(np.float64),
+            "point_force": hd.point_force.copy(), "gravity_scale": hd.gravity_scale.copy()}
+
+
 def drop_releases(sim, idx) -> None:
     """Forget pending releases of the points ``idx`` (their force is being replaced)."""
     pending = getattr(sim, "_releases", None)

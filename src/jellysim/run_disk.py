@@ -50,7 +50,8 @@ def _check_disk(out_dir: Path, total: int, every: int, n: int, messages: list, *
 
 def _vtu_frame_bound(model, skin) -> int:
     """Bytes of one uncompressed ParaView frame (body and skin), an upper bound: points
-    (position, velocity, rest: 72 bytes) and cells (connectivity, offset, type and data: a
+    (position, velocity, rest: 72 bytes; a run's handles, pinned, point force and gravity
+    scale: 40 more) and cells (connectivity, offset, type and data: a
     physical run's tets carry their volume ratio, von Mises stress and 9 stress components,
     129 bytes a tet; 49 before session 28 left those out, 3.8 MB where a 10,948-point body's
     frames took 5.8 MB: scale trial)."""
@@ -58,7 +59,7 @@ def _vtu_frame_bound(model, skin) -> int:
     cells = 129 * fem.tet_count if fem is not None else 25 * model.spring_count
     if skin is not None:
         cells += 24 * len(skin.rest_vertices) + 33 * len(skin.faces)
-    return 72 * model.point_count + cells + 4096
+    return 112 * model.point_count + cells + 4096
 
 
 def _disk_full(exc: OSError, out_dir: Path, scene, where: str = "") -> OutputError | None:

@@ -39,6 +39,7 @@ from .run_disk import _check_disk, _disk_full, _vtu_frame_bound
 from .run_notes import _resume_command, _say_if_slow
 from .io.vtk import FrameWriter, PVDSeries
 from .physics.fem import stress_fields
+from .handles import handle_fields
 from .skin import default_skin
 
 __all__ = ["RUN_FILES", "RunResult", "prepare_out_dir", "run_scene",
@@ -443,7 +444,8 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             writer.submit(sim.state.step, series.add, sim.state.t, sim.state.x.copy(),
                           lines, velocities=sim.state.v.copy(), rest=model.point_x0,
                           tets=tets, triangles=None if physical else body.triangles,
-                          tet_fields=stress_fields(sim.tet_stresses()) if physical else None)
+                          tet_fields=stress_fields(sim.tet_stresses()) if physical else None,
+                          point_fields=handle_fields(sim))
         if skin_series is not None:
             writer.submit(sim.state.step, skin_series.add_surface, sim.state.t,
                           skin.deform(sim.state.x, **bounds), skin.faces)

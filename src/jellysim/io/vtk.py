@@ -179,9 +179,13 @@ class PVDSeries:
         return fname, self.directory / fname
 
     def add(self, t: float, points, springs, *, velocities=None, triangles=None, tets=None,
-            rest=None, tet_fields=None) -> Path:
+            rest=None, tet_fields=None, point_fields=None) -> Path:
+        """One frame: see :func:`write_vtu`; ``point_fields``: more per-point fields, each
+        shape (n,) or (n, k) (a run's handles: ``pinned``, ``point_force`` [N],
+        ``gravity_scale``)."""
         fname, path = self._next()
         data = {} if velocities is None else {"velocity": np.asarray(velocities)}
+        data.update({k: np.asarray(v, dtype=np.float64) for k, v in (point_fields or {}).items()})
         write_vtu(path, points, springs, point_data=data, triangles=triangles, tets=tets,
                   rest=rest, atomic=False, tet_fields=tet_fields)
         self._append(t, fname)
