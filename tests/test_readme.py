@@ -239,3 +239,14 @@ def test_readme_gelatin_cow_rests_within_ten_percent_of_its_height(tmp_path):
                          capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, f"{code}\n{res.stdout}\n{res.stderr}"
     print(res.stdout.strip().splitlines()[-1])
+
+
+def test_ci_runs_exactly_the_readmes_test_command():
+    """The house rule: ``.ci/run`` runs exactly the README's test command (a contributor's
+    trial, session 31, found them differing by two ``-q`` flags)."""
+    readme = (ROOT / "README.md").read_text()
+    ci = [line for line in (ROOT / ".ci" / "run").read_text().splitlines()
+          if "-m pytest" in line and not line.lstrip().startswith("#")]
+    shown = [line for line in readme.splitlines()
+             if line.startswith("python3 -m venv") and "-m pytest" in line]
+    assert len(ci) == 1 and len(shown) == 1 and ci[0].strip() == shown[0].strip()

@@ -50,6 +50,7 @@ _LAZY = {
     "Material": ("params", "Material"),
     "MaterialModel": ("params", "MaterialModel"),
     "select_points": ("handles", "select_points"),
+    "shake_path": ("handle_paths", "shake_path"),
     # building bodies
     "build_body": ("build", "build_body"),
     "body_stats": ("build", "body_stats"),

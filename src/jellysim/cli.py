@@ -7,6 +7,7 @@ import time
 import click
 
 from .errors import JellysimError, NothingToResume, RunInterrupted
+from .kernels import Backend
 from .params import REPORT_DENSITY
 
 
@@ -113,7 +114,7 @@ def _terminate(signum, frame):
               help="Also export the skin to this glTF .glb.")
 @click.option("--partition", type=click.Choice(["morton", "metis"]), default="morton",
               show_default=True, help="Under mpiexec: how points are split among ranks.")
-@click.option("--backend", type=click.Choice(["numba", "numpy", "warp"]), default=None,
+@click.option("--backend", type=click.Choice([b.value for b in Backend]), default=None,
               help="Override the scene's [integrator] backend (warp: pip install "
                    "'jellysim[gpu]').")
 @click.option("--device", default=None,

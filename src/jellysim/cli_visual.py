@@ -12,6 +12,7 @@ from pathlib import Path
 import click
 
 from .errors import JellysimError, RunInterrupted
+from .kernels import Backend
 from .render.offscreen import RenderOptions
 from .io.trajectory import load_trajectory
 from .demo import run_demo
@@ -257,7 +258,7 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
               show_default=True,
               help="jelly: a fluted gelatin mould slid onto a plate (0.7 m/s from 1 cm); "
                    "cow: Spot (firm gelatin) set down on it (writes demo_cow.*).")
-@click.option("--backend", type=click.Choice(["numba", "numpy", "warp"]), default=None,
+@click.option("--backend", type=click.Choice([b.value for b in Backend]), default=None,
               help="Kernels (default: the demo scene's, numba).")
 @click.option("--device", default=None, help="Warp device: auto, cpu, cuda, cuda:N.")
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default=None,

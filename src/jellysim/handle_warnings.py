@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .params import GRAVITY
 from .physics.contact import depth_inside
 
 __all__ = ["UNITS_SLIP", "path_warnings", "force_warnings"]
@@ -56,7 +57,7 @@ def force_warnings(sim, idx, force, total: bool) -> list[str]:
     """A point force [N] (``force`` (3,), on the points ``idx``, split over them with
     ``total``) that would accelerate the whole body at more than :data:`UNITS_SLIP` g."""
     whole = float(np.linalg.norm(force)) * (1 if total else len(idx))
-    g = max(float(np.linalg.norm(sim.model.gravity)), 9.8)
+    g = float(np.linalg.norm(GRAVITY))  # (one g, whatever the run's gravity)
     mass = float(np.sum(sim.model.point_mass))
     if mass > 0 and whole > UNITS_SLIP * g * mass:
         return [f"apply_force: {whole:.4g} N would accelerate the whole body ({mass:.4g} kg) "

@@ -498,13 +498,11 @@ class PhysicalStepping:
         return timed
 
     def _physical_chunk(self, nsteps, dt):
-        """``nsteps`` substeps of ``dt`` [s] by the backend's kernel: ``(done, status)``."""
-        from .kernels import fem_numba, fem_numpy
-
-        kern = {Backend.NUMPY: fem_numpy, Backend.WARP: self._k}.get(self.backend, fem_numba)
+        """``nsteps`` substeps of ``dt`` [s] by the backend's ``physical_steps``:
+        ``(done, status)``."""
         model_arrays, ft, contact, scratch = self._physical_tuples(dt)
         s = self.state
-        return kern.physical_steps(nsteps, dt, s.x, s.v, s.a, model_arrays, ft,
+        return self._k.physical_steps(nsteps, dt, s.x, s.v, s.a, model_arrays, ft,
                                    self.handles.tuple(), contact, scratch)
 
     @staticmethod

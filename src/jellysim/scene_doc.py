@@ -49,6 +49,10 @@ def schema_markdown() -> str:
               "| `path` | [[t, dx, dy, dz], ...] | Pin: offsets [m] from the start positions "
               "at times [s], linear between rows; from a zero offset at t = 0 to the first "
               "row (a non-zero offset at t = 0 is refused: the points would jump). |",
+              "| `shake` | {amplitude = [ax, ay, az], frequency = f, seconds = s} | Pin: "
+              "instead of `path`, the offset amplitude sin(2 pi f t) [m] for s seconds "
+              "(`start` [s], optional, delays it; 32 keyframes a period: "
+              "`jellysim.shake_path`). |",
               "| `force` | [fx, fy, fz] | Force: total force [N], split evenly. |",
               "| `until` | float | Force: release time [s] (the force acts from the start "
               "until then: a push, then a free wobble); default: the whole run. |",

@@ -7,12 +7,14 @@ import warnings
 import numpy as np
 
 from .errors import SceneError, did_you_mean
+from .handle_paths import shake_path
 from .handles import HANDLE_KINDS, PinPath, select_points
 from .scene_spec import table_list
 
 __all__ = ["apply_handle_tables", "validate_handle_tables"]
 
-_HANDLE_KEYS = {"kind", "box", "sphere", "indices", "path", "force", "until", "scale"}
+_HANDLE_KEYS = {"kind", "box", "sphere", "indices", "path", "shake", "force", "until", "scale"}
+_SHAKE_KEYS = {"amplitude", "frequency", "seconds", "start"}
 
 
 def validate_handle_tables(entries, name: str) -> list[dict]:
@@ -25,7 +27,8 @@ def validate_handle_tables(entries, name: str) -> list[dict]:
     out = []
     for k, entry in enumerate(entries, start=1):
         where = f"{name}: [[handle]] #{k}"
-        entry = {key: v for key, v in entry.items() if key != "_where"}  # a validated table
+        entry = {key: v for key, v in entry.items()  # (a validated table: its own notes)
+                 if not key.startswith("_")}
         extra = sorted(set(entry) - _HANDLE_KEYS)
         if extra:
             hint = did_you_mean(extra[0], sorted(_HANDLE_KEYS))
@@ -48,11 +51,16 @@ def validate_handle_tables(entries, name: str) -> list[dict]:
         for key in needs:
             if key not in entry:
                 raise SceneError(f"{where}: kind = '{kind}' needs '{key}'")
-        allowed = {"pin": {"path"}, "force": {"force", "until"}, "gravity": {"scale"}}[kind]
-        stray = [key for key in ("path", "force", "until", "scale")
+        allowed = {"pin": {"path", "shake"}, "force": {"force", "until"},
+                   "gravity": {"scale"}}[kind]
+        stray = [key for key in ("path", "shake", "force", "until", "scale")
                  if key in entry and key not in allowed]
         if stray:
             raise SceneError(f"{where}: '{stray[0]}' is not used by kind = '{kind}'")
+        if "path" in entry and "shake" in entry:
+            raise SceneError(f"{where}: give path or shake, not both (a shake is a path)")
+        if "shake" in entry:
+            _shake_rows(entry["shake"], where)  # (checked now; made when the run starts)
         if "path" in entry:  # a scene pins at t = 0
             PinPath.of(entry["path"], what=f"{where} path").starting_at(0.0, f"{where} path")
         if "force" in entry:
@@ -74,6 +82,28 @@ def validate_handle_tables(entries, name: str) -> list[dict]:
     return out
 
 
+def _shake_rows(shake, where: str) -> np.ndarray:
+    """The keyframes of a ``shake = {amplitude = [...], frequency = f, seconds = s}`` table
+    (:func:`jellysim.handle_paths.shake_path`; ``start`` optional, default 0)."""
+    if not isinstance(shake, dict):
+        raise SceneError(f"{where}: shake must be {{amplitude = [ax, ay, az], frequency = f, "
+                         f"seconds = s}} (m, Hz, s), got {shake!r}")
+    extra = sorted(set(shake) - _SHAKE_KEYS)
+    if extra:
+        hint = did_you_mean(extra[0], sorted(_SHAKE_KEYS))
+        raise SceneError(f"{where}: shake: unknown key '{extra[0]}'{hint}; allowed: "
+                         + ", ".join(sorted(_SHAKE_KEYS)))
+    missing = [key for key in ("amplitude", "frequency", "seconds") if key not in shake]
+    if missing:
+        raise SceneError(f"{where}: shake needs '{missing[0]}' (amplitude [m], frequency "
+                         "[Hz], seconds [s])")
+    try:
+        return shake_path(shake["amplitude"], shake["frequency"], seconds=shake["seconds"],
+                          start=shake.get("start", 0.0))
+    except SceneError as exc:
+        raise SceneError(f"{where}: {str(exc).replace('shake_path: ', 'shake ')}") from None
+
+
 def apply_handle_tables(sim, tables, springs_reason: str | None = None) -> None:
     """Apply validated ``[[handle]]`` tables to a :class:`~jellysim.simulator.Simulator`;
     points are selected at their positions when the run starts.  ``springs_reason``: why the
@@ -92,7 +122,9 @@ def apply_handle_tables(sim, tables, springs_reason: str | None = None) -> None:
                                                                 sphere["radius"]),
                             indices=entry.get("indices"), what=entry["_where"])
         if entry["kind"] == "pin":
-            moving = entry.get("path") is not None
+            path = (_shake_rows(entry["shake"], entry["_where"]) if "shake" in entry
+                    else entry.get("path"))
+            moving = path is not None
             both = [int(i) for i in idx if int(i) in pinned_by
                     and (moving or pinned_by[int(i)][1])]
             if both:  # (the later pin silently replaced the earlier on those points; two
@@ -102,7 +134,7 @@ def apply_handle_tables(sim, tables, springs_reason: str | None = None) -> None:
                                  "of them along a path: a point follows one pin; make the "
                                  "selections disjoint")
             pinned_by.update({int(i): (entry["_where"], moving) for i in idx})
-            sim.pin(idx, path=entry.get("path"))
+            sim.pin(idx, path=path)
             continue
         kind = "force" if entry["kind"] == "force" else "gravity"
         both = [int(i) for i in idx if int(i) in taken[kind]]

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from .params import (GRAVITY, REPORT_DENSITY, GroundParams, ImplicitParams, Material,
                      ProvotParams)
+from .kernels import Backend
 from .scene_spec import REQUIRED, Spec, _nonneg, _pos
 
 __all__ = ["SCHEMA"]
@@ -156,7 +157,7 @@ SCHEMA: dict[str, dict[str, Spec]] = {
         "backend": Spec("str", "numba", "Kernels: 'numba', 'numpy' (reference) or 'warp' "
                         "(NVIDIA Warp: a GPU, else Warp's CPU device; integrators 'paper' and "
                         "'symplectic'; pip install 'jellysim[gpu]').",
-                        choices=("numba", "numpy", "warp")),
+                        choices=tuple(b.value for b in Backend)),
         "device": Spec("str", "auto", "Warp device: 'auto' (a GPU when present, else the "
                        "CPU), 'cpu', 'cuda' or 'cuda:N' (backend = 'warp' only)."),
         "precision": Spec("str", "float64", "'float64' or 'float32': Warp arithmetic "

@@ -225,7 +225,7 @@ def check_backend(backend: str, integrator: str, device: str = "auto",
         raise SceneError(f"{at}[integrator] precision = 'float32' on backend = 'numba' applies "
                          "to spring bodies; the physical (FEM) path computes in float64: use "
                          "precision = 'float64' (or [material] model = 'springs')")
-    if precision == "float32" and (backend == "numpy" or integrator == "implicit"):
+    if precision == "float32" and (backend not in ("numba", "warp") or integrator == "implicit"):
         raise SceneError(
             f"{at}[integrator] precision = 'float32' applies to backend = 'warp' and to "
             f"backend = 'numba' with an explicit integrator (paper, symplectic); backend = "

@@ -11,8 +11,9 @@ Backends with the same function names and signatures:
 
 Each backend is split by concern (``forces_*``, ``provot_*``, ``contact_*``, ``implicit_*``,
 ``steps_*``); its functions take the records of :mod:`.records` (the backend interface: the
-Simulator calls only ``run_steps`` and ``implicit_steps``).  :func:`get_backend` returns a
-backend by name.
+Simulator calls only ``run_steps``, ``implicit_steps`` and ``physical_steps``).
+:func:`get_backend` returns a backend by name; a new one is a :class:`Backend` member and a
+branch there (the scene's and the CLI's backend choices list the members).
 """
 from __future__ import annotations
 

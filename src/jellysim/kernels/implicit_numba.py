@@ -385,19 +385,3 @@ def implicit_steps(nsteps, dt, x, v, a, springs, points, ground, obstacles, opti
         if status != STATUS_OK:
             return step + 1, status, iters, worst
     return nsteps, STATUS_OK, iters, worst
-
-
-@njit(**_opts)
-def csr_matmat(indptr, indices, data, x, out):
-    """``out = A x`` for a CSR matrix ``A`` (indptr, indices, data) and a dense block ``x``
-    (n, m): rows in parallel, each row's sum in a fixed order (the same result for any thread
-    count)."""
-    m = x.shape[1]
-    for i in prange(out.shape[0]):
-        for c in range(m):
-            out[i, c] = 0.0
-        for p in range(indptr[i], indptr[i + 1]):
-            j = indices[p]
-            a = data[p]
-            for c in range(m):
-                out[i, c] += a * x[j, c]

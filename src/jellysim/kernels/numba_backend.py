@@ -21,8 +21,7 @@ from __future__ import annotations
 from .contact_numba import (constrain_start, constraint_friction, contact, contact_normals,
                             filter_constrained, finish_step)
 from .forces_numba import accelerations
-from .implicit_numba import (csr_matmat, implicit_steps, spring_frames, system_diagonal,
-                             system_matvec)
+from .implicit_numba import implicit_steps, spring_frames, system_diagonal, system_matvec
 from .provot_numba import provot
 from .steps_numba import run_steps
 
@@ -32,6 +31,16 @@ from .contact_numba import _contact_point, _ground_and_check, _status  # noqa: E
 from .implicit_numba import _copy, _dot  # noqa: E402,F401
 from .provot_numba import _provot_c, _provot_c_inv, _serial_max  # noqa: E402,F401
 
+
+def __getattr__(name):
+    """``physical_steps`` (the physical path's driver, :func:`.fem_numba.physical_steps`),
+    imported when first asked for: a springs run does not load the tet kernels."""
+    if name == "physical_steps":
+        from .fem_numba import physical_steps
+
+        return physical_steps
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 __all__ = ["accelerations", "provot", "finish_step", "run_steps", "contact", "contact_normals",
            "filter_constrained", "constrain_start", "constraint_friction", "spring_frames",
-           "system_matvec", "system_diagonal", "implicit_steps", "csr_matmat"]
+           "system_matvec", "system_diagonal", "implicit_steps", "physical_steps"]

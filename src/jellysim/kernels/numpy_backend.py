@@ -26,7 +26,17 @@ from .forces_numpy import _scatter  # noqa: E402,F401
 from .implicit_numpy import _dot  # noqa: E402,F401
 from .provot_numpy import _provot_scalar  # noqa: E402,F401
 
+
+def __getattr__(name):
+    """``physical_steps`` (the physical path's driver, :func:`.fem_numpy.physical_steps`),
+    imported when first asked for."""
+    if name == "physical_steps":
+        from .fem_numpy import physical_steps
+
+        return physical_steps
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 __all__ = ["accelerations", "provot", "finish_step", "run_steps", "contact", "contact_normals",
            "filter_constrained", "constrain_start", "constraint_friction", "spring_frames",
-           "system_matvec", "system_diagonal", "implicit_steps", "CONTACT_FREE",
+           "system_matvec", "system_diagonal", "implicit_steps", "physical_steps", "CONTACT_FREE",
            "CONTACT_RELEASED", "CONTACT_STUCK"]

@@ -1,19 +1,22 @@
 """The backend interface's records: kernel arguments bundled once per model.
 
-A backend (numpy, numba; a GPU or distributed one later) implements two drivers,
+A backend (numpy, numba, Warp) implements three drivers,
 
 * ``run_steps(nsteps, dt, integrator, x, v, a, springs, points, provot, ground, obstacles,
-  scratch) -> (steps_done, status)`` (the explicit integrators), and
+  scratch) -> (steps_done, status)`` (the explicit integrators),
 * ``implicit_steps(nsteps, dt, x, v, a, springs, points, ground, obstacles, options,
-  scratch) -> (steps_done, status, cg_iterations, worst_residual)``,
+  scratch) -> (steps_done, status, cg_iterations, worst_residual)``, and
+* ``physical_steps(nsteps, dt, x, v, a, model_arrays, fem, handles, contact, scratch) ->
+  (steps_done, status)`` (the FEM path: :func:`.fem_numpy.physical_steps`, the spec),
 
 plus ``finish_step`` and ``contact`` (used alone by other integration paths), over the state
 arrays ``x`` [m], ``v`` [m/s], ``a`` [m/s^2] (n, 3) float64, updated in place, and the records
 below.  The :class:`~jellysim.simulator.Simulator` builds the records once
 (:func:`spring_arrays`, :func:`point_arrays`, ...) and only ever calls those drivers, so a new
-backend needs no change to the simulator: it receives the host arrays and may keep device
-copies keyed on the records it is given (they do not change during a run, except the state and
-the scratch).
+backend, registered in :mod:`jellysim.kernels` (a ``Backend`` member and a ``get_backend``
+branch: docs/architecture.md, "The backend interface"), needs no change to the simulator: it
+receives the host arrays and may keep device copies keyed on the records it is given (they do
+not change during a run, except the state and the scratch).
 
 The records are named tuples of arrays and scalars: numba compiles them in nopython mode as
 typed tuples (no speed loss measured, BENCHMARKS.md), numpy reads their fields by name.

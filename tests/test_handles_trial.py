@@ -1,9 +1,11 @@
-"""What a handle cannot do as asked is said when it is given (handles trial, session 31).
+"""A handles user's trial (session 31): what a handle cannot do as asked is said when it is
+given, handles show in a run's frames, and a shake is one call.
 
 The trial pinned a cube's top face and moved it into a sphere obstacle: the contact held the
 points on the sphere's surface, 18 mm from their path, without a word (the ground said so);
 a path typed in millimetres and a force far beyond the body's weight were taken in silence and
-blew the run up with advice about substeps.
+blew the run up with advice about substeps; pins and forces were invisible in the .vtu frames;
+a sinusoidal shake took 120-240 hand-written keyframes a second.
 """
 from __future__ import annotations
 
@@ -149,3 +151,80 @@ def test_a_runs_handles_are_fields_of_its_paraview_frames(tmp_path):
         np.testing.assert_allclose(force[[0, 1]].sum(axis=0), [0.0, 0.0, 0.03], rtol=1e-12)
         assert not force[2:].any() and np.all(data["gravity_scale"] == 1.0)
         assert path.stat().st_size < _vtu_frame_bound(scene.build_model(), None)
+
+
+def test_shake_path_is_the_sine_it_says():
+    """``shake_path``: rows at start + j seconds / count, count = ceil(seconds f per_period),
+    offsets exactly ``A sin(2 pi f (t - start))``; the zero at ``start`` is left to the pin."""
+    rows = jellysim.shake_path((0.004, 0.0, -0.002), 2.5, seconds=1.0, start=0.3)
+    assert rows.shape == (80, 4)
+    t = 0.3 + np.arange(1, 81) / 80
+    np.testing.assert_allclose(rows[:, 0], t, rtol=0, atol=1e-15)
+    s = np.sin(2 * np.pi * 2.5 * (t - 0.3))
+    np.testing.assert_allclose(rows[:, 1:], np.outer(s, [0.004, 0.0, -0.002]), atol=1e-15)
+    for bad, said in ((dict(amplitude=(1, 2)), "amplitude must be 3 numbers"),
+                      (dict(frequency=0.0), "frequency must be a number > 0"),
+                      (dict(seconds=-1.0), "seconds must be a time > 0"),
+                      (dict(per_period=2), "per_period must be a whole number >= 4")):
+        kw = dict(amplitude=(0.01, 0, 0), frequency=1.0, seconds=1.0) | bad
+        with pytest.raises(SceneError, match=said):
+            jellysim.shake_path(kw.pop("amplitude"), kw.pop("frequency"), **kw)
+
+
+def test_a_shaken_base_follows_its_sine_and_the_jelly_answers_at_the_drive():
+    """A gelatin cube resting on its pinned base, shaken sideways at 7 Hz (32 keyframes a
+    period): at every frame the base is where the path's straight segments put it (1e-12 m),
+    and the top's sideways motion over the last second has its largest Fourier component at
+    the drive frequency (the free sway, 12 Hz for this cube, has decayed 8-fold by then)."""
+    body = jellysim.Body.box((0, 0, 0), (0.03, 0.03, 0.03), points=125)
+    model = jellysim.physical_model(body, jellysim.material("gelatin"))
+    sim = jellysim.Simulator(model, dt=1 / 120)
+    base = np.flatnonzero(body.points[:, 1] < 1e-9)
+    top = np.flatnonzero(body.points[:, 1] > 0.03 - 1e-9)
+    rows = jellysim.shake_path((0.002, 0.0, 0.0), 7.0, seconds=3.0)
+    sim.pin(base, path=rows)
+    start = sim.state.x[base].copy()
+    times = np.concatenate([[0.0], rows[:, 0]])
+    offs = np.concatenate([[0.0], rows[:, 1]])
+    tops = []
+    for _ in range(360):
+        sim.advance(1)
+        want = np.interp(sim.state.t, times, offs)
+        np.testing.assert_allclose(sim.state.x[base, 0] - start[:, 0], want, atol=1e-12)
+        tops.append(sim.state.x[top, 0].mean())
+    last = np.asarray(tops[-120:]) - np.mean(tops[-120:])
+    spectrum = np.abs(np.fft.rfft(last))
+    freqs = np.fft.rfftfreq(120, 1 / 120)
+    assert freqs[np.argmax(spectrum)] == pytest.approx(7.0, abs=1.0)
+
+
+def test_a_scenes_shake_table_is_the_same_run_as_its_path(tmp_path):
+    """``[[handle]] shake = {...}`` runs bitwise as the same keyframes given as ``path``, in a
+    simulator and in a run (whose saved scene keeps the table as written); a table with both,
+    an unknown key or a missing one is refused by name."""
+    from jellysim.io.trajectory import load_trajectory
+    from jellysim.runner import run_scene
+    from jellysim.scene import Scene
+
+    base = ('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 64\n'
+            'lower = [0.0, 0.0, 0.0]\nupper = [0.02, 0.02, 0.02]\n[integrator]\nsteps = 30\n'
+            '[[handle]]\nkind = "pin"\nbox = [[-1, -1, -1], [1, 0.001, 1]]\n')
+    shake = 'shake = {amplitude = [0.002, 0, 0], frequency = 4.0, seconds = 0.5}\n'
+    rows = jellysim.shake_path((0.002, 0, 0), 4.0, seconds=0.5)
+    path = "path = [" + ", ".join("[" + ", ".join(repr(float(v)) for v in r) + "]"
+                                  for r in rows) + "]\n"
+    runs = []
+    for extra in (shake, path):
+        sim = Scene.from_text(base + extra, name="s.toml").simulator()
+        sim.advance(30)
+        runs.append(sim.state.x.copy())
+    assert np.array_equal(runs[0], runs[1])
+    res = run_scene(Scene.from_text(base + shake, name="s.toml"), tmp_path / "run",
+                    progress=False)
+    assert np.array_equal(load_trajectory(res.trajectory).positions[-1], runs[0])
+    for extra, said in ((shake + "path = [[1.0, 0, 0, 0]]\n", "give path or shake, not both"),
+                        (shake.replace("seconds", "secs"), "shake: unknown key 'secs'"),
+                        ('shake = {amplitude = [0.002, 0, 0], frequency = 4.0}\n',
+                         "shake needs 'seconds'")):
+        with pytest.raises(SceneError, match=said):
+            Scene.from_text(base + extra, name="s.toml")

@@ -1,0 +1,59 @@
+"""Ready-made pin paths (handles trial, session 31: a sinusoidal shake of a jelly's base took
+hand-written keyframes, 120-240 a second).
+
+:func:`shake_path` gives the rows ``[t, dx, dy, dz]`` (s, m) of
+:meth:`jellysim.Simulator.pin`'s ``path`` (and of a scene's ``[[handle]] shake`` table) for an
+offset ``A sin(2 pi f (t - start))``.  The path is straight between keyframes, so with ``n``
+keyframes a period its peaks reach ``A cos(pi / n)`` of ``A`` when a keyframe does not fall on
+a peak (0.9952 A at the default 32), and it stops at ``start + seconds``, where the offset is
+held (a whole number of half periods ends it back at zero).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import SceneError
+
+__all__ = ["shake_path"]
+
+
+def shake_path(amplitude, frequency: float, *, seconds: float, start: float = 0.0,
+               per_period: int = 32) -> np.ndarray:
+    """Keyframes (k, 4) of a sinusoidal shake: offset ``amplitude * sin(2 pi frequency
+    (t - start))`` [m] for ``start <= t <= start + seconds`` [s]; ``amplitude`` [m], shape
+    (3,) (the direction and size of the swing), ``frequency`` [Hz], ``per_period`` keyframes a
+    period (at least 4).  Pin with it: ``sim.pin(base, path=js.shake_path((0.005, 0, 0), 3.0,
+    seconds=2.0, start=sim.state.t))``."""
+    def number(value, what, low):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)) \
+                or not np.isfinite(value) or value < low:
+            raise SceneError(f"shake_path: {what}, got {value!r}")
+        return float(value)
+
+    try:
+        amp = np.asarray(amplitude, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise SceneError(f"shake_path: amplitude must be 3 numbers [m] (x, y, z: the "
+                         f"swing's direction and size), got {amplitude!r}") from None
+    if not np.all(np.isfinite(amp)):
+        raise SceneError(f"shake_path: amplitude must be finite, got {amp.tolist()}")
+    f = number(frequency, "frequency must be a number > 0 [Hz]", 0.0)
+    if f <= 0:
+        raise SceneError(f"shake_path: frequency must be a number > 0 [Hz], got {frequency!r}")
+    span = number(seconds, "seconds must be a time > 0 [s]", 0.0)
+    if span <= 0:
+        raise SceneError(f"shake_path: seconds must be a time > 0 [s], got {seconds!r}")
+    t0 = number(start, "start must be a time >= 0 [s]", 0.0)
+    if isinstance(per_period, bool) or not isinstance(per_period, (int, np.integer)) \
+            or per_period < 4:
+        raise SceneError(f"shake_path: per_period must be a whole number >= 4, got "
+                         f"{per_period!r}")
+    count = max(1, int(np.ceil(span * f * per_period - 1e-9)))
+    if count > 1_000_000:
+        raise SceneError(f"shake_path: {count} keyframes ({span:g} s at {f:g} Hz, "
+                         f"{per_period} a period): shorten the shake or lower the frequency")
+    t = np.linspace(0.0, span, count + 1)[1:]  # (the zero offset at `start` is the pin's own)
+    rows = np.empty((count, 4))
+    rows[:, 0] = t0 + t
+    rows[:, 1:] = np.sin(2.0 * np.pi * f * t)[:, None] * amp
+    return rows
