@@ -36,6 +36,7 @@ def __getattr__(name):
         return physical_steps
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
+
 __all__ = ["accelerations", "provot", "finish_step", "run_steps", "contact", "contact_normals",
            "filter_constrained", "constrain_start", "constraint_friction", "spring_frames",
            "system_matvec", "system_diagonal", "implicit_steps", "physical_steps", "CONTACT_FREE",
