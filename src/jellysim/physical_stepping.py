@@ -503,7 +503,7 @@ class PhysicalStepping:
         model_arrays, ft, contact, scratch = self._physical_tuples(dt)
         s = self.state
         return self._k.physical_steps(nsteps, dt, s.x, s.v, s.a, model_arrays, ft,
-                                   self.handles.tuple(), contact, scratch)
+                                      self.handles.tuple(), contact, scratch)
 
     @staticmethod
     def _thinness(x) -> float:
