@@ -154,14 +154,15 @@ def test_a_runs_handles_are_fields_of_its_paraview_frames(tmp_path):
 
 
 def test_shake_path_is_the_sine_it_says():
-    """``shake_path``: rows at start + j seconds / count, count = ceil(seconds f per_period),
-    offsets exactly ``A sin(2 pi f (t - start))``; the zero at ``start`` is left to the pin."""
+    """``shake_path``: rows at start + j seconds / count, j = 0..count, count = ceil(seconds f
+    per_period), offsets exactly ``A sin(2 pi f (t - start))`` (0 at ``start`` itself)."""
     rows = jellysim.shake_path((0.004, 0.0, -0.002), 2.5, seconds=1.0, start=0.3)
-    assert rows.shape == (80, 4)
-    t = 0.3 + np.arange(1, 81) / 80
+    assert rows.shape == (81, 4)
+    t = 0.3 + np.arange(0, 81) / 80
     np.testing.assert_allclose(rows[:, 0], t, rtol=0, atol=1e-15)
     s = np.sin(2 * np.pi * 2.5 * (t - 0.3))
     np.testing.assert_allclose(rows[:, 1:], np.outer(s, [0.004, 0.0, -0.002]), atol=1e-15)
+    assert not rows[0, 1:].any()
     for bad, said in ((dict(amplitude=(1, 2)), "amplitude must be 3 numbers"),
                       (dict(frequency=0.0), "frequency must be a number > 0"),
                       (dict(seconds=-1.0), "seconds must be a time > 0"),
@@ -184,8 +185,7 @@ def test_a_shaken_base_follows_its_sine_and_the_jelly_answers_at_the_drive():
     rows = jellysim.shake_path((0.002, 0.0, 0.0), 7.0, seconds=3.0)
     sim.pin(base, path=rows)
     start = sim.state.x[base].copy()
-    times = np.concatenate([[0.0], rows[:, 0]])
-    offs = np.concatenate([[0.0], rows[:, 1]])
+    times, offs = rows[:, 0], rows[:, 1]
     tops = []
     for _ in range(360):
         sim.advance(1)
@@ -228,3 +228,47 @@ def test_a_scenes_shake_table_is_the_same_run_as_its_path(tmp_path):
                          "shake needs 'seconds'")):
         with pytest.raises(SceneError, match=said):
             Scene.from_text(base + extra, name="s.toml")
+
+
+def test_a_delayed_shake_holds_the_base_until_it_starts():
+    """Resonance trial: with ``start = 0.5`` the base drifted from t = 0 towards the first
+    keyframe (0.19 of the amplitude by t = 0.5 s).  It now stays put, to rounding, until the
+    start, and then follows the sine's segments."""
+    sim, top = _cube()
+    rows = jellysim.shake_path((0.001, 0.0, 0.0), 2.0, seconds=0.5, start=0.5)
+    sim.pin(top, path=rows)
+    held = sim.state.x[top].copy()
+    for _ in range(30):
+        sim.advance(1)
+        np.testing.assert_allclose(sim.state.x[top], held, atol=1e-15)
+    swing = 0.0
+    for _ in range(30):
+        sim.advance(1)
+        want = np.interp(sim.state.t, rows[:, 0], rows[:, 1])
+        np.testing.assert_allclose(sim.state.x[top, 0] - held[:, 0], want, atol=1e-12)
+        swing = max(swing, float(abs(sim.state.x[top, 0] - held[:, 0]).max()))
+    assert swing > 0.9e-3  # (it did shake, one whole period)
+
+
+def test_a_scene_settles_a_body_whose_base_it_then_shakes():
+    """Resonance trial: ``[body] settle`` with a shaking pin was refused, and the advice
+    ("settle first, then pin it with its path") had no scene form.  The shaken points are held
+    where they were pinned while the body settles; at t = 0 the body rests (sagged under its
+    weight, velocities zero) and the base then follows its shake exactly."""
+    from jellysim.scene import Scene
+
+    text = ('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 64\nsettle = true\n'
+            'lower = [0.0, 0.0, 0.0]\nupper = [0.03, 0.03, 0.03]\n[integrator]\nsteps = 30\n'
+            '[[handle]]\nkind = "pin"\nbox = [[-1, -1, -1], [1, 0.001, 1]]\n'
+            'shake = {amplitude = [0.001, 0, 0], frequency = 3.0, seconds = 1.0}\n')
+    sim = Scene.from_text(text, name="s.toml").simulator()
+    x0 = sim.model.point_x0
+    base = np.flatnonzero(x0[:, 1] < 0.001)
+    assert sim.state.t == 0.0 and sim.state.step == 0 and not sim.state.v.any()
+    np.testing.assert_array_equal(sim.state.x[base], x0[base])
+    assert sim.state.x[:, 1].max() < 0.03 - 1e-5  # (it sagged while settling)
+    rows = jellysim.shake_path((0.001, 0.0, 0.0), 3.0, seconds=1.0)
+    for _ in range(30):
+        sim.advance(1)
+        want = np.interp(sim.state.t, rows[:, 0], rows[:, 1])
+        np.testing.assert_allclose(sim.state.x[base, 0] - x0[base, 0], want, atol=1e-12)

@@ -6,6 +6,7 @@
                                                               # pushed: the stopping distance)
     python examples/lessons/measure.py wobble  out/wobble     # sway frequency
     python examples/lessons/measure.py decay   out/wobble_damped   # damping ratio of the sway
+    python examples/lessons/measure.py resonance out/resonance     # the swing of a shaken cube
 
 It reads runs made by ``jellysim run`` (or ``jellysim.runner.run_scene``): mu, E and the
 push come from the run's scene.  Everything is read from the run's saved trajectory through
@@ -175,7 +176,51 @@ def decay(traj):
                                f"{measured:.4f}; the material's damping_ratio = {formula:g}")
 
 
-LESSONS = {"slide": slide, "incline": incline, "wobble": wobble, "decay": decay}
+def _sine(t, u, f):
+    """Amplitude and phase [rad] of the sine at ``f`` [Hz] fitted (least squares, with an
+    offset) to ``u`` at the times ``t``: ``u ~ c + A sin(2 pi f t + phase)``."""
+    w = 2 * np.pi * f
+    (a, b, _), *_ = np.linalg.lstsq(np.column_stack([np.sin(w * t), np.cos(w * t),
+                                                     np.ones_like(t)]), u, rcond=None)
+    return float(np.hypot(a, b)), float(np.arctan2(b, a))
+
+
+def resonance(traj, last: float = 2.0):
+    """The top's swing relative to its shaken base over the last ``last`` s (a sine at the
+    drive frequency f fitted to each), against a single mass on a spring with its base shaken,
+    ``r^2 / sqrt((1 - r^2)^2 + (2 zeta r)^2)`` (r = f / f0; 1 / (2 zeta) at resonance), times
+    4 / pi (a shear beam's first mode at its top).  f0 is the material's
+    ``damping_frequency``, which the lesson sets to the cube's damped sway frequency."""
+    shakes = [h["shake"] for h in traj.params.get("handle", []) if "shake" in h]
+    if not shakes:
+        raise ValueError("the run shakes nothing: it needs the resonance lesson's run, "
+                         "examples/lessons/resonance.toml (a [[handle]] with shake = {...})")
+    f = float(shakes[0]["frequency"])
+    mat = traj.params["material"]
+    zeta, f0 = float(mat["damping_ratio"]), float(mat["damping_frequency"])
+    t = np.asarray(traj.times) - traj.times[0]
+    late = t > t[-1] - last
+    x = np.asarray(traj.positions)[late, :, 0]
+    y0 = np.asarray(traj.rest_positions)[:, 1]
+    base, top = y0 < y0.min() + 1e-3, y0 > y0.max() - 1e-3
+    yb, pb = _sine(t[late], x[:, base].mean(axis=1), f)
+    zt, pz = _sine(t[late], x[:, top].mean(axis=1) - x[:, base].mean(axis=1), f)
+    lag = float(np.degrees((pb - pz) % (2 * np.pi)))
+    r = f / f0
+    single = r**2 / np.sqrt((1 - r**2) ** 2 + (2 * zeta * r) ** 2)
+    formula = float(single * 4 / np.pi)
+    measured = zt / yb
+    lag_single = float(np.degrees(np.arctan2(2 * zeta * r, 1 - r**2)))
+    return measured, formula, (f"shaken at {f:g} Hz (r = f / f0 = {r:.3f}, f0 = {f0:g} Hz) by "
+                               f"{yb * 1e3:.3f} mm, the top swings {zt * 1e3:.2f} mm relative "
+                               f"to the base ({measured:.2f} times), lagging it by {lag:.0f} "
+                               f"deg; a single mass: {single:.2f} times, lagging by "
+                               f"{lag_single:.0f} deg; times 4/pi for a shear beam's top: "
+                               f"{formula:.2f} ({measured / formula - 1:+.1%})")
+
+
+LESSONS = {"slide": slide, "incline": incline, "wobble": wobble, "decay": decay,
+           "resonance": resonance}
 
 if __name__ == "__main__":
     if len(sys.argv) != 3 or sys.argv[1] not in LESSONS:

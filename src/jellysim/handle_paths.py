@@ -19,8 +19,9 @@ __all__ = ["shake_path"]
 
 def shake_path(amplitude, frequency: float, *, seconds: float, start: float = 0.0,
                per_period: int = 32) -> np.ndarray:
-    """Keyframes (k, 4) of a sinusoidal shake: offset ``amplitude * sin(2 pi frequency
-    (t - start))`` [m] for ``start <= t <= start + seconds`` [s]; ``amplitude`` [m], shape
+    """Keyframes (k + 1, 4) of a sinusoidal shake: offset ``amplitude * sin(2 pi frequency
+    (t - start))`` [m] for ``start <= t <= start + seconds`` [s] (the first row is the zero at
+    ``start``: pinned earlier, the points stay still until then); ``amplitude`` [m], shape
     (3,) (the direction and size of the swing), ``frequency`` [Hz], ``per_period`` keyframes a
     period (at least 4).  Pin with it: ``sim.pin(base, path=js.shake_path((0.005, 0, 0), 3.0,
     seconds=2.0, start=sim.state.t))``."""
@@ -52,8 +53,9 @@ def shake_path(amplitude, frequency: float, *, seconds: float, start: float = 0.
     if count > 1_000_000:
         raise SceneError(f"shake_path: {count} keyframes ({span:g} s at {f:g} Hz, "
                          f"{per_period} a period): shorten the shake or lower the frequency")
-    t = np.linspace(0.0, span, count + 1)[1:]  # (the zero offset at `start` is the pin's own)
-    rows = np.empty((count, 4))
+    t = np.linspace(0.0, span, count + 1)  # (the first row: the zero offset at `start`, so a
+    rows = np.empty((count + 1, 4))        # later start holds the points still until then)
     rows[:, 0] = t0 + t
     rows[:, 1:] = np.sin(2.0 * np.pi * f * t)[:, None] * amp
+    rows[0, 1:] = 0.0
     return rows

@@ -176,7 +176,8 @@ def check_table(name: str, label: str, given: dict, keys: dict[str, Spec]) -> di
 def apply_override(raw: dict, item: str, name: str) -> None:
     """Apply one ``section.key=value`` (TOML value) to a parsed scene, in place; a list of
     tables (``[[obstacle]]``, ``[[handle]]``) is addressed as ``section.N.key=value``, N
-    counting its tables from 1 as they stand in the file."""
+    counting its tables from 1 as they stand in the file (and a key of an inline table there
+    as ``section.N.key.inner=value``, e.g. ``handle.1.shake.frequency=2``)."""
     where, sep, value = item.partition("=")
     section, dot, key = where.strip().partition(".")
     if not (sep and dot and section and key):
@@ -199,7 +200,12 @@ def apply_override(raw: dict, item: str, name: str) -> None:
         if not 1 <= int(number) <= len(table):
             raise SceneError(f"{name}: --set {item!r}: the scene has {len(table)} "
                              f"[[{section}]] table(s); N runs from 1 to {len(table)}")
-        table[int(number) - 1][inner] = parsed
+        entry = table[int(number) - 1]
+        head, dot3, rest = inner.partition(".")
+        if dot3 and isinstance(entry.get(head), dict):  # an inline table's key (resonance
+            entry[head] = dict(entry[head], **{rest: parsed})  # trial: shake.frequency)
+        else:
+            entry[inner] = parsed
         return
     table[key] = parsed
 
