@@ -272,3 +272,24 @@ def test_a_scene_settles_a_body_whose_base_it_then_shakes():
         sim.advance(1)
         want = np.interp(sim.state.t, rows[:, 0], rows[:, 1])
         np.testing.assert_allclose(sim.state.x[base, 0] - x0[base, 0], want, atol=1e-12)
+
+
+def test_a_shake_faster_than_the_saved_frames_is_said(tmp_path):
+    """Resonance trial: a 50 Hz shake saved at 60 frames/s read as a 10 Hz swing in the
+    render, plot and table, with nothing said.  The run now says so, naming the false
+    frequency |50 - 60| = 10 Hz; at 20 Hz (below half the rate) it says nothing."""
+    from jellysim.runner import run_scene
+    from jellysim.scene import Scene
+
+    base = ('[material]\npreset = "gelatin"\n[body]\ntype = "box"\npoints = 27\n'
+            'lower = [0.0, 0.0, 0.0]\nupper = [0.02, 0.02, 0.02]\n[integrator]\nsteps = 3\n'
+            '[[handle]]\nkind = "pin"\nbox = [[-1, -1, -1], [1, 0.001, 1]]\n'
+            'shake = {{amplitude = [0.0005, 0, 0], frequency = {f}, seconds = 1.0}}\n')
+    for f, said in ((50.0, 1), (20.0, 0)):
+        notes = []
+        run_scene(Scene.from_text(base.format(f=f), name="s.toml"), tmp_path / str(f),
+                  progress=False, notify=notes.append)
+        alias = [n for n in notes if "faster than half the rate" in n]
+        assert len(alias) == said
+        if said:
+            assert "false 10 Hz swing" in alias[0] and "[[handle]] #1 shakes at 50 Hz" in alias[0]

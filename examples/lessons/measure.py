@@ -91,7 +91,13 @@ def _sway(traj, after: float):
 
 
 def _need_sway(traj, crossings, lesson: str) -> None:
-    """Refuse a run with no sway to measure (another lesson's run, or one too short)."""
+    """Refuse a run with no sway to measure (another lesson's run, or one too short), or one
+    whose base is shaken (a driven sway is not a free one: the resonance trial's decay read
+    -0.0028)."""
+    if any("shake" in h for h in traj.params.get("handle", [])):
+        raise ValueError(f"the run's base is shaken (a [[handle]] shake): its sway is driven, "
+                         f"not free, so '{lesson}' cannot read it; measure it with "
+                         "'resonance' (python examples/lessons/measure.py resonance RUN)")
     if len(crossings) < 4:
         n = len(crossings)
         raise ValueError(f"the run's centre of mass crosses its mean {n} time"

@@ -14,7 +14,7 @@ import numpy as np
 
 from .errors import SceneError
 
-__all__ = ["shake_path"]
+__all__ = ["shake_path", "aliasing_notes"]
 
 
 def shake_path(amplitude, frequency: float, *, seconds: float, start: float = 0.0,
@@ -59,3 +59,21 @@ def shake_path(amplitude, frequency: float, *, seconds: float, start: float = 0.
     rows[:, 1:] = np.sin(2.0 * np.pi * f * t)[:, None] * amp
     rows[0, 1:] = 0.0
     return rows
+
+
+def aliasing_notes(handles, frame_seconds: float) -> list[str]:
+    """What to say of a scene's ``[[handle]]`` shakes faster than half the rate its frames
+    are saved at (``frame_seconds`` [s] apart): the saved frames show a slower, false swing (a
+    50 Hz shake saved at 60 frames/s reads as 10 Hz: resonance trial).  The run itself is
+    right; only its record is too coarse."""
+    rate = 1.0 / float(frame_seconds)
+    out = []
+    for k, h in enumerate(handles or (), start=1):
+        f = float((h.get("shake") or {}).get("frequency", 0.0))
+        if f > 0.5 * rate:
+            seen = abs(f - rate * round(f / rate))
+            out.append(f"[[handle]] #{k} shakes at {f:g} Hz, faster than half the rate the "
+                       f"frames are saved at ({rate:g} frames/s): the saved frames show a "
+                       f"false {seen:.3g} Hz swing (the run itself is right); save more "
+                       f"frames ([output] every, or a smaller [integrator] dt) to see it")
+    return out

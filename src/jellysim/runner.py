@@ -40,6 +40,7 @@ from .run_notes import _resume_command, _say_if_slow
 from .io.vtk import FrameWriter, PVDSeries
 from .physics.fem import stress_fields
 from .handles import handle_fields
+from .handle_paths import aliasing_notes
 from .skin import default_skin
 
 __all__ = ["RUN_FILES", "RunResult", "prepare_out_dir", "run_scene",
@@ -321,6 +322,7 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
             skin = None
     total = scene.steps if steps is None else int(steps)
     every = scene.frame_every
+    messages += aliasing_notes(scene.params.get("handle"), every * sim.dt)
     if checkpoint_every is None:
         checkpoint_every = scene.params["output"].get("checkpoint_every")
     write_vtu = scene.params["output"]["vtu"] if vtu is None else vtu

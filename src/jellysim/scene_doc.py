@@ -52,7 +52,8 @@ def schema_markdown() -> str:
               "| `shake` | {amplitude = [ax, ay, az], frequency = f, seconds = s} | Pin: "
               "instead of `path`, the offset amplitude sin(2 pi f t) [m] for s seconds "
               "(`start` [s], optional, delays it; 32 keyframes a period: "
-              "`jellysim.shake_path`). |",
+              "`jellysim.shake_path`; a shake faster than half the saved frame rate is "
+              "said: its frames would show a false, slower swing). |",
               "| `force` | [fx, fy, fz] | Force: total force [N], split evenly. |",
               "| `until` | float | Force: release time [s] (the force acts from the start "
               "until then: a push, then a free wobble); default: the whole run. |",
