@@ -59,8 +59,9 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                        "gravity on its ground and obstacles (strongly damped, then the clock "
                        "set to 0), so a jello placed unsagged does not bounce through the run. "
                        "A `[[handle]]` force with no `until` is a load it settles under; one "
-                       "with `until` acts from t = 0 only (off while settling). "
-                       "Physical path; serial runs."),
+                       "with `until` acts from t = 0 only (off while settling); a pin "
+                       "moving along a `path` or `shake` holds its points while settling and "
+                       "moves from t = 0.  Physical path; serial runs."),
         "up": Spec("str", "y", "Type 'mesh': the mesh's axis that points up ('z' for most CAD "
                    "and STL files), turned to +y before size and base.",
                    choices=("y", "z", "x", "-y", "-z", "-x")),
