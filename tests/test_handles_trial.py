@@ -41,7 +41,7 @@ def test_a_pin_path_into_an_obstacle_is_said_and_the_obstacle_wins_as_said():
     sphere = jellysim.Sphere(center=tuple(CENTER), radius=RADIUS)
     sim, top = _cube(obstacles=[sphere])
     with pytest.warns(UserWarning, match=r"pin: the path takes pinned points 0\.01 m into "
-                                         r"obstacle #1 \(Sphere.*the obstacle wins"):
+                                         r"obstacle #1 \(a sphere\).*the obstacle wins"):
         sim.pin(top, path=[[0.5, 0.0, 0.02, 0.0]])
     start = sim.state.x[top].copy()
     sim.advance(60)
@@ -293,3 +293,38 @@ def test_a_shake_faster_than_the_saved_frames_is_said(tmp_path):
         assert len(alias) == said
         if said:
             assert "false 10 Hz swing" in alias[0] and "[[handle]] #1 shakes at 50 Hz" in alias[0]
+
+
+def test_a_path_faster_than_the_steps_and_a_crossing_between_keyframes_are_said(monkeypatch):
+    """Re-trial (session 31): the pins follow their path at the step ends, straight between,
+    so a 40 Hz shake at dt = 1/60 moved the base as a 20 Hz zig-zag with nothing said; the
+    same shake at 3.52 Hz (17 steps a period, 1.7 % cut) is not said.  A path whose one
+    segment carries a corner 0.4 m across a 3 cm sphere (its ends and midpoint outside it)
+    was not said either; and a 960,001-keyframe shake beside a sphere out of its reach is
+    not swept point by point (it took 97 s)."""
+    sim, top = _cube()
+    with pytest.warns(UserWarning, match=r"follow their path at the end of each step \(dt = "
+                                         r"0\.0166667 s\).*cut short; use a smaller dt"):
+        sim.pin(top, path=jellysim.shake_path((0.001, 0, 0), 40.0, seconds=1.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.pin(top, path=jellysim.shake_path((0.001, 0, 0), 3.52, seconds=1.0))
+    sphere = jellysim.Sphere(center=(0.12, 0.07, 0.0), radius=0.03)
+    sim, top = _cube(obstacles=[sphere])
+    with pytest.warns(UserWarning, match=r"into obstacle #1 \(a sphere\)"):
+        sim.pin(top, path=[[0.5, 0.4, 0.0, 0.0]])
+    far = jellysim.Sphere(center=(5.0, 0.07, 0.0), radius=0.03)
+    sim, top = _cube(obstacles=[far])
+    rows = jellysim.shake_path((0.001, 0, 0), 100.0, seconds=300.0)
+    assert len(rows) == 960_001
+    import jellysim.handle_warnings as hw
+
+    def never(*args):
+        raise AssertionError("a sphere out of the path's reach was swept")
+
+    monkeypatch.setattr(hw, "_deepest", never)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # (100 Hz at dt = 1/60 is said: not this test's)
+        sim.pin(top, path=rows)  # (the bounding-box test skips it)
+    with pytest.raises(SceneError, match="more than a million keyframes"):
+        jellysim.shake_path((0.001, 0, 0), 1e308, seconds=1.0)

@@ -49,10 +49,15 @@ def shake_path(amplitude, frequency: float, *, seconds: float, start: float = 0.
             or per_period < 4:
         raise SceneError(f"shake_path: per_period must be a whole number >= 4, got "
                          f"{per_period!r}")
-    count = max(1, int(np.ceil(span * f * per_period - 1e-9)))
-    if count > 1_000_000:
-        raise SceneError(f"shake_path: {count} keyframes ({span:g} s at {f:g} Hz, "
-                         f"{per_period} a period): shorten the shake or lower the frequency")
+    periods = span * f
+    if not periods * per_period <= 1_000_000:  # (also inf: 1e308 Hz overflowed)
+        raise SceneError(f"shake_path: {span:g} s at {f:g} Hz, {per_period} keyframes a "
+                         f"period, is more than a million keyframes: shorten the shake or "
+                         f"lower the frequency")
+    if t0 + span > 1e9:
+        raise SceneError(f"shake_path: start + seconds = {t0 + span:g} s: past any run "
+                         f"(start and seconds are in seconds)")
+    count = max(1, int(np.ceil(periods * per_period - 1e-9)))
     t = np.linspace(0.0, span, count + 1)  # (the first row: the zero offset at `start`, so a
     rows = np.empty((count + 1, 4))        # later start holds the points still until then)
     rows[:, 0] = t0 + t
@@ -64,8 +69,9 @@ def shake_path(amplitude, frequency: float, *, seconds: float, start: float = 0.
 def aliasing_notes(handles, frame_seconds: float) -> list[str]:
     """What to say of a scene's ``[[handle]]`` shakes faster than half the rate its frames
     are saved at (``frame_seconds`` [s] apart): the saved frames show a slower, false swing (a
-    50 Hz shake saved at 60 frames/s reads as 10 Hz: resonance trial).  The run itself is
-    right; only its record is too coarse."""
+    50 Hz shake saved at 60 frames/s reads as 10 Hz: resonance trial).  (The pin itself follows
+    its path at the step ends: :func:`jellysim.handle_warnings.path_warnings` says when that
+    is too coarse.)"""
     rate = 1.0 / float(frame_seconds)
     out = []
     for k, h in enumerate(handles or (), start=1):
@@ -74,6 +80,7 @@ def aliasing_notes(handles, frame_seconds: float) -> list[str]:
             seen = abs(f - rate * round(f / rate))
             out.append(f"[[handle]] #{k} shakes at {f:g} Hz, faster than half the rate the "
                        f"frames are saved at ({rate:g} frames/s): the saved frames show a "
-                       f"false {seen:.3g} Hz swing (the run itself is right); save more "
-                       f"frames ([output] every, or a smaller [integrator] dt) to see it")
+                       f"false {seen:.3g} Hz swing; save more frames ([output] every, or a "
+                       f"smaller [integrator] dt, which the pin also needs: it follows its "
+                       f"path at the step ends)")
     return out
