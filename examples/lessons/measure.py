@@ -202,11 +202,17 @@ def resonance(traj, last: float = 2.0):
         raise ValueError("the run shakes nothing: it needs the resonance lesson's run, "
                          "examples/lessons/resonance.toml (a [[handle]] with shake = {...})")
     f = float(shakes[0]["frequency"])
+    amp = np.asarray(shakes[0]["amplitude"], dtype=float)
+    ends = float(shakes[0].get("start", 0.0)) + float(shakes[0]["seconds"])
+    if ends < traj.times[-1] - 1e-9 or not np.any(amp):
+        raise ValueError(f"the shake ends at t = {ends:g} s, before the run's last {last:g} s "
+                         f"that the measurement reads (or has no amplitude): shake for the "
+                         f"whole run")
     mat = traj.params["material"]
     zeta, f0 = float(mat["damping_ratio"]), float(mat["damping_frequency"])
     t = np.asarray(traj.times) - traj.times[0]
     late = t > t[-1] - last
-    x = np.asarray(traj.positions)[late, :, 0]
+    x = np.asarray(traj.positions)[late] @ (amp / np.linalg.norm(amp))  # (along the shake)
     y0 = np.asarray(traj.rest_positions)[:, 1]
     base, top = y0 < y0.min() + 1e-3, y0 > y0.max() - 1e-3
     yb, pb = _sine(t[late], x[:, base].mean(axis=1), f)

@@ -9,8 +9,8 @@ A backend (numpy, numba, Warp) implements three drivers,
 * ``physical_steps(nsteps, dt, x, v, a, model_arrays, fem, handles, contact, scratch) ->
   (steps_done, status)`` (the FEM path: :func:`.fem_numpy.physical_steps`, the spec),
 
-plus ``finish_step`` and ``contact`` (used alone by other integration paths), over the state
-arrays ``x`` [m], ``v`` [m/s], ``a`` [m/s^2] (n, 3) float64, updated in place, and the records
+(a backend may leave out one whose integrator :func:`jellysim.scene_spec.check_backend`
+refuses for it, as Warp does ``implicit_steps``), over the state arrays ``x`` [m], ``v`` [m/s], ``a`` [m/s^2] (n, 3) float64, updated in place, and the records
 below.  The :class:`~jellysim.simulator.Simulator` builds the records once
 (:func:`spring_arrays`, :func:`point_arrays`, ...) and only ever calls those drivers, so a new
 backend, registered in :mod:`jellysim.kernels` (a ``Backend`` member and a ``get_backend``
