@@ -141,6 +141,8 @@ def test_a_shaken_cube_resonates_as_a_driven_oscillator(tmp_path):
     assert float(re.search(r"lagging it by (\d+) deg", text)[1]) < 20
     with pytest.raises(ValueError, match="its sway is driven, not free"):
         measure.decay(load_trajectory(tmp_path / "slow" / "resonance"))
+    with pytest.raises(ValueError, match="the run has no slope to slide down"):
+        measure.incline(load_trajectory(tmp_path / "slow" / "resonance"))
     t = np.arange(0.0, 2.0, 1 / 60)
     amp, phase = measure._sine(t, 0.3 + 2.0 * np.sin(2 * np.pi * 3.0 * t + 0.7), 3.0)
     assert amp == pytest.approx(2.0, rel=1e-12) and phase == pytest.approx(0.7, abs=1e-12)

@@ -56,6 +56,12 @@ def incline(traj, after: float = 0.2):
     against v0^2 / (2 g (mu cos t - sin t))."""
     d = _table(traj)
     g = np.asarray(traj.gravity, dtype=np.float64)
+    if not g[1] < 0 or any("shake" in h or h.get("kind") == "pin"
+                           for h in traj.params.get("handle", [])):
+        raise ValueError("the run has no slope to slide down (gravity does not point down "
+                         "onto the plate, or the body is pinned): it needs the incline "
+                         "lesson's run, examples/lessons/incline.toml (a re-trial read a "
+                         "weightless shaken cube as a 180 deg slope)")
     theta = float(np.arctan2(np.hypot(g[0], g[2]), -g[1]))
     mu = traj.params["ground"]["friction"]
     size = float(np.linalg.norm(g))
