@@ -25,9 +25,9 @@ def shake_path(amplitude, frequency: float, *, seconds: float, start: float = 0.
     (3,) (the direction and size of the swing), ``frequency`` [Hz], ``per_period`` keyframes a
     period (at least 4).  Pin with it: ``sim.pin(base, path=js.shake_path((0.005, 0, 0), 3.0,
     seconds=2.0, start=sim.state.t))``."""
-    def number(value, what, low):
+    def number(value, what, positive):
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)) \
-                or not np.isfinite(value) or value < low:
+                or not np.isfinite(value) or value < 0 or (positive and value == 0):
             raise SceneError(f"shake_path: {what}, got {value!r}")
         return float(value)
 
@@ -38,13 +38,9 @@ def shake_path(amplitude, frequency: float, *, seconds: float, start: float = 0.
                          f"swing's direction and size), got {amplitude!r}") from None
     if not np.all(np.isfinite(amp)):
         raise SceneError(f"shake_path: amplitude must be finite, got {amp.tolist()}")
-    f = number(frequency, "frequency must be a number > 0 [Hz]", 0.0)
-    if f <= 0:
-        raise SceneError(f"shake_path: frequency must be a number > 0 [Hz], got {frequency!r}")
-    span = number(seconds, "seconds must be a time > 0 [s]", 0.0)
-    if span <= 0:
-        raise SceneError(f"shake_path: seconds must be a time > 0 [s], got {seconds!r}")
-    t0 = number(start, "start must be a time >= 0 [s]", 0.0)
+    f = number(frequency, "frequency must be a number > 0 [Hz]", True)
+    span = number(seconds, "seconds must be a time > 0 [s]", True)
+    t0 = number(start, "start must be a time >= 0 [s]", False)
     if isinstance(per_period, bool) or not isinstance(per_period, (int, np.integer)) \
             or per_period < 4:
         raise SceneError(f"shake_path: per_period must be a whole number >= 4, got "

@@ -42,8 +42,8 @@ def path_warnings(sim, idx, path) -> list[str]:
     others = sim._others() if hasattr(sim, "_others") else ()
     lo = x.min(axis=0) + path.offsets.min(axis=0)  # (the box every pinned point stays in)
     hi = x.max(axis=0) + path.offsets.max(axis=0)
+    corners = np.array([[(lo, hi)[(c >> a) & 1][a] for a in range(3)] for c in range(8)])
     for k, o in enumerate(others):
-        corners = np.array([[(lo, hi)[(c >> a) & 1][a] for a in range(3)] for c in range(8)])
         kind, v = o.row()
         if kind == 1 and np.any(np.maximum(lo - np.asarray(v[:3]), np.asarray(v[:3]) - hi)
                                 > v[3]):
