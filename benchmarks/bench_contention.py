@@ -10,7 +10,7 @@ process costs at most, worse = the threads hurt each other):
   jellysim's default settings, its 100 steps;
 * ``paper_springs``: the same cube with Provot over the springs (the fast explicit step that
   ``bench_step`` times: many short parallel regions per step, the case that spin-waiting
-  threads hurt most), 1000 steps;
+  threads hurt most), 5000 steps;
 * ``physical``: ``examples/gelatin_cube.toml`` (1331 points, the implicit integrator with
   contact: the demo's physics), 20 steps.
 * ``demo`` (only when asked for with ``--workloads``): the simulation of ``jellysim demo``
@@ -19,10 +19,14 @@ process costs at most, worse = the threads hurt each other):
   rendering, MP4 and USD) in a subprocess, after one warm-up run; its "steps/s" is runs/s.
 
 ``--variants`` compares threading set-ups (each child gets that environment): ``default``
-(jellysim as shipped), ``spin`` (OpenMP's own default: ``OMP_WAIT_POLICY=active``-like spinning,
+(jellysim as shipped: a 10 us spin, the thread count chosen by timing), ``passive``
+(``JELLYSIM_THREADING=passive``: threads sleep at once, the default before session 32), ``spin`` (OpenMP's own default: ``OMP_WAIT_POLICY=active``-like spinning,
 i.e. jellysim's setting undone), ``spin2k``/``spin10k``/``spin50k`` (the same with libgomp's
 ``GOMP_SPINCOUNT`` set: a short spin before sleeping), ``workqueue`` (numba's workqueue layer),
 ``threads1``.
+
+With no thread count given, a Simulator first tries 1 and all threads (about ten pieces or
+frames, ``jellysim.thread_choice``); the timing starts after that choice.
 
 Run:  PYTHONPATH=src python -m benchmarks.bench_contention [--variants default,spin]
           [--busy N] [--repeats 3]
@@ -46,6 +50,8 @@ ROOT = Path(__file__).resolve().parent.parent
 
 VARIANTS = {
     "default": {},
+    # jellysim's setting before session 32: threads sleep at once
+    "passive": {"JELLYSIM_THREADING": "passive"},
     # what numba + libgomp do without jellysim's setting: spin for ~300k iterations
     "spin": {"JELLYSIM_THREADING": "spin"},
     "spin2k": {"JELLYSIM_THREADING": "spin", "GOMP_SPINCOUNT": "2000"},
@@ -81,7 +87,7 @@ def child(workloads: list[str]) -> dict:
             sc = Scene.load(ROOT / "examples" / "paper_cube.toml")
             if name == "paper_springs":
                 sc.params["provot"]["pairs"] = "springs"
-            steps = 100 if name == "paper" else 1000
+            steps = 100 if name == "paper" else 5000
         elif name == "demo":
             from jellysim.demo import DEMO_SCENE, build_demo_body
 
@@ -95,6 +101,9 @@ def child(workloads: list[str]) -> dict:
         if name != "demo":
             sim = sc.simulator(sc.build_model(), threads=threads)
         sim.advance(2)  # compile / load the cache outside the timing
+        choice = getattr(sim, "_thread_choice", None)
+        while choice and not choice.chosen:  # time the count chosen, not the first try
+            sim.advance(max(1, steps // 10))
         t = time.perf_counter()
         sim.advance(steps)
         out[name] = steps / (time.perf_counter() - t)

@@ -10,13 +10,17 @@ pass"`` per core ("busy"):
   13,182 tets) dropped on the contact ground, ``threads=2``, ms per 1/60 s frame (median of 5
   windows of 3 frames).
 
-Variants: ``passive`` (jellysim as shipped: ``OMP_WAIT_POLICY=PASSIVE``, threads sleep at
-once), ``spinN`` (libgomp's ``GOMP_SPINCOUNT=N`` with OpenMP's active policy: spin N times,
-then sleep), ``spin`` (OpenMP's default: ``JELLYSIM_THREADING=spin``), ``tbb`` (numba's TBB
-layer; needs ``libtbb.so.12``: ``pip download tbb`` and unzip its ``data/lib`` into the folder
-given by ``--tbb-lib``), ``threads1`` (one thread, for reference).
+Variants: ``shipped`` (jellysim's defaults: since session 32 libgomp's
+``GOMP_SPINCOUNT=1000``, ``OMP_WAIT_POLICY=PASSIVE`` for other runtimes), ``passive``
+(``JELLYSIM_THREADING=passive``, the default before: threads sleep at once), ``spinN``
+(libgomp's ``GOMP_SPINCOUNT=N`` with OpenMP's active policy: spin N times, then sleep),
+``spin`` (OpenMP's default: ``JELLYSIM_THREADING=spin``), ``tbb`` (numba's TBB layer; needs
+``libtbb.so.12``: ``pip download tbb`` and unzip its ``data/lib`` into the folder given by
+``--tbb-lib``), ``threads1`` (one thread, for reference), ``auto`` (the shipped set-up with no
+thread count: the Simulator times 1 and 2 threads and keeps the faster, ``jellysim.thread_choice``;
+timed after its first choice).
 
-Run:  PYTHONPATH=src python -m benchmarks.bench_wait_policy [--variants passive,spin1000,spin]
+Run:  PYTHONPATH=src python -m benchmarks.bench_wait_policy [--variants shipped,auto,passive,threads1]
           [--rounds 3] [--tbb-lib DIR]
 
 Rounds alternate the variants; the JSON gives every figure and the medians.  The machine is
@@ -36,7 +40,14 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def child(workload: str, threads: int, cells: int) -> float:
+def _chosen(sim, steps: int) -> None:
+    """Run ``sim`` until its thread chooser (threads = None) made its first choice."""
+    choice = getattr(sim, "_thread_choice", None)
+    while choice and not choice.chosen:
+        sim.advance(steps)
+
+
+def child(workload: str, threads: int | None, cells: int) -> float:
     import warnings
 
     import numpy as np
@@ -54,6 +65,7 @@ def child(workload: str, threads: int, cells: int) -> float:
                         provot=ProvotParams(tau=0.001, loops=1, pairs="springs"),
                         ground=GroundParams(mu=0.1, nu=0.2), check_stability=False)
         sim.advance(1)
+        _chosen(sim, 200)
         rates = []
         for _ in range(7):
             t = time.perf_counter()
@@ -68,6 +80,7 @@ def child(workload: str, threads: int, cells: int) -> float:
     sim = Simulator(model, dt=1 / 60, ground=GroundParams(model=GroundModel.CONTACT),
                     threads=threads)
     sim.advance(1)
+    _chosen(sim, 1)
     times = []
     for _ in range(5):
         t = time.perf_counter()
@@ -77,10 +90,14 @@ def child(workload: str, threads: int, cells: int) -> float:
 
 
 def variant_env(name: str, tbb_lib: str | None) -> tuple[dict, int]:
-    if name == "passive":
+    if name == "shipped":
         return {}, 2
+    if name == "passive":
+        return {"JELLYSIM_THREADING": "passive"}, 2
     if name == "threads1":
         return {}, 1
+    if name == "auto":
+        return {}, 0
     if name == "spin":
         return {"JELLYSIM_THREADING": "spin"}, 2
     if name.startswith("spin"):
@@ -111,13 +128,13 @@ def main() -> None:
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--threads", type=int, default=2, help=argparse.SUPPRESS)
     ap.add_argument("--cells", type=int, default=12)
-    ap.add_argument("--variants", default="passive,spin300,spin1000,spin3000,spin,threads1")
+    ap.add_argument("--variants", default="shipped,auto,passive,spin,threads1")
     ap.add_argument("--workloads", default="paper,physical")
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--tbb-lib", default=None)
     args = ap.parse_args()
     if args.child:
-        print(child(args.child, args.threads, args.cells))
+        print(child(args.child, args.threads or None, args.cells))
         return
     variants = args.variants.split(",")
     workloads = args.workloads.split(",")

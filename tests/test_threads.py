@@ -67,20 +67,28 @@ def test_cli_threads_option_gives_bitwise_equal_runs(tmp_path):
 
 
 def _env_after_import(**env):
-    base = {k: v for k, v in os.environ.items()
-            if k not in ("OMP_WAIT_POLICY", "KMP_BLOCKTIME", "JELLYSIM_THREADING")}
+    names = ("OMP_WAIT_POLICY", "KMP_BLOCKTIME", "GOMP_SPINCOUNT")
+    base = {k: v for k, v in os.environ.items() if k not in names + ("JELLYSIM_THREADING",)}
     base.update(env)
     base["PYTHONPATH"] = str(ROOT / "src")
-    code = ("import os, jellysim; print(os.environ.get('OMP_WAIT_POLICY'), "
-            "os.environ.get('KMP_BLOCKTIME'))")
-    return subprocess.run([sys.executable, "-c", code], env=base, capture_output=True,
-                          text=True, check=True).stdout.split()
+    code = f"import os, jellysim; print(*[os.environ.get(k) for k in {names!r}])"
+    res = subprocess.run([sys.executable, "-W", "always", "-c", code], env=base,
+                         capture_output=True, text=True, check=True)
+    return res.stdout.split(), res.stderr
 
 
-def test_import_sets_passive_wait_unless_the_user_chose():
-    assert _env_after_import() == ["PASSIVE", "0"]
-    assert _env_after_import(OMP_WAIT_POLICY="active") == ["active", "0"]
-    assert _env_after_import(JELLYSIM_THREADING="spin") == ["None", "None"]
+def test_import_sets_a_short_spin_and_passive_wait_unless_the_user_chose():
+    """libgomp's threads spin 1000 times (about 10 us) then sleep; other OpenMP runtimes
+    sleep at once; a user's own settings win; ``JELLYSIM_THREADING`` picks another set-up,
+    and an unknown value is said, not ignored."""
+    assert _env_after_import() == (["PASSIVE", "0", "1000"], "")
+    assert _env_after_import(OMP_WAIT_POLICY="active")[0] == ["active", "0", "1000"]
+    assert _env_after_import(GOMP_SPINCOUNT="50")[0] == ["PASSIVE", "0", "50"]
+    assert _env_after_import(JELLYSIM_THREADING="passive")[0] == ["PASSIVE", "0", "None"]
+    assert _env_after_import(JELLYSIM_THREADING="spin")[0] == ["None", "None", "None"]
+    values, said = _env_after_import(JELLYSIM_THREADING="spinning")
+    assert values == ["PASSIVE", "0", "1000"]
+    assert "JELLYSIM_THREADING='spinning' is not known" in said and "'passive'" in said
 
 
 def test_auto_threads_drops_to_one_on_an_oversubscribed_machine(monkeypatch):
@@ -128,15 +136,19 @@ def test_more_threads_than_numba_has_are_capped_and_said():
     assert np.array_equal(many.state.x, pool.state.x)
 
 
-def test_thread_choice_keeps_the_faster_count_and_tries_the_other_again():
-    """The chooser (threads = None on the physical path) runs its first frame on each count
-    untimed, interleaves four timed frames of each, keeps the faster by more than MARGIN,
-    and tries the other count again every PROBE_EVERY frames: here 2 threads are faster at
-    first (300 vs 400 us a substep), then slower (the machine got busy: 800 us)."""
-    from jellysim.thread_choice import MARGIN, PROBE_EVERY, ThreadChoice
+@pytest.mark.parametrize("springs", [False, True])
+def test_thread_choice_keeps_the_faster_count_and_tries_the_other_again(springs):
+    """The chooser (threads = None) runs its first frame (the springs path: piece) on each
+    count untimed, interleaves four timed frames of each, keeps all threads if faster than one
+    by more than MARGIN (else one), and tries the other count again every PROBE_EVERY frames (SPRINGS_PROBE_EVERY
+    pieces): here 2 threads are faster at first (300 vs 400 us a substep), then slower (the
+    machine got busy: 800 us)."""
+    from jellysim.thread_choice import MARGIN, SPRINGS_PROBE_EVERY, ThreadChoice
+    from jellysim.thread_choice import PROBE_EVERY as EVERY
 
+    PROBE_EVERY = SPRINGS_PROBE_EVERY if springs else EVERY
     cost = {1: 400e-6, 2: 300e-6}
-    ch = ThreadChoice(start=1, most=2)
+    ch = ThreadChoice(start=1, most=2, probe_every=PROBE_EVERY)
     frames = []
     for _ in range(2 * PROBE_EVERY + 20):
         count, timed = ch.next_frame()
@@ -151,13 +163,15 @@ def test_thread_choice_keeps_the_faster_count_and_tries_the_other_again():
     assert frames[retry:retry + 2] == [(1, True), (1, True)]  # 1 tried again: 400 < 800
     assert all(c == 1 for c, _ in frames[retry + 2:retry + 2 + PROBE_EVERY])  # kept
     assert [c for c, _ in frames[retry + 2 + PROBE_EVERY:]] == [2, 2] + [1] * 6  # 2 tried
-    # a count within MARGIN of the current one does not take over
-    ch = ThreadChoice(start=1, most=2)
-    for _ in range(40):
-        count, timed = ch.next_frame()
-        if timed:
-            ch.record(count, (1.0 - 0.5 * MARGIN if count == 2 else 1.0) * 1e-2, 40)
-    assert ch.current == 1
+    # two threads within MARGIN of one thread's speed: one thread, whichever it started on
+    # (a tie leaves the other core to other work)
+    for start in (1, 2):
+        ch = ThreadChoice(start=start, most=2, probe_every=PROBE_EVERY)
+        for _ in range(40):
+            count, timed = ch.next_frame()
+            if timed:
+                ch.record(count, (1.0 - 0.5 * MARGIN if count == 2 else 1.0) * 1e-2, 40)
+        assert ch.chosen and ch.current == 1
 
 
 def test_threads_chosen_by_timing_change_nothing_in_the_results():
@@ -192,3 +206,39 @@ def test_threads_chosen_by_timing_change_nothing_in_the_results():
     assert used == {1, most}
     assert np.array_equal(auto.state.x, one.state.x) and np.array_equal(auto.state.v, one.state.v)
     assert auto.state.x[:, 1].min() < 0.005  # it fell onto the ground: contact was in play
+
+
+@pytest.mark.parametrize("integrator, order", [("paper", "jacobi"),
+                                               ("symplectic", "gauss-seidel"),
+                                               ("implicit", None)])
+def test_springs_threads_chosen_by_timing_change_nothing_in_the_results(integrator, order):
+    """A spring body given no thread count runs its pieces on 1 and on all of numba's
+    threads (the chooser's first try), the try's pieces short, and its trajectory is bitwise
+    the one-thread run's, on the report's ground."""
+    import numba
+
+    import jellysim as js
+    from jellysim import thread_choice
+
+    most = numba.config.NUMBA_NUM_THREADS
+    if most < 2:
+        pytest.skip("numba has one thread here (NUMBA_NUM_THREADS): there is nothing to choose")
+    body = js.Body.box(points=600, distribution="uniform", radius=0.3, seed=4,
+                       lower=(0.0, 0.02, 0.0), upper=(1.0, 1.02, 1.0))
+    model = js.finalize(body, stiffness=20.0, point_mass=0.05, damping=0.01)
+    assert model.spring_count >= thread_choice.ADAPTIVE_MIN_SPRINGS
+    kw = dict(dt=0.005, integrator=integrator, ground=js.GroundParams(),
+              provot=order and js.ProvotParams(tau=0.01, loops=2, order=order),
+              check_stability=False)
+    auto, one = js.Simulator(model, **kw), js.Simulator(model, threads=1, **kw)
+    assert auto._thread_choice and not one._thread_choice
+    used = set()
+    for _ in range(12):
+        auto.advance(3)
+        one.advance(3)
+        used.add(auto.threads)
+    assert used == {1, most}
+    auto.advance(40)  # (pieces of several steps: the try's are TRY_PIECE_SECONDS long)
+    one.advance(40)
+    assert np.array_equal(auto.state.x, one.state.x) and np.array_equal(auto.state.v, one.state.v)
+    assert one.state.x[:, 1].min() == 0.0  # it fell onto the ground: the ground rule was in play

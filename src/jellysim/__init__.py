@@ -16,9 +16,12 @@ Importing the package is light: numba, scipy and mesh/render libraries load only
 
 Threading: numba's OpenMP threads spin-wait between parallel regions by default, which makes
 a run 20-270x slower when another process competes for the cores.  Unless the user set them,
-``OMP_WAIT_POLICY=PASSIVE`` and ``KMP_BLOCKTIME=0`` are set here, before numba loads its
-threading layer (measurements and the choice: docs/architecture.md, "Threads").
-``JELLYSIM_THREADING=spin`` leaves OpenMP's defaults alone.
+``GOMP_SPINCOUNT=1000`` (libgomp's idle threads spin about 10 us, then sleep),
+``OMP_WAIT_POLICY=PASSIVE`` and ``KMP_BLOCKTIME=0`` (other OpenMP runtimes: sleep at once) are
+set here, before numba loads its threading layer; with no thread count given, the Simulator
+times its pieces on 1 and all threads and keeps the faster (a busy machine: one).  Measurements
+and the choice: docs/architecture.md, "Threads".  ``JELLYSIM_THREADING=passive`` sets no spin
+(threads sleep at once), ``JELLYSIM_THREADING=spin`` leaves OpenMP's defaults alone.
 
 Instructions: on AMD Zen 4 the spring kernels run 1.1-1.4x faster when LLVM does not use
 AVX-512 gathers; ``JELLYSIM_CPU`` (``auto``, ``native``, ``avx2``) chooses, before numba
@@ -26,9 +29,18 @@ loads (:mod:`jellysim._cpu`).
 """
 import os as _os
 
-if _os.environ.get("JELLYSIM_THREADING", "").lower() != "spin":
+_THREADING = _os.environ.get("JELLYSIM_THREADING", "").lower()
+if _THREADING not in ("", "passive", "spin"):
+    import warnings as _warnings
+
+    _warnings.warn(f"JELLYSIM_THREADING={_THREADING!r} is not known: give 'passive' (threads "
+                   "sleep at once) or 'spin' (OpenMP's defaults), or leave it unset (a 10 us "
+                   "spin); using the default", stacklevel=2)
+if _THREADING != "spin":
     _os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
     _os.environ.setdefault("KMP_BLOCKTIME", "0")
+    if _THREADING != "passive":  # (libgomp: the spin count wins over the passive policy)
+        _os.environ.setdefault("GOMP_SPINCOUNT", "1000")
 from ._cpu import configure as _configure_cpu
 from . import _forked  # noqa: F401  (a forked child's clear error: jellysim._forked)
 

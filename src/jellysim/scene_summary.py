@@ -84,8 +84,8 @@ def scene_summary(scene, said: list | None = None) -> list[tuple[str, str]]:
                else "positions only (the report's)"))))
     choice = getattr(sim, "_thread_choice", None)
     rows.append(("backend", f"{_name(sim.backend)}, {sim.threads} thread(s)" + (
-        f" to start, then the faster of {' and '.join(map(str, choice.counts))} (timed on the "
-        "frames)" if choice else "")))
+        f" to start, then the faster of {' and '.join(map(str, choice.counts))} (timed as it "
+        "runs)" if choice else "")))
     kind = scene.ground_params(model).model.value  # an unset model: the body's path's
     ground = "off" if not g["enabled"] else (
         kind + (f", restitution {g['restitution']:g}, friction {g['friction']:g}"

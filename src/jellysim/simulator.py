@@ -35,23 +35,23 @@ from . import thread_choice
 __all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads",
            "springs_auto_substeps"]
 
-PARALLEL_MIN_POINTS = 500
+PARALLEL_MIN_POINTS = 200
 """Below this many points one thread is used."""
 
-PARALLEL_MIN_SPRINGS = 20_000
-"""Below this many springs one thread is used.  Each parallel region wakes the sleeping
-(passive) second thread, which costs more than it saves on small bodies: the report's step on
-2 threads against 1, quiet machine (session 7, BENCHMARKS.md "Threads and body size"): 0.69x at
-10,127 springs (the paper scene), 1.17x at 31,704, 1.49x at 72,729, 1.89x at 397,280; the
-implicit gelatin cube (14,230 springs) 1.01x.  On a machine whose cores are taken by other work
-two threads lose badly, so :func:`auto_threads` also counts the free cores."""
+PARALLEL_MIN_SPRINGS = 2_000
+"""Below this many springs the springs path STARTS on one thread (then, from
+:data:`jellysim.thread_choice.ADAPTIVE_MIN_SPRINGS`, keeps the faster of 1 and all by timing
+its pieces).  Each parallel region wakes the other thread: with the 10 us spin set at import,
+the report's step on 2 threads against 1 ran 0.55-0.63x at 1,109 springs, 1.36-1.41x at
+2,480, 1.59-1.68x at 10,127 (the paper scene); with passive threads 0.69x at 10,127 and
+1.17x at 31,704 (BENCHMARKS.md "A short spin, chosen by timing", "Threads and body size")."""
 
 
-PHYSICAL_PARALLEL_MIN_TETS = 24_000
-"""Below this many tets the physical path STARTS on one thread (its tet pass also sums the
-corner forces at once), then keeps the faster of 1 and all threads by timing frames
-(:mod:`jellysim.thread_choice`: a second thread paid from 24,000 tets on the AVX-512 VM of
-session 7, from about 8,000-13,000 on the AVX2 VM of 2026-12-07)."""
+PHYSICAL_PARALLEL_MIN_TETS = 8_000
+"""Below this many tets the physical path STARTS on one thread, then keeps the faster of 1
+and all threads by timing frames (:mod:`jellysim.thread_choice`: with the 10 us spin two
+threads ran 7,986 tets 1.5-2.9x as fast as one; with passive threads a second thread paid from
+24,000 tets on the AVX-512 VM of session 7, from about 8,000-13,000 on the AVX2 VM)."""
 
 
 CG_ERROR_RESIDUAL = 0.1
@@ -90,14 +90,13 @@ def _usable_threads(threads: int, backend) -> int:
 
 
 def auto_threads(point_count: int, spring_count: int | None = None) -> int:
-    """Thread count used when none is given: 1 for small bodies (fewer than
-    :data:`PARALLEL_MIN_POINTS` points or :data:`PARALLEL_MIN_SPRINGS` springs); 1 on a
-    heavily oversubscribed machine (1-minute load average above twice the CPU count);
-    otherwise all of numba's threads.  With one busy process per core, passive-waiting
-    threads keep a run within 1.2-2.2x of its quiet speed (one thread: 2.9-3.4x); with a load
-    average of 19 on 2 cores a second thread has to wait for a core at every parallel region
-    and the paper scene ran 39 steps/s on 2 threads, 3,244 on one (BENCHMARKS.md,
-    "Contention")."""
+    """The thread count a Simulator given none starts on (it then times both counts:
+    :mod:`jellysim.thread_choice`): 1 for small bodies (fewer than :data:`PARALLEL_MIN_POINTS`
+    points or :data:`PARALLEL_MIN_SPRINGS` springs); 1 on a heavily oversubscribed machine
+    (1-minute load average above twice the CPU count: with a load average of 19 on 2 cores a
+    second thread waits for a core at every parallel region, and the paper scene ran 39
+    steps/s on 2 threads, 3,244 on one; BENCHMARKS.md, "Contention"); otherwise all of
+    numba's threads."""
     import os
 
     import numba
@@ -294,12 +293,13 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
                           "finalize(body, stiffness=...) in N/m, or a material: "
                           "js.physical_model(body, js.material('gelatin')))", UserWarning,
                           stacklevel=2)
-        choose = threads is None and self.physical and self.backend is Backend.NUMBA
+        choose = threads is None and self.backend is Backend.NUMBA
         if threads is None:  # (the physical path's work is its tets; then timed frames)
             threads = (1 if self.physical and model.fem.tet_count < PHYSICAL_PARALLEL_MIN_TETS
                        else auto_threads(n, None if self.physical else model.spring_count))
         self.threads = _usable_threads(threads, self.backend)
-        self._thread_choice = choose and thread_choice.for_physical(self.threads, model)
+        self._thread_choice = choose and (thread_choice.for_physical if self.physical else
+                                          thread_choice.for_springs)(self.threads, model)
         self.state = model.state() if state is None else check_state(state, n, "Simulator(state=)")
         x0 = model.point_x0
         self.center = np.ascontiguousarray(x0.mean(axis=0))
@@ -430,13 +430,15 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
     that a Ctrl-C is acted on within about this long (the physical path: one frame a piece).
     Results do not depend on the pieces (tested: bitwise the same as one call)."""
 
-    def _piece(self, remaining: int) -> int:
+    def _piece(self, remaining: int, choice) -> int:
         if self.physical:
             return 1
         per_step = vars(self).get("_step_seconds")
         if per_step is None:
             return min(remaining, 8)
-        return max(1, min(remaining, int(self.PIECE_SECONDS / max(per_step, 1e-12))))
+        seconds = thread_choice.TRY_PIECE_SECONDS if choice and choice.trying else (
+            self.PIECE_SECONDS)  # (the springs path's thread count is timed on its pieces)
+        return max(1, min(remaining, int(seconds / max(per_step, 1e-12))))
 
     def _advance_chunk(self, steps: int) -> None:
         if steps == 0:
@@ -448,8 +450,12 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
         implicit = self.integrator is Integrator.IMPLICIT and not self.physical
         done_all, status, worst = 0, STATUS_OK, 0.0
         t0, step0 = s.t, s.step  # (the clock counts from here, however the call is cut)
+        choice = None if self.physical else getattr(self, "_thread_choice", None)
         while done_all < steps:
-            n = self._piece(steps - done_all)
+            timed = False
+            if choice:
+                self.threads, timed = choice.next_frame()
+            n = self._piece(steps - done_all, choice)
             started = time.perf_counter()
             previous = numba.get_num_threads()
             numba.set_num_threads(max(1, min(self.threads, numba.config.NUMBA_NUM_THREADS)))
@@ -468,6 +474,8 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
             if status != STATUS_OK:
                 break
             self._step_seconds = (time.perf_counter() - started) / n
+            if timed:
+                choice.record(self.threads, self._step_seconds * n, n)
             signals = vars(self).get("_signals")
             if done_all < steps and signals is not None:
                 signals.deliver()  # (a Ctrl-C raises here, at a whole step)

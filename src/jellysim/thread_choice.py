@@ -1,39 +1,60 @@
-"""The physical path's thread count, chosen by timing its frames (``threads = None``).
+"""The thread count, chosen by timing the run itself (``threads = None``).
 
-Whether a second thread pays on the physical path depends on the machine as much as on the
-body: a substep's tet pass must outweigh the cost of waking the other thread at each of its
-parallel regions.  Measured (real-time factor 2 threads / 1; BENCHMARKS.md "Threads and body
-size" and "Threads chosen by timing"): on the AVX-512 VM of 2026-11-30 (session 7) 0.86-1.01 at
-20,250 tets and 1.18 from 24,576; on the AVX2 VM of 2026-12-07, whose tet pass costs twice as
-much, 0.69 at 4,374 tets, 1.0-1.42 at 7,986, 1.08-1.26 at 13,182 and 1.26-1.50 at 29,478 (its
-frame times scatter by 10-30 %).  No fixed size threshold is right on both, so when the
-user gives no thread count the Simulator starts with the size rule
-(:data:`jellysim.simulator.PHYSICAL_PARALLEL_MIN_TETS`), times its first frames on both counts
-(:class:`ThreadChoice`), keeps whichever ran a substep faster by more than :data:`MARGIN`, and
-tries the other again every :data:`PROBE_EVERY` frames (a machine's load changes).  Results do not
-depend on the thread count (every per-point sum has a fixed order, tested), so switching
-changes only the speed.
+Whether a second thread pays depends on the machine and its load as much as on the body: the
+work between two parallel regions must outweigh waking the other thread, and with another
+process busy on the cores a second thread waits for one at every region.  Measured (real-time
+factor or steps/s, 2 threads / 1; BENCHMARKS.md "Threads and body size", "Threads chosen by
+timing", "A short spin, chosen by timing"): with threads that sleep at once (passive), the
+physical path's second thread paid from 24,576 tets on the AVX-512 VM of session 7 and from
+8,000-13,000 on the AVX2 VM of 2026-12-07, the report's step from 31,704 springs; with the
+10 us spin set at import (session 32), from about 2,000 tets and 2,500 springs, while with a
+busy process per core two spinning threads ran the paper scene slower than one (5.3k against
+9.0k steps/s, session 31).  No fixed threshold is right for every
+machine and load, so when the user gives no thread count the Simulator starts with a size rule
+(:func:`jellysim.simulator.auto_threads`, :data:`jellysim.simulator.PHYSICAL_PARALLEL_MIN_TETS`),
+times its first frames (the physical path) or pieces (springs: :meth:`Simulator.advance` steps
+in pieces of at most 0.2 s, :data:`TRY_PIECE_SECONDS` during a try) on both counts
+(:class:`ThreadChoice`), keeps all threads only where they ran a step faster than one by more
+than :data:`MARGIN` (else one: a tie leaves the other core to other work), and tries the other
+again every :data:`PROBE_EVERY` frames / :data:`SPRINGS_PROBE_EVERY` pieces (a
+machine's load changes).  Results do not depend on the thread count (every per-point sum has a
+fixed order, tested), so switching changes only the speed.
 
-Only for the numba backend, bodies of at least :data:`ADAPTIVE_MIN_TETS` tets, more than one
-numba thread, and not under ``mpiexec`` (ranks are given their threads).
+Only for the numba backend, bodies of at least :data:`ADAPTIVE_MIN_TETS` tets /
+:data:`ADAPTIVE_MIN_SPRINGS` springs, more than one numba thread, and not under ``mpiexec``
+(ranks are given their threads).
 """
 from __future__ import annotations
 
 import statistics
 
-__all__ = ["ThreadChoice", "for_physical", "ADAPTIVE_MIN_TETS", "PROBE_EVERY", "MARGIN"]
+__all__ = ["ThreadChoice", "for_physical", "for_springs", "ADAPTIVE_MIN_TETS",
+           "ADAPTIVE_MIN_SPRINGS", "PROBE_EVERY", "SPRINGS_PROBE_EVERY", "MARGIN"]
 
-ADAPTIVE_MIN_TETS = 6_000
-"""Smaller bodies keep one thread: below this a second thread did not pay on either VM
-(0.86x at 4,374 tets on the AVX2 one), and a try on it costs frames."""
+ADAPTIVE_MIN_TETS = 2_000
+"""Smaller physical bodies keep one thread (with the 10 us spin a second thread ran 2,058 tets
+1.0-2.2x as fast as one: a try costs frames, and a frame of so few tets costs little)."""
+
+ADAPTIVE_MIN_SPRINGS = 1_000
+"""Smaller spring bodies keep one thread (with the 10 us spin the report's step ran 1,109
+springs 0.55-0.63x as fast on two threads, 2,480 springs 1.36-1.41x)."""
+
+SPRINGS_PROBE_EVERY = 10
+"""Pieces between two tries of the other count on the springs path (a piece is about 0.2 s:
+the other count is tried every 2 s, on two pieces of :data:`TRY_PIECE_SECONDS`)."""
+
+TRY_PIECE_SECONDS = 0.02
+"""Wall time [s] of a piece during a try (the springs path): a try of the first ten pieces
+takes about 0.2 s, a later one 0.04 s."""
 
 PROBE_EVERY = 120
 """Frames between two tries of the other thread count (2 s of simulated time at 60 frames/s;
 a try costs at most its two frames' difference)."""
 
 MARGIN = 0.10
-"""The other count is taken when its substeps were faster by more than this fraction (frame
-times on a shared 2-core VM scatter by 10-30 %: a smaller margin switched on noise)."""
+"""All threads are kept when their steps were faster than one thread's by more than this
+fraction, else one thread (frame times on a shared 2-core VM scatter by 10-30 %: a smaller
+margin switched on noise)."""
 
 KEEP = 5
 """Timings kept per thread count (their median decides)."""
@@ -50,7 +71,8 @@ class ThreadChoice:
     current one.  A try ends with the decision: the median of each count's last
     :data:`KEEP` timings."""
 
-    def __init__(self, start: int, most: int):
+    def __init__(self, start: int, most: int, probe_every: int = PROBE_EVERY):
+        self.probe_every = int(probe_every)
         self.counts = (1, int(most))
         self.current = int(start) if int(start) in self.counts else 1
         self.cost: dict[int, list[float]] = {c: [] for c in self.counts}
@@ -67,6 +89,11 @@ class ThreadChoice:
         4 min more" at that pace and took 2.2)."""
 
     @property
+    def trying(self) -> bool:
+        """Whether the frame :meth:`next_frame` last gave is part of a try."""
+        return self._trying
+
+    @property
     def other(self) -> int:
         return self.counts[1] if self.current == self.counts[0] else self.counts[0]
 
@@ -76,7 +103,7 @@ class ThreadChoice:
             if self._trying:
                 self._decide()
                 self._trying, self._since_try, self.chosen = False, 0, True
-            if self._since_try >= PROBE_EVERY:
+            if self._since_try >= self.probe_every:
                 self._plan, self._trying = [(self.other, True), (self.other, True)], True
             else:
                 self._plan = [(self.current, True)]
@@ -91,10 +118,13 @@ class ThreadChoice:
             del kept[:-KEEP]
 
     def _decide(self) -> None:
-        mine, theirs = self.cost[self.current], self.cost[self.other]
-        if mine and theirs and (statistics.median(theirs)
-                                < (1.0 - MARGIN) * statistics.median(mine)):
-            self.current = self.other
+        """All threads when their steps were faster than one thread's by more than
+        :data:`MARGIN`, else one (a tie leaves the other core to whatever else runs: under
+        load a second thread gained nothing, BENCHMARKS.md "A short spin, chosen by timing")."""
+        one, many = (statistics.median(self.cost[c]) if self.cost[c] else None
+                     for c in self.counts)
+        if one is not None and many is not None:
+            self.current = self.counts[1] if many < (1.0 - MARGIN) * one else self.counts[0]
 
 
 def for_physical(start: int, model) -> ThreadChoice | None:
@@ -108,3 +138,16 @@ def for_physical(start: int, model) -> ThreadChoice | None:
     if most < 2 or model.fem.tet_count < ADAPTIVE_MIN_TETS or launched_under_mpi():
         return None
     return ThreadChoice(start, most)
+
+
+def for_springs(start: int, model) -> ThreadChoice | None:
+    """The chooser for the springs path of ``model`` (numba) starting on ``start`` threads,
+    or ``None`` where there is no choice to make (see the module docstring)."""
+    import numba
+
+    from .distributed.simulator import launched_under_mpi
+
+    most = int(numba.config.NUMBA_NUM_THREADS)
+    if most < 2 or model.spring_count < ADAPTIVE_MIN_SPRINGS or launched_under_mpi():
+        return None
+    return ThreadChoice(start, most, probe_every=SPRINGS_PROBE_EVERY)
