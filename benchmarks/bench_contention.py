@@ -110,7 +110,10 @@ def child(workloads: list[str]) -> dict:
         out["threads"] = sim.threads
     import numba
 
-    out["layer"] = numba.threading_layer()
+    try:
+        out["layer"] = numba.threading_layer()
+    except ValueError:  # (only demo_cli: numba ran in the command's own process)
+        out["layer"] = "(in the subprocess)"
     out["OMP_WAIT_POLICY"] = os.environ.get("OMP_WAIT_POLICY")
     return out
 
@@ -166,7 +169,7 @@ def main() -> None:
                 busy.append(run_child(env, workloads))
             finally:
                 stop_busy(procs)
-        row = {"layer": quiet[0]["layer"], "threads": quiet[0]["threads"],
+        row = {"layer": quiet[0]["layer"], "threads": quiet[0].get("threads"),
                "OMP_WAIT_POLICY": quiet[0]["OMP_WAIT_POLICY"]}
         for w in workloads:
             q = statistics.median(r[w] for r in quiet)

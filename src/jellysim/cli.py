@@ -122,9 +122,9 @@ def _terminate(signum, frame):
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default=None,
               help="float64 or float32 (warp; numba explicit step).")
 @click.option("--threads", type=click.IntRange(min=1), default=None,
-              help="Numba threads (overrides the scene's [integrator] threads; default: by "
-                   "problem size, and on the physical path the faster of 1 and all, timed "
-                   "on its frames).  Results do not depend on it.")
+              help="Numba threads (overrides the scene's [integrator] threads; default: 1 and "
+                   "all are timed as the run goes, the faster kept, one on a tie).  Results "
+                   "do not depend on it.")
 @click.option("--overwrite", is_flag=True,
               help="Reuse a non-empty output folder: the earlier run's files in it "
                    "(trajectory.npz, *.pvd, *.vtu) are deleted first.")

@@ -264,8 +264,8 @@ _floor = click.option("--no-floor", is_flag=True, help="Do not draw the floor.")
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default=None,
               help="float64 or float32 (warp; numba explicit step).")
 @click.option("--threads", type=click.IntRange(min=1), default=None,
-              help="Numba threads (default: by problem size; the physical path times 1 and "
-                   "all on its frames and keeps the faster).")
+              help="Numba threads (default: 1 and all are timed as the run goes, the faster "
+                   "kept, one on a tie).")
 @click.option("--overwrite", is_flag=True,
               help="Replace an earlier demo in OUT (its video, USD and run folder).")
 @click.option("--points", type=click.IntRange(min=50), default=None,

@@ -165,8 +165,8 @@ SCHEMA: dict[str, dict[str, Spec]] = {
                           "(float64: bitwise the numba backend's on the CPU device); numba's "
                           "explicit step stores x, v, a in float32 and sums in float64.",
                           choices=("float64", "float32")),
-        "threads": Spec("int", None, "Numba threads (default: by problem size; the "
-                        "physical path times 1 and all on its frames and keeps the faster).",
+        "threads": Spec("int", None, "Numba threads (default: 1 and all are timed as "
+                        "the run goes, the faster kept, one on a tie).",
                         lambda v: v >= 1, "an integer >= 1"),
         "substeps": Spec("int", None, "Steps of dt / substeps per step (default, or 'auto': "
                          "what the stability estimate needs for 'symplectic'; 1 otherwise).",

@@ -133,10 +133,10 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
         ``"cuda"``, ``"cuda:N"``.
     precision: ``"float64"`` or ``"float32"`` (Warp; numba's explicit step: x, v, a stored in
         float32, sums in float64, ``state`` float64 holding float32 values; docs/architecture.md).
-    threads: numba threads (default: :func:`auto_threads`; on the physical path the faster of
-        1 and all, found by timing frames, :mod:`jellysim.thread_choice`; capped, with a
-        warning, at numba's pool, ``NUMBA_NUM_THREADS``).  Results do not depend on it;
-        ``sim.threads`` is what the last frame ran on.
+    threads: numba threads (default: starts on :func:`auto_threads`, then 1 and all are
+        timed as the run goes and the faster kept, one on a tie: :mod:`jellysim.thread_choice`;
+        capped, with a warning, at numba's pool, ``NUMBA_NUM_THREADS``).  Results do not
+        depend on it; ``sim.threads`` is what the last piece or frame ran on.
     runaway_distance: a point farther than this [m] from the body's starting centre stops the
         run (default: 100 x the body's bounding-box diagonal, at least 100 m).
     check_stability: estimate the stable dt now and warn (:class:`StabilityWarning`) if
