@@ -136,19 +136,15 @@ def test_more_threads_than_numba_has_are_capped_and_said():
     assert np.array_equal(many.state.x, pool.state.x)
 
 
-@pytest.mark.parametrize("springs", [False, True])
-def test_thread_choice_keeps_the_faster_count_and_tries_the_other_again(springs):
-    """The chooser (threads = None) runs its first frame (the springs path: piece) on each
-    count untimed, interleaves four timed frames of each, keeps all threads if faster than one
-    by more than MARGIN (else one), and tries the other count again every PROBE_EVERY frames (SPRINGS_PROBE_EVERY
-    pieces): here 2 threads are faster at first (300 vs 400 us a substep), then slower (the
-    machine got busy: 800 us)."""
-    from jellysim.thread_choice import MARGIN, SPRINGS_PROBE_EVERY, ThreadChoice
-    from jellysim.thread_choice import PROBE_EVERY as EVERY
+def test_thread_choice_keeps_the_faster_count_and_tries_the_other_again():
+    """The chooser (threads = None) runs its first frame on each count untimed, interleaves
+    four timed frames of each, keeps all threads if faster than one by more than MARGIN
+    (else one), and tries the other count again every PROBE_EVERY frames: here 2 threads are
+    faster at first (300 vs 400 us a substep), then slower (the machine got busy: 800 us)."""
+    from jellysim.thread_choice import MARGIN, PROBE_EVERY, ThreadChoice
 
-    PROBE_EVERY = SPRINGS_PROBE_EVERY if springs else EVERY
     cost = {1: 400e-6, 2: 300e-6}
-    ch = ThreadChoice(start=1, most=2, probe_every=PROBE_EVERY)
+    ch = ThreadChoice(start=1, most=2)
     frames = []
     for _ in range(2 * PROBE_EVERY + 20):
         count, timed = ch.next_frame()
@@ -166,7 +162,7 @@ def test_thread_choice_keeps_the_faster_count_and_tries_the_other_again(springs)
     # two threads within MARGIN of one thread's speed: one thread, whichever it started on
     # (a tie leaves the other core to other work)
     for start in (1, 2):
-        ch = ThreadChoice(start=start, most=2, probe_every=PROBE_EVERY)
+        ch = ThreadChoice(start=start, most=2)
         for _ in range(40):
             count, timed = ch.next_frame()
             if timed:
@@ -206,6 +202,39 @@ def test_threads_chosen_by_timing_change_nothing_in_the_results():
     assert used == {1, most}
     assert np.array_equal(auto.state.x, one.state.x) and np.array_equal(auto.state.v, one.state.v)
     assert auto.state.x[:, 1].min() < 0.005  # it fell onto the ground: contact was in play
+
+
+def test_springs_chooser_tries_the_other_count_after_seconds_not_calls():
+    """On the springs path a piece ends with each advance() call, so the other count is tried
+    after SPRINGS_PROBE_SECONDS of timed steps on the chosen one, however the steps were cut:
+    pieces of 1/32 s try it once in 66 pieces (a count of ten pieces tried it once in 12)."""
+    from jellysim.thread_choice import SPRINGS_PROBE_SECONDS, ThreadChoice
+
+    for piece_seconds in (1 / 32, 1 / 4):  # (sums of them are exact)
+        ch = ThreadChoice(start=2, most=2, probe_seconds=SPRINGS_PROBE_SECONDS)
+        counts = []
+        for _ in range(10 + 3 * int(SPRINGS_PROBE_SECONDS / piece_seconds) + 6):
+            count, timed = ch.next_frame()
+            counts.append(count)
+            if timed:  # one thread 1.5x slower a step: all threads are kept
+                ch.record(count, piece_seconds * (1.5 if count == 1 else 1.0), 100)
+        after = counts[10:]
+        runs = int(round(SPRINGS_PROBE_SECONDS / piece_seconds))
+        assert after[:runs] == [2] * runs and after[runs:runs + 2] == [1, 1]
+        assert after[runs + 2:2 * runs + 2] == [2] * runs and after[2 * runs + 2] == 1
+        assert ch.current == 2 and ch.chosen
+    # a first try disturbed (two threads timed 2x slower than one), then two threads 2x
+    # faster: one later try decides on its own timings, not on the first try's
+    ch = ThreadChoice(start=2, most=2, probe_seconds=SPRINGS_PROBE_SECONDS)
+    cost = {1: 1.0, 2: 2.0}
+    for i in range(10 + int(SPRINGS_PROBE_SECONDS / 0.25) + 3):
+        count, timed = ch.next_frame()
+        if i == 10:  # (the first try is decided as its next frame is asked for)
+            assert ch.current == count == 1
+            cost[2] = 0.5
+        if timed:
+            ch.record(count, 0.25 * cost[count], 100)
+    assert ch.current == 2
 
 
 @pytest.mark.parametrize("integrator, order", [("paper", "jacobi"),

@@ -16,7 +16,7 @@ times its first frames (the physical path) or pieces (springs: :meth:`Simulator.
 in pieces of at most 0.2 s, :data:`TRY_PIECE_SECONDS` during a try) on both counts
 (:class:`ThreadChoice`), keeps all threads only where they ran a step faster than one by more
 than :data:`MARGIN` (else one: a tie leaves the other core to other work), and tries the other
-again every :data:`PROBE_EVERY` frames / :data:`SPRINGS_PROBE_EVERY` pieces (a
+again every :data:`PROBE_EVERY` frames / :data:`SPRINGS_PROBE_SECONDS` of steps (a
 machine's load changes).  Results do not depend on the thread count (every per-point sum has a
 fixed order, tested), so switching changes only the speed.
 
@@ -29,7 +29,7 @@ from __future__ import annotations
 import statistics
 
 __all__ = ["ThreadChoice", "for_physical", "for_springs", "ADAPTIVE_MIN_TETS",
-           "ADAPTIVE_MIN_SPRINGS", "PROBE_EVERY", "SPRINGS_PROBE_EVERY", "MARGIN"]
+           "ADAPTIVE_MIN_SPRINGS", "PROBE_EVERY", "SPRINGS_PROBE_SECONDS", "MARGIN"]
 
 ADAPTIVE_MIN_TETS = 2_000
 """Smaller physical bodies keep one thread (with the 10 us spin a second thread ran 2,058 tets
@@ -39,9 +39,11 @@ ADAPTIVE_MIN_SPRINGS = 1_000
 """Smaller spring bodies keep one thread (with the 10 us spin the report's step ran 1,109
 springs 0.55-0.63x as fast on two threads, 2,480 springs 1.36-1.41x)."""
 
-SPRINGS_PROBE_EVERY = 10
-"""Pieces between two tries of the other count on the springs path (a piece is about 0.2 s:
-the other count is tried every 2 s, on two pieces of :data:`TRY_PIECE_SECONDS`)."""
+SPRINGS_PROBE_SECONDS = 2.0
+"""Wall time [s] of steps on the chosen count between two tries of the other on the springs
+path (a try: two pieces of at most :data:`TRY_PIECE_SECONDS`).  Timed, not counted in pieces:
+a piece ends with each :meth:`Simulator.advance` call, and a loop of short calls (500 steps of
+the paper scene, 25 ms) tried the slower count on one call in six."""
 
 TRY_PIECE_SECONDS = 0.02
 """Wall time [s] of a piece during a try (the springs path): a try of the first ten pieces
@@ -69,10 +71,13 @@ class ThreadChoice:
     the two counts (four timed frames each, so that a change of the machine's load hits
     both alike); later tries run two frames on the other count between frames on the
     current one.  A try ends with the decision: the median of each count's last
-    :data:`KEEP` timings."""
+    :data:`KEEP` timings (for the count a later try ran, its two timings of that try)."""
 
-    def __init__(self, start: int, most: int, probe_every: int = PROBE_EVERY):
-        self.probe_every = int(probe_every)
+    def __init__(self, start: int, most: int, probe_every: int = PROBE_EVERY,
+                 probe_seconds: float | None = None):
+        self.probe_every = float(probe_seconds) if probe_seconds is not None else probe_every
+        self._timed_probe = probe_seconds is not None
+        """Whether :attr:`probe_every` counts seconds of recorded frames, not frames."""
         self.counts = (1, int(most))
         self.current = int(start) if int(start) in self.counts else 1
         self.cost: dict[int, list[float]] = {c: [] for c in self.counts}
@@ -105,9 +110,10 @@ class ThreadChoice:
                 self._trying, self._since_try, self.chosen = False, 0, True
             if self._since_try >= self.probe_every:
                 self._plan, self._trying = [(self.other, True), (self.other, True)], True
+                self.cost[self.other].clear()  # (stale: a disturbed first try stuck for 3)
             else:
                 self._plan = [(self.current, True)]
-                self._since_try += 1
+                self._since_try += 0 if self._timed_probe else 1
         return self._plan.pop(0)
 
     def record(self, count: int, seconds: float, substeps: int) -> None:
@@ -116,6 +122,8 @@ class ThreadChoice:
             kept = self.cost[count]
             kept.append(seconds / substeps)
             del kept[:-KEEP]
+            if self._timed_probe and not self._trying:
+                self._since_try += seconds
 
     def _decide(self) -> None:
         """All threads when their steps were faster than one thread's by more than
@@ -150,4 +158,4 @@ def for_springs(start: int, model) -> ThreadChoice | None:
     most = int(numba.config.NUMBA_NUM_THREADS)
     if most < 2 or model.spring_count < ADAPTIVE_MIN_SPRINGS or launched_under_mpi():
         return None
-    return ThreadChoice(start, most, probe_every=SPRINGS_PROBE_EVERY)
+    return ThreadChoice(start, most, probe_seconds=SPRINGS_PROBE_SECONDS)
