@@ -110,7 +110,7 @@ class ThreadChoice:
                 self._trying, self._since_try, self.chosen = False, 0, True
             if self._since_try >= self.probe_every:
                 self._plan, self._trying = [(self.other, True), (self.other, True)], True
-                self.cost[self.other].clear()  # (stale: a disturbed first try stuck for 3)
+                self.cost[self.other].clear()  # (old timings may be a disturbed first try's)
             else:
                 self._plan = [(self.current, True)]
                 self._since_try += 0 if self._timed_probe else 1
