@@ -57,6 +57,7 @@ def test_cli_threads_option_gives_bitwise_equal_runs(tmp_path):
         res = CliRunner().invoke(cli, ["run", str(scene), "--out", str(out), "--quiet",
                                        "--threads", str(threads)])
         assert res.exit_code == 0, res.output
+        assert f"real time, on {threads} thread(s))" in res.output  # the summary says it
         traj = load_trajectory(out / "trajectory.npz")
         assert traj.params["integrator"]["threads"] == threads
         runs.append(traj.positions[-1])
@@ -66,9 +67,9 @@ def test_cli_threads_option_gives_bitwise_equal_runs(tmp_path):
     assert res.exit_code == 2 and "--threads" in res.output
 
 
-def _env_after_import(**env):
-    names = ("OMP_WAIT_POLICY", "KMP_BLOCKTIME", "GOMP_SPINCOUNT")
-    base = {k: v for k, v in os.environ.items() if k not in names + ("JELLYSIM_THREADING",)}
+def _env_after_import(*, names=("OMP_WAIT_POLICY", "KMP_BLOCKTIME", "GOMP_SPINCOUNT"), **env):
+    drop = names + ("JELLYSIM_THREADING", "OMP_NUM_THREADS", "NUMBA_NUM_THREADS")
+    base = {k: v for k, v in os.environ.items() if k not in drop}
     base.update(env)
     base["PYTHONPATH"] = str(ROOT / "src")
     code = f"import os, jellysim; print(*[os.environ.get(k) for k in {names!r}])"
@@ -89,6 +90,25 @@ def test_import_sets_a_short_spin_and_passive_wait_unless_the_user_chose():
     values, said = _env_after_import(JELLYSIM_THREADING="spinning")
     assert values == ["PASSIVE", "0", "1000"]
     assert "JELLYSIM_THREADING='spinning' is not known" in said and "'passive'" in said
+    assert _env_after_import(JELLYSIM_THREADING=" Spin ") == (["None", "None", "None"], "")
+
+
+def test_omp_num_threads_sizes_numbas_pool_and_bad_counts_are_said():
+    """OMP_NUM_THREADS (the usual polite setting on a shared machine, which numba ignores)
+    sizes numba's pool unless NUMBA_NUM_THREADS is set; a count that is not >= 1 is said and
+    dropped (numba stopped with a traceback on NUMBA_NUM_THREADS=0)."""
+    pool = ("NUMBA_NUM_THREADS",)
+    code = "import numba; print(numba.config.NUMBA_NUM_THREADS)"
+    assert _env_after_import(names=pool, OMP_NUM_THREADS="1")[0] == ["1"]
+    assert _env_after_import(names=pool, OMP_NUM_THREADS="1,1")[0] == ["1"]
+    assert _env_after_import(names=pool, OMP_NUM_THREADS="1", NUMBA_NUM_THREADS="2")[0] == ["2"]
+    values, said = _env_after_import(names=pool, NUMBA_NUM_THREADS="0")
+    assert values == ["None"] and "NUMBA_NUM_THREADS='0' is not a thread count" in said
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_NUM_THREADS",)}
+    env.update(OMP_NUM_THREADS="1", PYTHONPATH=str(ROOT / "src"))
+    res = subprocess.run([sys.executable, "-c", "import jellysim; " + code], env=env,
+                         capture_output=True, text=True, check=True)
+    assert res.stdout.split() == ["1"]  # numba's pool really is one thread
 
 
 def test_auto_threads_drops_to_one_on_an_oversubscribed_machine(monkeypatch):
@@ -156,9 +176,10 @@ def test_thread_choice_keeps_the_faster_count_and_tries_the_other_again():
     assert frames[:10] == [(1, False), (2, False)] + [(1, True), (2, True)] * 4
     retry = 10 + PROBE_EVERY  # the first try's 10 frames, then PROBE_EVERY on the choice
     assert all(c == 2 for c, _ in frames[10:retry])  # 300 < (1 - MARGIN) 400: switched to 2
-    assert frames[retry:retry + 2] == [(1, True), (1, True)]  # 1 tried again: 400 < 800
-    assert all(c == 1 for c, _ in frames[retry + 2:retry + 2 + PROBE_EVERY])  # kept
-    assert [c for c, _ in frames[retry + 2 + PROBE_EVERY:]] == [2, 2] + [1] * 6  # 2 tried
+    # 1 tried again (its first frame untimed: it warms that count up): 400 < 800
+    assert frames[retry:retry + 3] == [(1, False), (1, True), (1, True)]
+    assert all(c == 1 for c, _ in frames[retry + 3:retry + 3 + PROBE_EVERY])  # kept
+    assert [c for c, _ in frames[retry + 3 + PROBE_EVERY:]] == [2, 2, 2] + [1] * 4  # 2 tried
     # two threads within MARGIN of one thread's speed: one thread, whichever it started on
     # (a tie leaves the other core to other work)
     for start in (1, 2):
@@ -213,21 +234,21 @@ def test_springs_chooser_tries_the_other_count_after_seconds_not_calls():
     for piece_seconds in (1 / 32, 1 / 4):  # (sums of them are exact)
         ch = ThreadChoice(start=2, most=2, probe_seconds=SPRINGS_PROBE_SECONDS)
         counts = []
-        for _ in range(10 + 3 * int(SPRINGS_PROBE_SECONDS / piece_seconds) + 6):
+        for _ in range(10 + 3 * int(SPRINGS_PROBE_SECONDS / piece_seconds) + 9):
             count, timed = ch.next_frame()
             counts.append(count)
             if timed:  # one thread 1.5x slower a step: all threads are kept
                 ch.record(count, piece_seconds * (1.5 if count == 1 else 1.0), 100)
         after = counts[10:]
         runs = int(round(SPRINGS_PROBE_SECONDS / piece_seconds))
-        assert after[:runs] == [2] * runs and after[runs:runs + 2] == [1, 1]
-        assert after[runs + 2:2 * runs + 2] == [2] * runs and after[2 * runs + 2] == 1
+        assert after[:runs] == [2] * runs and after[runs:runs + 3] == [1, 1, 1]
+        assert after[runs + 3:2 * runs + 3] == [2] * runs and after[2 * runs + 3] == 1
         assert ch.current == 2 and ch.chosen
     # a first try disturbed (two threads timed 2x slower than one), then two threads 2x
     # faster: one later try decides on its own timings, not on the first try's
     ch = ThreadChoice(start=2, most=2, probe_seconds=SPRINGS_PROBE_SECONDS)
     cost = {1: 1.0, 2: 2.0}
-    for i in range(10 + int(SPRINGS_PROBE_SECONDS / 0.25) + 3):
+    for i in range(10 + int(SPRINGS_PROBE_SECONDS / 0.25) + 4):
         count, timed = ch.next_frame()
         if i == 10:  # (the first try is decided as its next frame is asked for)
             assert ch.current == count == 1
@@ -235,6 +256,28 @@ def test_springs_chooser_tries_the_other_count_after_seconds_not_calls():
         if timed:
             ch.record(count, 0.25 * cost[count], 100)
     assert ch.current == 2
+
+
+def test_short_pieces_are_summed_into_one_timing():
+    """Pieces shorter than min_seconds (advance(10): about 1 ms) are summed per count into
+    one timing, and a try runs a count again until its timing is that long: the first try
+    gives each count four timings of ten 1 ms pieces, not four 1 ms ones."""
+    import itertools
+
+    from jellysim.thread_choice import ThreadChoice
+
+    ch = ThreadChoice(start=2, most=2, probe_seconds=2.0, min_seconds=0.01)
+    counts = []
+    while not ch.chosen:
+        count, timed = ch.next_frame()
+        counts.append(count)
+        if timed:
+            ch.record(count, 0.001 * (1.0 if count == 2 else 1.5), 10)
+    assert counts[:2] == [2, 1]  # untimed first frames
+    runs = [(c, len(list(g))) for c, g in itertools.groupby(counts[2:-1])]
+    assert [c for c, _ in runs] == [2, 1] * 4
+    assert [n for c, n in runs] == [10, 7] * 4  # 10 x 1 ms; 7 x 1.5 ms >= 10 ms
+    assert ch.current == 2 and len(ch.cost[1]) == len(ch.cost[2]) == 4
 
 
 @pytest.mark.parametrize("integrator, order", [("paper", "jacobi"),
@@ -270,4 +313,6 @@ def test_springs_threads_chosen_by_timing_change_nothing_in_the_results(integrat
     auto.advance(40)  # (pieces of several steps: the try's are TRY_PIECE_SECONDS long)
     one.advance(40)
     assert np.array_equal(auto.state.x, one.state.x) and np.array_equal(auto.state.v, one.state.v)
+    assert set(auto.thread_steps) == {1, most} and sum(auto.thread_steps.values()) == 76
+    assert one.thread_steps == {1: 76}
     assert one.state.x[:, 1].min() == 0.0  # it fell onto the ground: the ground rule was in play

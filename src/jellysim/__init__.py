@@ -21,26 +21,18 @@ a run 20-270x slower when another process competes for the cores.  Unless the us
 set here, before numba loads its threading layer; with no thread count given, the Simulator
 times its pieces on 1 and all threads and keeps the faster (a busy machine: one).  Measurements
 and the choice: docs/architecture.md, "Threads".  ``JELLYSIM_THREADING=passive`` sets no spin
-(threads sleep at once), ``JELLYSIM_THREADING=spin`` leaves OpenMP's defaults alone.
+(threads sleep at once), ``JELLYSIM_THREADING=spin`` leaves OpenMP's defaults alone;
+``OMP_NUM_THREADS`` sizes numba's pool when ``NUMBA_NUM_THREADS`` is unset
+(:mod:`jellysim._threading`).
 
 Instructions: on AMD Zen 4 the spring kernels run 1.1-1.4x faster when LLVM does not use
 AVX-512 gathers; ``JELLYSIM_CPU`` (``auto``, ``native``, ``avx2``) chooses, before numba
 loads (:mod:`jellysim._cpu`).
 """
-import os as _os
 
-_THREADING = _os.environ.get("JELLYSIM_THREADING", "").lower()
-if _THREADING not in ("", "passive", "spin"):
-    import warnings as _warnings
+from ._threading import configure as _configure_threads
 
-    _warnings.warn(f"JELLYSIM_THREADING={_THREADING!r} is not known: give 'passive' (threads "
-                   "sleep at once) or 'spin' (OpenMP's defaults), or leave it unset (a 10 us "
-                   "spin); using the default", stacklevel=2)
-if _THREADING != "spin":
-    _os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-    _os.environ.setdefault("KMP_BLOCKTIME", "0")
-    if _THREADING != "passive":  # (libgomp: the spin count wins over the passive policy)
-        _os.environ.setdefault("GOMP_SPINCOUNT", "1000")
+_configure_threads()
 from ._cpu import configure as _configure_cpu
 from . import _forked  # noqa: F401  (a forked child's clear error: jellysim._forked)
 

@@ -275,8 +275,12 @@ def run(scene_file, out_dir, steps, no_vtu, quiet, video=None, usd=None, glb=Non
     realtime = (f", {result.simulated / result.seconds:.2g}x real time"
                 if result.seconds > 0 and result.simulated > 0 else "")
     wall = time.perf_counter() - began  # (the summary's seconds are the stepping's alone)
+    used = sorted(result.thread_steps.items())
+    threads = "" if not used else f", on {used[0][0]} thread(s)" if len(used) == 1 else (
+        ", on " + " / ".join(f"{c} thread(s) {100 * n / sum(k for _, k in used):.0f} %"
+                             for c, n in used) + " of the steps (chosen by timing)")
     click.echo(f"{taken} steps, {result.frames} frames in {result.seconds:.3g} s "
-               f"({_rate(rate)} steps/s{realtime})" + (
+               f"({_rate(rate)} steps/s{realtime}{threads})" + (
                    f"; {wall:.3g} s in all, with building the body and writing the frames"
                    if wall - result.seconds > max(1.0, 0.25 * wall) else ""))
     startup = result.startup_seconds()

@@ -130,6 +130,8 @@ class RunResult:
     """Step of the checkpoint the run continued from (``resume=True``), else ``None``."""
     simulated: float = 0.0
     """Simulated time this call stepped [s] (its steps x the frame step ``dt``)."""
+    thread_steps: dict[int, int] = field(default_factory=dict)
+    """Steps run on each thread count (``{threads: steps}``: ``Simulator.thread_steps``)."""
     first_chunk: tuple[int, float] | None = None
     """Steps and wall-clock seconds of the first ``advance`` call (on a first run they include
     numba compiling the kernels, which later runs load from its cache)."""
@@ -579,4 +581,4 @@ def _run(scene, out_dir: Path, *, progress, vtu, steps, skin, body, resume, chec
     return RunResult(out_dir, path, series.pvd_path if series else None,
                      frames, total, stepped, messages, resumed_from,
                      simulated=(total - (resumed_from or 0)) * float(sim.dt),
-                     first_chunk=first)
+                     first_chunk=first, thread_steps=dict(getattr(sim, "thread_steps", {})))

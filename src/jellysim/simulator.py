@@ -31,28 +31,11 @@ from .stability import (MAX_AUTO_SUBSTEPS, StabilityEstimate, estimate_stability
 from ._interrupts import Deferred
 from .state import check_state, clock
 from . import thread_choice
+from .thread_choice import (PARALLEL_MIN_POINTS, PARALLEL_MIN_SPRINGS,  # noqa: F401
+                           PHYSICAL_PARALLEL_MIN_TETS, auto_threads)
 
 __all__ = ["Simulator", "StabilityWarning", "SolverWarning", "auto_threads",
            "springs_auto_substeps"]
-
-PARALLEL_MIN_POINTS = 200
-"""Below this many points one thread is used."""
-
-PARALLEL_MIN_SPRINGS = 2_000
-"""Below this many springs the springs path STARTS on one thread (then, from
-:data:`jellysim.thread_choice.ADAPTIVE_MIN_SPRINGS`, keeps the faster of 1 and all by timing
-its pieces).  Each parallel region wakes the other thread: with the 10 us spin set at import,
-the report's step on 2 threads against 1 ran 0.55-0.63x at 1,109 springs, 1.36-1.41x at
-2,480, 1.59-1.68x at 10,127 (the paper scene); with passive threads 0.69x at 10,127 and
-1.17x at 31,704 (BENCHMARKS.md "A short spin, chosen by timing", "Threads and body size")."""
-
-
-PHYSICAL_PARALLEL_MIN_TETS = 8_000
-"""Below this many tets the physical path STARTS on one thread, then keeps the faster of 1
-and all threads by timing frames (:mod:`jellysim.thread_choice`: with the 10 us spin two
-threads ran 7,986 tets 1.5-2.9x as fast as one; with passive threads a second thread paid from
-24,000 tets on the AVX-512 VM of session 7, from about 8,000-13,000 on the AVX2 VM)."""
-
 
 CG_ERROR_RESIDUAL = 0.1
 """A conjugate-gradient solve that stops with a relative residual above this is an error
@@ -89,27 +72,6 @@ def _usable_threads(threads: int, backend) -> int:
     return min(threads, most) if backend is Backend.NUMBA else threads
 
 
-def auto_threads(point_count: int, spring_count: int | None = None) -> int:
-    """The thread count a Simulator given none starts on (it then times both counts:
-    :mod:`jellysim.thread_choice`): 1 for small bodies (fewer than :data:`PARALLEL_MIN_POINTS`
-    points or :data:`PARALLEL_MIN_SPRINGS` springs); 1 on a heavily oversubscribed machine
-    (1-minute load average above twice the CPU count: with a load average of 19 on 2 cores a
-    second thread waits for a core at every parallel region, and the paper scene ran 39
-    steps/s on 2 threads, 3,244 on one; BENCHMARKS.md, "Contention"); otherwise all of
-    numba's threads."""
-    import os
-
-    import numba
-
-    if point_count < PARALLEL_MIN_POINTS or (spring_count is not None
-                                             and spring_count < PARALLEL_MIN_SPRINGS):
-        return 1
-    most = numba.config.NUMBA_NUM_THREADS
-    try:
-        load = os.getloadavg()[0]
-    except (AttributeError, OSError):  # no load average on this platform
-        return most
-    return 1 if load > 2.0 * (os.cpu_count() or 1) else most
 
 
 class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
@@ -136,7 +98,8 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
     threads: numba threads (default: starts on :func:`auto_threads`, then 1 and all are
         timed as the run goes and the faster kept, one on a tie: :mod:`jellysim.thread_choice`;
         capped, with a warning, at numba's pool, ``NUMBA_NUM_THREADS``).  Results do not
-        depend on it; ``sim.threads`` is what the last piece or frame ran on.
+        depend on it; ``sim.threads`` is what the last piece or frame ran on,
+        ``sim.thread_steps`` how many steps ran on each count ({threads: steps}).
     runaway_distance: a point farther than this [m] from the body's starting centre stops the
         run (default: 100 x the body's bounding-box diagonal, at least 100 m).
     check_stability: estimate the stable dt now and warn (:class:`StabilityWarning`) if
@@ -470,6 +433,8 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
             finally:
                 numba.set_num_threads(previous)
             done_all += int(done)
+            used = vars(self).setdefault("thread_steps", {})  # steps run on each count
+            used[self.threads] = used.get(self.threads, 0) + int(done)
             s.t, s.step = clock(t0, step0, self.dt, done_all), step0 + done_all
             if status != STATUS_OK:
                 break

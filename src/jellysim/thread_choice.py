@@ -11,7 +11,7 @@ physical path's second thread paid from 24,576 tets on the AVX-512 VM of session
 busy process per core two spinning threads ran the paper scene slower than one (5.3k against
 9.0k steps/s, session 31).  No fixed threshold is right for every
 machine and load, so when the user gives no thread count the Simulator starts with a size rule
-(:func:`jellysim.simulator.auto_threads`, :data:`jellysim.simulator.PHYSICAL_PARALLEL_MIN_TETS`),
+(:func:`auto_threads`, :data:`PHYSICAL_PARALLEL_MIN_TETS`),
 times its first frames (the physical path) or pieces (springs: :meth:`Simulator.advance` steps
 in pieces of at most 0.2 s, :data:`TRY_PIECE_SECONDS` during a try) on both counts
 (:class:`ThreadChoice`), keeps all threads only where they ran a step faster than one by more
@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import statistics
 
-__all__ = ["ThreadChoice", "for_physical", "for_springs", "ADAPTIVE_MIN_TETS",
+__all__ = ["ThreadChoice", "for_physical", "for_springs", "auto_threads", "ADAPTIVE_MIN_TETS",
            "ADAPTIVE_MIN_SPRINGS", "PROBE_EVERY", "SPRINGS_PROBE_SECONDS", "MARGIN"]
 
 ADAPTIVE_MIN_TETS = 2_000
@@ -61,6 +61,47 @@ margin switched on noise)."""
 KEEP = 5
 """Timings kept per thread count (their median decides)."""
 
+PARALLEL_MIN_POINTS = 200
+"""Below this many points one thread is used."""
+
+PARALLEL_MIN_SPRINGS = 2_000
+"""Below this many springs the springs path STARTS on one thread (then, from
+:data:`jellysim.thread_choice.ADAPTIVE_MIN_SPRINGS`, keeps the faster of 1 and all by timing
+its pieces).  Each parallel region wakes the other thread: with the 10 us spin set at import,
+the report's step on 2 threads against 1 ran 0.55-0.63x at 1,109 springs, 1.36-1.41x at
+2,480, 1.59-1.68x at 10,127 (the paper scene); with passive threads 0.69x at 10,127 and
+1.17x at 31,704 (BENCHMARKS.md "A short spin, chosen by timing", "Threads and body size")."""
+
+
+PHYSICAL_PARALLEL_MIN_TETS = 8_000
+"""Below this many tets the physical path STARTS on one thread, then keeps the faster of 1
+and all threads by timing frames (:mod:`jellysim.thread_choice`: with the 10 us spin two
+threads ran 7,986 tets 1.5-2.9x as fast as one; with passive threads a second thread paid from
+24,000 tets on the AVX-512 VM of session 7, from about 8,000-13,000 on the AVX2 VM)."""
+
+
+def auto_threads(point_count: int, spring_count: int | None = None) -> int:
+    """The thread count a Simulator given none starts on (it then times both counts:
+    :mod:`jellysim.thread_choice`): 1 for small bodies (fewer than :data:`PARALLEL_MIN_POINTS`
+    points or :data:`PARALLEL_MIN_SPRINGS` springs); 1 on a heavily oversubscribed machine
+    (1-minute load average above twice the CPU count: with a load average of 19 on 2 cores a
+    second thread waits for a core at every parallel region, and the paper scene ran 39
+    steps/s on 2 threads, 3,244 on one; BENCHMARKS.md, "Contention"); otherwise all of
+    numba's threads."""
+    import os
+
+    import numba
+
+    if point_count < PARALLEL_MIN_POINTS or (spring_count is not None
+                                             and spring_count < PARALLEL_MIN_SPRINGS):
+        return 1
+    most = numba.config.NUMBA_NUM_THREADS
+    try:
+        load = os.getloadavg()[0]
+    except (AttributeError, OSError):  # no load average on this platform
+        return most
+    return 1 if load > 2.0 * (os.cpu_count() or 1) else most
+
 
 class ThreadChoice:
     """Which thread count each frame runs on, from the timings of earlier frames.
@@ -69,15 +110,20 @@ class ThreadChoice:
     :meth:`record` its wall time [s] and the substeps it ran.  The first frame on each count
     is not timed (it may load or compile that count's kernels).  The first try interleaves
     the two counts (four timed frames each, so that a change of the machine's load hits
-    both alike); later tries run two frames on the other count between frames on the
-    current one.  A try ends with the decision: the median of each count's last
+    both alike); later tries run three frames on the other count (the first untimed) between
+    frames on the current one.  A try ends with the decision: the median of each count's last
     :data:`KEEP` timings (for the count a later try ran, its two timings of that try)."""
 
     def __init__(self, start: int, most: int, probe_every: int = PROBE_EVERY,
-                 probe_seconds: float | None = None):
+                 probe_seconds: float | None = None, min_seconds: float = 0.0):
         self.probe_every = float(probe_seconds) if probe_seconds is not None else probe_every
         self._timed_probe = probe_seconds is not None
         """Whether :attr:`probe_every` counts seconds of recorded frames, not frames."""
+        self.min_seconds = float(min_seconds)
+        """A timing is at least this long [s]: shorter frames of one count are summed (and a
+        try runs that count again) until they are (the springs path: a piece ends with each
+        advance call, and 1 ms pieces of advance(10) chose one thread in one run of four)."""
+        self._sum = {c: [0.0, 0] for c in (1, int(most))}
         self.counts = (1, int(most))
         self.current = int(start) if int(start) in self.counts else 1
         self.cost: dict[int, list[float]] = {c: [] for c in self.counts}
@@ -109,8 +155,12 @@ class ThreadChoice:
                 self._decide()
                 self._trying, self._since_try, self.chosen = False, 0, True
             if self._since_try >= self.probe_every:
-                self._plan, self._trying = [(self.other, True), (self.other, True)], True
-                self.cost[self.other].clear()  # (old timings may be a disturbed first try's)
+                # the first frame on the other count untimed (after a stretch on one count
+                # it cost 1.5-1.8x: the shared-machine trial), its old timings dropped
+                self._plan = [(self.other, False), (self.other, True), (self.other, True)]
+                self._trying = True
+                self.cost[self.other].clear()
+                self._sum[self.other] = [0.0, 0]
             else:
                 self._plan = [(self.current, True)]
                 self._since_try += 0 if self._timed_probe else 1
@@ -119,11 +169,19 @@ class ThreadChoice:
     def record(self, count: int, seconds: float, substeps: int) -> None:
         """A timed frame on ``count`` threads took ``seconds`` for ``substeps`` substeps."""
         if substeps > 0 and seconds > 0.0 and count in self.cost:
-            kept = self.cost[count]
-            kept.append(seconds / substeps)
-            del kept[:-KEEP]
             if self._timed_probe and not self._trying:
                 self._since_try += seconds
+            total = self._sum[count]
+            total[0] += seconds
+            total[1] += substeps
+            if total[0] < self.min_seconds:
+                if self._trying:
+                    self._plan.insert(0, (count, True))
+                return
+            kept = self.cost[count]
+            kept.append(total[0] / total[1])
+            del kept[:-KEEP]
+            self._sum[count] = [0.0, 0]
 
     def _decide(self) -> None:
         """All threads when their steps were faster than one thread's by more than
@@ -158,4 +216,5 @@ def for_springs(start: int, model) -> ThreadChoice | None:
     most = int(numba.config.NUMBA_NUM_THREADS)
     if most < 2 or model.spring_count < ADAPTIVE_MIN_SPRINGS or launched_under_mpi():
         return None
-    return ThreadChoice(start, most, probe_seconds=SPRINGS_PROBE_SECONDS)
+    return ThreadChoice(start, most, probe_seconds=SPRINGS_PROBE_SECONDS,
+                        min_seconds=0.5 * TRY_PIECE_SECONDS)
