@@ -99,7 +99,7 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
         timed as the run goes and the faster kept, one on a tie: :mod:`jellysim.thread_choice`;
         capped, with a warning, at numba's pool, ``NUMBA_NUM_THREADS``).  Results do not
         depend on it; ``sim.threads`` is what the last piece or frame ran on,
-        ``sim.thread_steps`` how many steps ran on each count ({threads: steps}).
+        ``sim.thread_steps`` how many steps ran on each count ({threads: steps}; numba).
     runaway_distance: a point farther than this [m] from the body's starting centre stops the
         run (default: 100 x the body's bounding-box diagonal, at least 100 m).
     check_stability: estimate the stable dt now and warn (:class:`StabilityWarning`) if
@@ -433,8 +433,9 @@ class Simulator(HandleMethods, PhysicalStepping, InternalState, Control):
             finally:
                 numba.set_num_threads(previous)
             done_all += int(done)
-            used = vars(self).setdefault("thread_steps", {})  # steps run on each count
-            used[self.threads] = used.get(self.threads, 0) + int(done)
+            if self.backend is Backend.NUMBA:  # steps run on each numba thread count
+                used = vars(self).setdefault("thread_steps", {})
+                used[self.threads] = used.get(self.threads, 0) + int(done)
             s.t, s.step = clock(t0, step0, self.dt, done_all), step0 + done_all
             if status != STATUS_OK:
                 break
