@@ -280,6 +280,25 @@ def test_short_pieces_are_summed_into_one_timing():
     assert ch.current == 2 and len(ch.cost[1]) == len(ch.cost[2]) == 4
 
 
+def test_a_chooser_pickled_before_its_new_fields_still_runs():
+    """A Simulator in an older checkpoint holds a chooser without the fields added since
+    (probe_every, min_seconds, ...): unpickled, it runs frames and decides as before."""
+    import pickle
+
+    from jellysim.thread_choice import PROBE_EVERY, ThreadChoice
+
+    old = ThreadChoice(start=1, most=2)
+    for name in ("probe_every", "_timed_probe", "min_seconds", "_sum"):
+        del old.__dict__[name]
+    ch = pickle.loads(pickle.dumps(old))
+    assert ch.probe_every == PROBE_EVERY and ch.min_seconds == 0.0
+    for _ in range(11):
+        count, timed = ch.next_frame()
+        if timed:
+            ch.record(count, 1e-3 if count == 2 else 2e-3, 1)
+    assert ch.chosen and ch.current == 2
+
+
 @pytest.mark.parametrize("integrator, order", [("paper", "jacobi"),
                                                ("symplectic", "gauss-seidel"),
                                                ("implicit", None)])

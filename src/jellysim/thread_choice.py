@@ -139,6 +139,13 @@ class ThreadChoice:
         it, frames alternate the counts; the scale trial's 10,948-point body was told "about
         4 min more" at that pace and took 2.2)."""
 
+    def __setstate__(self, state: dict) -> None:
+        """A chooser pickled before session 32 (a Simulator in an older checkpoint) gets the
+        fields it lacked, as the physical path's chooser had them."""
+        self.__dict__.update({"probe_every": PROBE_EVERY, "_timed_probe": False,
+                              "min_seconds": 0.0}, **state)
+        self.__dict__.setdefault("_sum", {c: [0.0, 0] for c in self.counts})
+
     @property
     def trying(self) -> bool:
         """Whether the frame :meth:`next_frame` last gave is part of a try."""
