@@ -40,17 +40,24 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def _chosen(sim, steps: int) -> None:
-    """Run ``sim`` until its thread chooser (threads = None) made its first choice."""
+def _median_seconds(sim, steps: int, windows: int, choose_in: int) -> float:
+    """Median wall time [s] per step of ``windows`` calls of ``advance(steps)``, after one
+    step (compiling or loading the kernels) and, with a thread chooser (threads = None),
+    calls of ``advance(choose_in)`` until its first choice."""
+    sim.advance(1)
     choice = getattr(sim, "_thread_choice", None)
     while choice and not choice.chosen:
+        sim.advance(choose_in)
+    times = []
+    for _ in range(windows):
+        t = time.perf_counter()
         sim.advance(steps)
+        times.append((time.perf_counter() - t) / steps)
+    return statistics.median(times)
 
 
 def child(workload: str, threads: int | None, cells: int) -> float:
     import warnings
-
-    import numpy as np
 
     warnings.simplefilter("ignore")
     import jellysim  # noqa: F401  (first: it sets the wait policy before numba loads)
@@ -64,14 +71,7 @@ def child(workload: str, threads: int | None, cells: int) -> float:
         sim = Simulator(model, dt=0.01, integrator="paper", threads=threads,
                         provot=ProvotParams(tau=0.001, loops=1, pairs="springs"),
                         ground=GroundParams(mu=0.1, nu=0.2), check_stability=False)
-        sim.advance(1)
-        _chosen(sim, 200)
-        rates = []
-        for _ in range(7):
-            t = time.perf_counter()
-            sim.advance(2000)
-            rates.append(2000 / (time.perf_counter() - t))
-        return float(np.median(rates))
+        return 1.0 / _median_seconds(sim, 2000, 7, choose_in=200)  # steps/s
     from benchmarks.bench_physical import cube
     from jellysim.physics.policy import physical_model
     from jellysim.presets import gelatin
@@ -79,14 +79,7 @@ def child(workload: str, threads: int | None, cells: int) -> float:
     model = physical_model(cube(cells), gelatin())
     sim = Simulator(model, dt=1 / 60, ground=GroundParams(model=GroundModel.CONTACT),
                     threads=threads)
-    sim.advance(1)
-    _chosen(sim, 1)
-    times = []
-    for _ in range(5):
-        t = time.perf_counter()
-        sim.advance(3)
-        times.append((time.perf_counter() - t) / 3 * 1e3)
-    return float(np.median(times))
+    return 1e3 * _median_seconds(sim, 3, 5, choose_in=1)  # ms per frame
 
 
 def variant_env(name: str, tbb_lib: str | None) -> tuple[dict, int]:
